@@ -1,0 +1,167 @@
+"""The headless command line: ``python -m core`` (also installed as ``flatweave-cli``).
+
+Subcommands:
+
+* ``flatten SURFACE --spacing R ... --out RESULT.json``: drape, minimise, write the result
+* ``info SURFACE``: domain, area and boundary length of a surface
+* ``examples``: the bundled example surfaces
+
+SURFACE is a geomdl JSON file or the name of a bundled example. Errors a user
+can cause print one line, ``flatweave: error: ...``, and exit with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+from pathlib import Path
+
+from core.errors import FlatweaveError, SettingsError
+
+__all__ = ["main", "build_parser"]
+
+
+def _floats(text: str, n: int, what: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != n:
+        raise SettingsError(f"{what} {text!r} must be {n} comma-separated numbers")
+    return values
+
+
+def resolve_surface(name: str):
+    """Load a surface from a path or a bundled example's name; returns (surface, source)."""
+    from core.examples import example_path, list_examples
+    from core.surface_io import load_surface
+
+    path = Path(name)
+    if not path.exists() and not path.suffix:
+        names = [e["name"] for e in list_examples()]
+        if name in names:
+            path = example_path(name)
+        else:
+            raise SettingsError(f"{name!r} is neither a file nor a bundled example ({', '.join(names)})")
+    return load_surface(path), str(path)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="python -m core",
+        description="flatweave: flat patterns of woven fabric or isotropic sheets covering NURBS surfaces.")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    f = sub.add_parser("flatten", help="drape a spring mesh on a surface, minimise it, write the result")
+    f.add_argument("surface", metavar="SURFACE", help="geomdl JSON surface file or bundled example name")
+    f.add_argument("--spacing", type=float, required=True, metavar="R",
+                   help="rest length of the weft springs (and of the warp springs unless --spacing-warp)")
+    f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
+    f.add_argument("--material", default="woven", metavar="NAME",
+                   help="woven (500:500:1), isotropic (100:100:100) or a ratio WEFT:WARP:DIAG (default woven)")
+    f.add_argument("--seed", default="0.5,0.5", metavar="U,V",
+                   help="seed point as fractions of the parameter domain (default 0.5,0.5)")
+    f.add_argument("--angle", type=float, default=0.0, metavar="DEG",
+                   help="weft direction at the seed, degrees from the u direction (default 0)")
+    f.add_argument("--paths", choices=("plane", "geodesic"), default="plane",
+                   help="constrained paths: the paper's normal-section planes or geodesics (default plane)")
+    f.add_argument("--solver", default="none", help="none (drape only)")
+    f.add_argument("--yarn", action="append", default=[], metavar="weft:I|warp:J",
+                   help="hold a weft row I or warp column J to --yarn-plane (repeatable)")
+    f.add_argument("--yarn-plane", action="append", default=[], metavar="A,B,C,D",
+                   help="plane A x + B y + C z + D = 0 for the matching --yarn")
+    f.add_argument("--yarn-k", action="append", type=float, default=[], metavar="K",
+                   help="weight of the matching --yarn (default 1000)")
+    f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
+                   help="refuse meshes estimated larger than N nodes (default 2,000,000)")
+    f.add_argument("--out", required=True, metavar="RESULT.json", help="result file to write")
+
+    i = sub.add_parser("info", help="domain, area and boundary length of a surface")
+    i.add_argument("surface", metavar="SURFACE")
+
+    sub.add_parser("examples", help="list the bundled example surfaces")
+    return p
+
+
+def _yarns(args) -> tuple:
+    from core.energy import parse_yarn
+
+    if len(args.yarn_plane) != len(args.yarn):
+        raise SettingsError(f"{len(args.yarn)} --yarn but {len(args.yarn_plane)} --yarn-plane: give one plane per yarn")
+    if len(args.yarn_k) > len(args.yarn):
+        raise SettingsError("more --yarn-k than --yarn")
+    ks = list(args.yarn_k) + [1000.0] * (len(args.yarn) - len(args.yarn_k))
+    return tuple(parse_yarn(y, pl, k) for y, pl, k in zip(args.yarn, args.yarn_plane, ks))
+
+
+def _cmd_flatten(args) -> int:
+    from core.fileio import write_json
+    from core.mesh import parse_material
+    from core.pipeline import FlattenSettings, flatten, result_to_dict
+    from core.quadrature import region_area
+
+    out = Path(args.out)
+    if out.parent and not out.parent.exists():
+        raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    surface, source = resolve_surface(args.surface)
+    settings = FlattenSettings(
+        spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
+        seed=_floats(args.seed, 2, "seed"), angle_deg=args.angle, paths=args.paths, solver=args.solver,
+        yarns=_yarns(args), max_nodes=args.max_nodes)
+    result = flatten(surface, settings, area=region_area(surface))
+    write_json(out, result_to_dict(result, source))
+    m = result.metrics
+    print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
+          f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
+          f"{m['seconds']:.2f} s -> {out}", file=sys.stderr)
+    return 0
+
+
+def _cmd_info(args) -> int:
+    from core.quadrature import boundary_length, region_area
+
+    surface, source = resolve_surface(args.surface)
+    d = surface.domain
+    print(f"{source}: {surface!r}")
+    print(f"domain u [{d[0, 0]:g}, {d[0, 1]:g}], v [{d[1, 0]:g}, {d[1, 1]:g}]")
+    print(f"area {region_area(surface):.10g}, boundary length {boundary_length(surface):.10g}")
+    return 0
+
+
+def _cmd_examples(args) -> int:
+    from core.examples import example_path, list_examples
+
+    for e in list_examples():
+        print(f"{e['name']:<14} {e.get('title', '')}  ({example_path(e['name'])})")
+    return 0
+
+
+def main(argv=None) -> int:
+    """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 internal error)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    handler = {"flatten": _cmd_flatten, "info": _cmd_info, "examples": _cmd_examples}[args.command]
+    try:
+        return handler(args)
+    except FlatweaveError as exc:
+        print(f"flatweave: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("flatweave: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a bug: say so in one line, traceback only on request
+        if args.debug or os.environ.get("FLATWEAVE_DEBUG"):
+            traceback.print_exc()
+        print(f"flatweave: internal error: {type(exc).__name__}: {exc} (run with --debug for details)",
+              file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,519 @@
+"""The initial drape of the spring mesh on the surface (paper section 3.1).
+
+Every node is placed exactly on the surface, in three steps:
+
+1. **Constrained paths.** From the seed point two paths of equidistant nodes
+   run along the weft and warp directions, each node found by One-Neighbour
+   mapping: the intersection of a sphere of radius r around the previous node,
+   a plane and the surface (Newton in (u, v)). The planes are the paper's
+   normal sections through the seed (``paths="plane"``) or, with
+   ``paths="geodesic"``, planes through each new node containing its normal
+   and the previous chord (geodesic threads).
+2. **Two-Neighbour mapping.** A node whose warp neighbour A, weft neighbour B
+   and their common diagonal neighbour C exist is placed at distance r_warp
+   from A and r_weft from B (two spheres and the surface), on the far side
+   from C. Nodes of one anti-diagonal front need only the previous front, so
+   a whole front is solved at once by one vectorised Newton iteration: the
+   paper's quadrant-by-quadrant sweep, all four quadrants together.
+3. **Node Filling.** Where the sweep stops short of the region (it cannot
+   turn corners of a region far from rectangular), a boundary node extends
+   its thread by One-Neighbour mapping (plane through the node containing its
+   normal and the thread's last chord); Two-Neighbour mapping then fills on
+   from the new node. One new seed per connected gap per round keeps the
+   weft and warp springs at rest length except where the mesh closes a loop.
+   Repeated until no node is added.
+
+A position whose node would leave the domain, fold back over the mesh or land
+within half a spacing of an existing node stays empty for good.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from core.errors import SettingsError
+from core.mesh import DIAG, Material, SpringMesh, build_mesh
+from core.nurbs import NurbsSurface
+
+__all__ = ["DrapeSettings", "DrapeResult", "drape", "estimate_node_count"]
+
+_NEWTON_MAXIT = 40
+
+
+@dataclass(frozen=True)
+class DrapeSettings:
+    """How the mesh is laid onto the surface.
+
+    spacing_weft, spacing_warp : rest lengths r_weft (along rows) and r_warp (along columns)
+    seed : (s, t) fractions of the parameter domain; (0.5, 0.5) is its centre
+    angle_deg : weft direction in the tangent plane at the seed, measured from
+        S_u towards S_v (degrees)
+    paths : "plane" (the paper's normal sections) or "geodesic"
+    max_nodes : refuse (up front) meshes estimated larger than this
+    """
+
+    spacing_weft: float
+    spacing_warp: float | None = None
+    seed: tuple[float, float] = (0.5, 0.5)
+    angle_deg: float = 0.0
+    paths: str = "plane"
+    max_nodes: int = 2_000_000
+
+    @property
+    def r_weft(self) -> float:
+        return float(self.spacing_weft)
+
+    @property
+    def r_warp(self) -> float:
+        return float(self.spacing_warp if self.spacing_warp is not None else self.spacing_weft)
+
+
+@dataclass(frozen=True)
+class DrapeResult:
+    """The draped mesh.
+
+    mesh : SpringMesh (topology; node order sorted by lattice row, then column)
+    uv : (n, 2) float, parameters of every node (inside the domain)
+    xyz : (n, 3) float, the nodes on the surface
+    stats : dict, counts of nodes by how they were placed, loop-closing springs,
+        seconds
+    """
+
+    mesh: SpringMesh
+    uv: np.ndarray
+    xyz: np.ndarray
+    stats: dict = field(default_factory=dict)
+
+
+def estimate_node_count(area: float, r_weft: float, r_warp: float) -> int:
+    """Nodes a mesh of the given spacings needs to cover ``area``."""
+    return int(np.ceil(area / (r_weft * r_warp)))
+
+
+# ---------------------------------------------------------------- Newton kernels
+def _solve2(J: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solve J d = -F for stacks of 2x2 systems; returns (d (k, 2), ok (k,))."""
+    a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]
+    det = a * d - b * c
+    scale = np.abs(a * d) + np.abs(b * c) + 1e-300
+    ok = np.abs(det) > 1e-14 * scale
+    det = np.where(ok, det, 1.0)
+    du = -(d * F[:, 0] - b * F[:, 1]) / det
+    dv = -(-c * F[:, 0] + a * F[:, 1]) / det
+    return np.column_stack([du, dv]), ok
+
+
+def _newton(surface: NurbsSurface, uv0: np.ndarray, residual, tol: np.ndarray):
+    """Vectorised Newton for k independent 2x2 systems on the surface.
+
+    residual(S, Su, Sv, idx) -> (F (k', 2), J (k', 2, 2)) for the rows idx.
+    Returns (uv (k, 2), converged (k,)). Iterates may step outside the domain
+    by up to half its size (the surface is extended polynomially there).
+    """
+    dom = surface.domain
+    size = dom[:, 1] - dom[:, 0]
+    lo, hi = dom[:, 0] - 0.5 * size, dom[:, 1] + 0.5 * size
+    uv = np.array(uv0, dtype=float)
+    k = uv.shape[0]
+    conv = np.zeros(k, dtype=bool)
+    active = np.arange(k)
+    max_step = 0.25 * size
+    for _ in range(_NEWTON_MAXIT):
+        if active.size == 0:
+            break
+        S, Su, Sv = surface.derivatives(uv[active])
+        F, J = residual(S, Su, Sv, active)
+        finite = np.all(np.isfinite(F), axis=1) & np.all(np.isfinite(J), axis=(1, 2))
+        done = finite & (np.max(np.abs(F), axis=1) <= tol[active])
+        conv[active[done]] = True
+        go = finite & ~done
+        step, ok = _solve2(J[go], F[go])
+        idx = active[go][ok]
+        step = step[ok]
+        factor = np.min(max_step / np.maximum(np.abs(step), 1e-300), axis=1, initial=1.0)
+        uv[idx] += step * np.minimum(1.0, factor)[:, None]
+        inside = np.all((uv[idx] >= lo) & (uv[idx] <= hi), axis=1)
+        active = idx[inside]
+    return uv, conv
+
+
+def _one_neighbour(surface, P0, radius, normal, uv_guess):
+    """One-Neighbour mapping: |S - P0| = r, normal . (S - P0) = 0, S on the surface."""
+    N = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+
+    def residual(S, Su, Sv, idx):
+        d = S - P0[idx]
+        r = radius[idx][:, None]
+        F = np.column_stack([(np.einsum("ij,ij->i", d, d) - r[:, 0] ** 2) / (2 * r[:, 0]),
+                             np.einsum("ij,ij->i", N[idx], d)])
+        J = np.empty((len(idx), 2, 2))
+        J[:, 0, 0] = np.einsum("ij,ij->i", d, Su) / r[:, 0]
+        J[:, 0, 1] = np.einsum("ij,ij->i", d, Sv) / r[:, 0]
+        J[:, 1, 0] = np.einsum("ij,ij->i", N[idx], Su)
+        J[:, 1, 1] = np.einsum("ij,ij->i", N[idx], Sv)
+        return F, J
+
+    return _newton(surface, uv_guess, residual, 1e-12 * radius)
+
+
+def _two_neighbour(surface, A, ra, B, rb, uv_guess):
+    """Two-Neighbour mapping: |S - A| = ra, |S - B| = rb, S on the surface."""
+
+    def residual(S, Su, Sv, idx):
+        da, db = S - A[idx], S - B[idx]
+        a, b = ra[idx], rb[idx]
+        F = np.column_stack([(np.einsum("ij,ij->i", da, da) - a ** 2) / (2 * a),
+                             (np.einsum("ij,ij->i", db, db) - b ** 2) / (2 * b)])
+        J = np.empty((len(idx), 2, 2))
+        J[:, 0, 0] = np.einsum("ij,ij->i", da, Su) / a
+        J[:, 0, 1] = np.einsum("ij,ij->i", da, Sv) / a
+        J[:, 1, 0] = np.einsum("ij,ij->i", db, Su) / b
+        J[:, 1, 1] = np.einsum("ij,ij->i", db, Sv) / b
+        return F, J
+
+    return _newton(surface, uv_guess, residual, 1e-12 * np.minimum(ra, rb))
+
+
+def _tangent_uv(Su: np.ndarray, Sv: np.ndarray, vec: np.ndarray) -> np.ndarray:
+    """(k, 2) parameter steps whose image under [Su Sv] best matches vec (least squares)."""
+    G = np.stack([np.stack([np.einsum("ij,ij->i", Su, Su), np.einsum("ij,ij->i", Su, Sv)], -1),
+                  np.stack([np.einsum("ij,ij->i", Su, Sv), np.einsum("ij,ij->i", Sv, Sv)], -1)], 1)
+    rhs = np.column_stack([np.einsum("ij,ij->i", Su, vec), np.einsum("ij,ij->i", Sv, vec)])
+    G = G + 1e-12 * np.trace(G, axis1=1, axis2=2)[:, None, None] * np.eye(2)
+    return np.linalg.solve(G, rhs[..., None])[..., 0]
+
+
+# ---------------------------------------------------------------- the lattice
+class _Lattice:
+    """Which lattice position holds which node, on a grid that grows as needed."""
+
+    MARGIN = 3
+
+    def __init__(self):
+        h = 16
+        self.grid = np.full((2 * h + 1, 2 * h + 1), -1, dtype=np.int64)
+        self.dead = np.zeros_like(self.grid, dtype=bool)
+        self.off = np.array([h, h])
+
+    def ensure(self, ij: np.ndarray) -> None:
+        """Grow the grid so positions ij keep MARGIN empty cells to the border."""
+        if ij.size == 0:
+            return
+        g = ij + self.off
+        R, C = self.grid.shape
+        need_lo = np.maximum(self.MARGIN - g.min(axis=0), 0)
+        need_hi = np.maximum(g.max(axis=0) + self.MARGIN + 1 - np.array([R, C]), 0)
+        if np.any(need_lo) or np.any(need_hi):
+            pad_lo = np.where(need_lo > 0, np.maximum(need_lo, np.array([R, C]) // 2), 0)
+            pad_hi = np.where(need_hi > 0, np.maximum(need_hi, np.array([R, C]) // 2), 0)
+            pad = ((pad_lo[0], pad_hi[0]), (pad_lo[1], pad_hi[1]))
+            self.grid = np.pad(self.grid, pad, constant_values=-1)
+            self.dead = np.pad(self.dead, pad, constant_values=False)
+            self.off = self.off + pad_lo
+
+    def set(self, ij: np.ndarray, nodes: np.ndarray) -> None:
+        self.ensure(ij)
+        g = ij + self.off
+        self.grid[g[:, 0], g[:, 1]] = nodes
+
+    def kill(self, ij: np.ndarray) -> None:
+        g = ij + self.off
+        self.dead[g[:, 0], g[:, 1]] = True
+
+    def at(self, ij: np.ndarray) -> np.ndarray:
+        """Node index at positions ij (-1 if empty); positions must be on the grid."""
+        g = ij + self.off
+        return self.grid[g[:, 0], g[:, 1]]
+
+    def occupied(self) -> np.ndarray:
+        return self.grid >= 0
+
+    def free(self) -> np.ndarray:
+        return (self.grid < 0) & ~self.dead
+
+    def positions(self, mask: np.ndarray) -> np.ndarray:
+        """(k, 2) lattice positions (i, j) where the grid-shaped mask is true."""
+        return np.argwhere(mask) - self.off
+
+
+def _shift(a: np.ndarray, di: int, dj: int, fill=False) -> np.ndarray:
+    """out[i, j] = a[i + di, j + dj] (fill outside)."""
+    out = np.full_like(a, fill)
+    R, C = a.shape
+    out[max(0, -di):R - max(0, di), max(0, -dj):C - max(0, dj)] = \
+        a[max(0, di):R - max(0, -di), max(0, dj):C - max(0, -dj)]
+    return out
+
+
+# ---------------------------------------------------------------- the drape
+class _Builder:
+    """Mutable state of one drape: nodes so far and the lattice."""
+
+    def __init__(self, surface: NurbsSurface, settings: DrapeSettings):
+        self.surface = surface
+        self.s = settings
+        self.lat = _Lattice()
+        self.uv = np.zeros((0, 2))
+        self.xyz = np.zeros((0, 3))
+        self.ij = np.zeros((0, 2), dtype=np.int64)
+        self.normal = np.zeros((0, 3))
+        self.how = np.zeros(0, dtype=np.int8)  # 0 seed, 1 path, 2 two-neighbour, 3 filling
+        self.tree, self.tree_n = None, 0
+        self.rmin = min(settings.r_weft, settings.r_warp)
+        dom = surface.domain
+        self.dom = dom
+        self.tol_uv = 1e-10 * (dom[:, 1] - dom[:, 0])
+
+    # -- bookkeeping
+    def add(self, ij, uv, how) -> None:
+        ev = self.surface.evaluate(uv)
+        n0 = self.uv.shape[0]
+        self.uv = np.concatenate([self.uv, uv])
+        self.xyz = np.concatenate([self.xyz, ev.xyz])
+        self.normal = np.concatenate([self.normal, ev.normal])
+        self.ij = np.concatenate([self.ij, ij])
+        self.how = np.concatenate([self.how, np.full(len(uv), how, dtype=np.int8)])
+        self.lat.set(ij, np.arange(n0, n0 + len(uv)))
+
+    def accept_uv(self, uv: np.ndarray, conv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Converged and inside the domain (to round-off); returns (ok, clipped uv)."""
+        inside = np.all((uv >= self.dom[:, 0] - self.tol_uv) & (uv <= self.dom[:, 1] + self.tol_uv), axis=1)
+        return conv & inside, np.clip(uv, self.dom[:, 0], self.dom[:, 1])
+
+    def far_from_mesh(self, P: np.ndarray) -> np.ndarray:
+        """(k,) bool: points at least half a spacing from every node and from each other.
+
+        Old nodes sit in a k-d tree rebuilt only when the nodes added since
+        outnumber half of it; the recent ones are searched in a small tree.
+        """
+        n = len(self.xyz)
+        if self.tree is None or n - self.tree_n > max(256, self.tree_n // 2):
+            self.tree, self.tree_n = cKDTree(self.xyz), n
+        ok = np.ones(len(P), dtype=bool)
+        if len(P) == 0:
+            return ok
+        r = 0.5 * self.rmin
+        d, _ = self.tree.query(P, k=1, distance_upper_bound=r)
+        ok &= d >= r
+        if n > self.tree_n:
+            d, _ = cKDTree(self.xyz[self.tree_n:]).query(P, k=1, distance_upper_bound=r)
+            ok &= d >= r
+        if ok.sum() > 1:
+            idx = np.flatnonzero(ok)
+            pairs = cKDTree(P[idx]).query_pairs(r, output_type="ndarray")
+            if len(pairs):
+                # keep the first of every close pair
+                drop = np.unique(np.maximum(pairs[:, 0], pairs[:, 1]))
+                ok[idx[drop]] = False
+        return ok
+
+    # -- step 1: seed and constrained paths
+    def seed_and_paths(self) -> None:
+        s = self.s
+        sd = np.asarray(s.seed, dtype=float)
+        if sd.shape != (2,) or not np.all(np.isfinite(sd)) or np.any(sd < 0) or np.any(sd > 1):
+            raise SettingsError(f"seed {tuple(s.seed)} must be two fractions of the domain in [0, 1]")
+        uv0 = (self.dom[:, 0] + sd * (self.dom[:, 1] - self.dom[:, 0]))[None, :]
+        ev = self.surface.evaluate(uv0)
+        self.add(np.zeros((1, 2), dtype=np.int64), uv0, 0)
+        n0 = ev.normal[0]
+        su = ev.su[0]
+        if np.linalg.norm(su) < 1e-300:
+            su = ev.sv[0]
+        e1 = su - np.dot(su, n0) * n0
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n0, e1)
+        a = np.radians(s.angle_deg)
+        d_weft = np.cos(a) * e1 + np.sin(a) * e2
+        d_warp = np.cross(n0, d_weft)
+        self.d_weft, self.d_warp = d_weft, d_warp
+        # four lanes: +weft, -weft, +warp, -warp
+        steps = np.array([[0, 1], [0, -1], [1, 0], [-1, 0]])
+        dirs = np.array([d_weft, -d_weft, d_warp, -d_warp])
+        radius = np.array([s.r_weft, s.r_weft, s.r_warp, s.r_warp])
+        fixed_normal = np.cross(n0[None, :], dirs)  # planes through the seed
+        P = np.repeat(ev.xyz, 4, axis=0)
+        prev = P - dirs * radius[:, None]
+        uv_cur = np.repeat(uv0, 4, axis=0)
+        guess = uv_cur + _tangent_uv(np.repeat(ev.su, 4, 0), np.repeat(ev.sv, 4, 0),
+                                     dirs * radius[:, None])
+        nrm = np.repeat(ev.normal, 4, axis=0)
+        pos = np.zeros((4, 2), dtype=np.int64)
+        alive = np.ones(4, dtype=bool)
+        limit = 4 * s.max_nodes
+        for _ in range(limit):
+            if not alive.any():
+                break
+            lanes = np.flatnonzero(alive)
+            if s.paths == "geodesic":
+                chord = P[lanes] - prev[lanes]
+                normal = np.cross(nrm[lanes], chord / np.linalg.norm(chord, axis=1, keepdims=True))
+            else:
+                normal = fixed_normal[lanes]
+            uv_new, conv = _one_neighbour(self.surface, P[lanes], radius[lanes], normal, guess[lanes])
+            ok, uv_new = self.accept_uv(uv_new, conv)
+            xyz_new = self.surface.points(uv_new)
+            ok &= np.einsum("ij,ij->i", xyz_new - P[lanes], P[lanes] - prev[lanes]) > 0
+            ok[ok] = self.far_from_mesh(xyz_new[ok])
+            alive[lanes[~ok]] = False
+            good = lanes[ok]
+            if good.size == 0:
+                break
+            pos[good] += steps[good]
+            uv_old = uv_cur[good].copy()
+            uv_cur[good] = uv_new[ok]
+            guess[good] = 2 * uv_new[ok] - uv_old
+            prev[good] = P[good]
+            P[good] = xyz_new[ok]
+            self.add(pos[good].copy(), uv_new[ok], 1)
+            nrm[good] = self.normal[-len(good):]
+
+    # -- step 2: two-neighbour fronts
+    def two_neighbour_fill(self) -> int:
+        """Fill every position reachable by Two-Neighbour mapping; returns nodes added."""
+        added = 0
+        configs = np.array([[1, 1], [1, -1], [-1, 1], [-1, -1]])
+        while True:
+            occ = self.lat.occupied()
+            free = self.lat.free()
+            valid = []
+            for a, b in configs:
+                # A = (i-a, j), B = (i, j-b), C = (i-a, j-b)
+                v = free & _shift(occ, -a, 0) & _shift(occ, 0, -b) & _shift(occ, -a, -b)
+                valid.append(v)
+            anyv = np.logical_or.reduce(valid)
+            if not anyv.any():
+                return added
+            pos = self.lat.positions(anyv)
+            g = pos + self.lat.off
+            V = np.stack([v[g[:, 0], g[:, 1]] for v in valid], axis=1)  # (k, 4)
+            C = pos[:, None, :] - configs[None, :, :]
+            score = np.where(V, np.abs(C).sum(axis=2), np.iinfo(np.int64).max)
+            cfg = configs[np.argmin(score, axis=1)]
+            iA = self.lat.at(pos - np.column_stack([cfg[:, 0], np.zeros(len(pos), int)]))
+            iB = self.lat.at(pos - np.column_stack([np.zeros(len(pos), int), cfg[:, 1]]))
+            iC = self.lat.at(pos - cfg)
+            A, B, Cx = self.xyz[iA], self.xyz[iB], self.xyz[iC]
+            guess = self.uv[iA] + self.uv[iB] - self.uv[iC]
+            k = len(pos)
+            uv_new, conv = _two_neighbour(self.surface, A, np.full(k, self.s.r_warp),
+                                          B, np.full(k, self.s.r_weft), guess)
+            ok, uv_new = self.accept_uv(uv_new, conv)
+            P = self.surface.points(uv_new)
+            ok &= np.einsum("ij,ij->i", P - Cx, A + B - 2 * Cx) > 0
+            ok &= np.linalg.norm(P - Cx, axis=1) > 0.5 * self.rmin
+            ok &= np.linalg.norm(P - (A + B - Cx), axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
+            ok[ok] = self.far_from_mesh(P[ok])
+            self.lat.kill(pos[~ok])
+            if ok.any():
+                self.add(pos[ok], uv_new[ok], 2)
+                added += int(ok.sum())
+
+    # -- step 3: node filling seeds
+    def filling_seeds(self) -> int:
+        """Extend threads into unmapped gaps: at most one new node per gap."""
+        occ = self.lat.occupied()
+        free = self.lat.free()
+        dirs = np.array([[0, 1], [0, -1], [1, 0], [-1, 0]])
+        cand_pos, cand_src, cand_prev, cand_dir = [], [], [], []
+        for d in dirs:
+            v = free & _shift(occ, -d[0], -d[1]) & _shift(occ, -2 * d[0], -2 * d[1])
+            p = self.lat.positions(v)
+            if len(p):
+                cand_pos.append(p)
+                cand_src.append(self.lat.at(p - d))
+                cand_prev.append(self.lat.at(p - 2 * d))
+                cand_dir.append(np.repeat(d[None, :], len(p), axis=0))
+        if not cand_pos:
+            return 0
+        pos = np.concatenate(cand_pos)
+        src = np.concatenate(cand_src)
+        prv = np.concatenate(cand_prev)
+        dd = np.concatenate(cand_dir)
+        radius = np.where(dd[:, 1] != 0, self.s.r_weft, self.s.r_warp).astype(float)
+        chord = self.xyz[src] - self.xyz[prv]
+        chord /= np.linalg.norm(chord, axis=1, keepdims=True)
+        normal = np.cross(self.normal[src], chord)
+        guess = 2 * self.uv[src] - self.uv[prv]
+        uv_new, conv = _one_neighbour(self.surface, self.xyz[src], radius, normal, guess)
+        ok, uv_new = self.accept_uv(uv_new, conv)
+        P = self.surface.points(uv_new)
+        ok &= np.einsum("ij,ij->i", P - self.xyz[src], chord) > 0
+        ok[ok] = self.far_from_mesh(P[ok])
+        # a position is dead only when no source can reach it
+        g = pos + self.lat.off
+        reach = np.zeros(self.lat.grid.shape, dtype=bool)
+        reach[g[ok, 0], g[ok, 1]] = True
+        failed = pos[~reach[g[:, 0], g[:, 1]]]
+        self.lat.kill(failed)
+        if not ok.any():
+            return 0
+        # one seed per connected gap: the candidate farthest from the domain boundary
+        mask = np.zeros(self.lat.grid.shape, dtype=bool)
+        mask[g[ok, 0], g[ok, 1]] = True
+        labels, _ = ndimage.label(mask, structure=np.ones((3, 3)))
+        lab = labels[g[ok, 0], g[ok, 1]]
+        u01 = (uv_new[ok] - self.dom[:, 0]) / (self.dom[:, 1] - self.dom[:, 0])
+        inner = np.min(np.column_stack([u01, 1 - u01]), axis=1)
+        order = np.lexsort((-inner, lab))
+        first = order[np.r_[True, lab[order][1:] != lab[order][:-1]]]
+        keep_pos, keep_uv = pos[ok][first], uv_new[ok][first]
+        # two candidates may name the same position from different sources
+        _, uniq = np.unique(keep_pos, axis=0, return_index=True)
+        self.add(keep_pos[uniq], keep_uv[uniq], 3)
+        return len(uniq)
+
+
+def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
+          area: float | None = None) -> DrapeResult:
+    """Lay the spring mesh onto the surface (paper section 3.1).
+
+    ``area`` (the region's area, if known) lets an oversize mesh be refused up
+    front with an estimate of its node count.
+    """
+    t0 = time.perf_counter()
+    s = settings
+    for name, r in (("weft spacing", s.r_weft), ("warp spacing", s.r_warp)):
+        if not (np.isfinite(r) and r > 0):
+            raise SettingsError(f"{name} must be a positive number, got {r!r}")
+    if s.paths not in ("plane", "geodesic"):
+        raise SettingsError(f"paths must be 'plane' or 'geodesic', got {s.paths!r}")
+    if not np.isfinite(s.angle_deg):
+        raise SettingsError(f"angle {s.angle_deg!r} is not a number")
+    if area is not None:
+        est = estimate_node_count(area, s.r_weft, s.r_warp)
+        if est > s.max_nodes:
+            largest = float(np.sqrt(area / s.max_nodes) * np.sqrt(s.r_weft / s.r_warp))
+            raise SettingsError(
+                f"spacing {s.r_weft:g} needs about {est:,} nodes, more than the limit of "
+                f"{s.max_nodes:,}; the smallest spacing that fits is about {largest:.3g}")
+    b = _Builder(surface, s)
+    b.seed_and_paths()
+    while True:
+        b.two_neighbour_fill()
+        if b.filling_seeds() == 0:
+            break
+    # sort nodes by lattice row, then column
+    order = np.lexsort((b.ij[:, 1], b.ij[:, 0]))
+    ij, uv, xyz, how = b.ij[order], b.uv[order], b.xyz[order], b.how[order]
+    mesh = build_mesh(ij, s.r_weft, s.r_warp, material)
+    length = np.linalg.norm(xyz[mesh.ends[:, 0]] - xyz[mesh.ends[:, 1]], axis=1)
+    strain = (length - mesh.rest) / mesh.rest
+    thread = mesh.kind != DIAG
+    off = thread & (np.abs(strain) >= 1e-6)
+    stats = {
+        "nodes_seed_and_paths": int(np.sum(how <= 1)),
+        "nodes_two_neighbour": int(np.sum(how == 2)),
+        "nodes_filling": int(np.sum(how == 3)),
+        "loop_closing_springs": int(off.sum()),
+        "loop_closing_max_strain": float(np.max(np.abs(strain[off]), initial=0.0)),
+        "weft_direction": b.d_weft.tolist(),
+        "warp_direction": b.d_warp.tolist(),
+        "seconds": time.perf_counter() - t0,
+    }
+    return DrapeResult(mesh=mesh, uv=uv, xyz=xyz, stats=stats)

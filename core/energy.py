@@ -1,0 +1,150 @@
+"""The energy EN of equation (4) over the nodes' (u, v), and its gradient.
+
+EN = sum over springs of k/2 (l - r)^2  +  sum over constrained yarns of Dir,
+
+with l the chord length between the spring's end nodes on the surface. The
+directional term of section 2.3 holds every node of a chosen weft row or warp
+column to a plane a x + b y + c z + d = 0. The paper writes it as k |f|; we use
+k/2 f^2 with f the signed distance to the plane: smooth, so the Newton-type
+solver converges quadratically, the same form as the spring terms, and, as in
+the paper, a large k forces the yarn into the plane.
+
+Everything is vectorised over springs and nodes: forces are accumulated in 3D
+with ``np.bincount`` and mapped to (u, v) through the surface's first
+derivatives, so one evaluation costs one surface evaluation plus O(m) array
+arithmetic.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import SettingsError
+from core.mesh import SpringMesh
+from core.nurbs import NurbsSurface
+
+__all__ = ["YarnConstraint", "Energy", "parse_yarn"]
+
+
+@dataclass(frozen=True)
+class YarnConstraint:
+    """A weft row or warp column held to a plane (paper section 2.3).
+
+    kind : "weft" (a row, lattice index i) or "warp" (a column, index j)
+    index : the row or column, in lattice indices (the seed node is M[0, 0])
+    plane : (a, b, c, d) of a x + b y + c z + d = 0
+    k : weight
+    """
+
+    kind: str
+    index: int
+    plane: tuple[float, float, float, float]
+    k: float
+
+    def __post_init__(self):
+        if self.kind not in ("weft", "warp"):
+            raise SettingsError(f"yarn kind must be 'weft' or 'warp', got {self.kind!r}")
+        p = np.asarray(self.plane, dtype=float)
+        if p.shape != (4,) or not np.all(np.isfinite(p)) or np.linalg.norm(p[:3]) == 0:
+            raise SettingsError(f"yarn plane {self.plane!r} must be four numbers A,B,C,D with (A,B,C) != 0")
+        if not (np.isfinite(self.k) and self.k >= 0):
+            raise SettingsError(f"yarn weight k must be a non-negative number, got {self.k!r}")
+
+    def nodes(self, mesh: SpringMesh) -> np.ndarray:
+        """Indices of the mesh nodes on this yarn."""
+        col = 0 if self.kind == "weft" else 1
+        return np.flatnonzero(mesh.ij[:, col] == self.index)
+
+    def unit_plane(self) -> np.ndarray:
+        """(4,) plane scaled so (a, b, c) is a unit normal: f is a signed distance."""
+        p = np.asarray(self.plane, dtype=float)
+        return p / np.linalg.norm(p[:3])
+
+
+def parse_yarn(spec: str, plane: str, k: float) -> YarnConstraint:
+    """``weft:I`` or ``warp:J`` and ``A,B,C,D`` into a YarnConstraint."""
+    try:
+        kind, idx = spec.split(":")
+        index = int(idx)
+    except ValueError:
+        raise SettingsError(f"yarn {spec!r} must be weft:ROW or warp:COLUMN (an integer)") from None
+    try:
+        values = tuple(float(x) for x in plane.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 4:
+        raise SettingsError(f"yarn plane {plane!r} must be four numbers A,B,C,D")
+    return YarnConstraint(kind.strip().lower(), index, values, float(k))
+
+
+class Energy:
+    """EN(uv) for one surface, mesh topology and set of yarn constraints.
+
+    Caches only what depends on topology (spring arrays, constrained nodes).
+    """
+
+    def __init__(self, surface: NurbsSurface, mesh: SpringMesh, yarns=()):
+        self.surface = surface
+        self.mesh = mesh
+        self.n = mesh.n_nodes
+        self.a = mesh.ends[:, 0]
+        self.b = mesh.ends[:, 1]
+        self.k = mesh.k
+        self.rest = mesh.rest
+        nodes, planes, weights = [], [], []
+        for y in yarns:
+            idx = y.nodes(mesh)
+            nodes.append(idx)
+            planes.append(np.repeat(y.unit_plane()[None, :], len(idx), axis=0))
+            weights.append(np.full(len(idx), float(y.k)))
+        self.dir_nodes = np.concatenate(nodes) if nodes else np.zeros(0, dtype=np.int64)
+        self.dir_planes = np.concatenate(planes) if planes else np.zeros((0, 4))
+        self.dir_k = np.concatenate(weights) if weights else np.zeros(0)
+
+    # ------------------------------------------------------------ pieces
+    def spring_energy(self, xyz: np.ndarray) -> np.ndarray:
+        """(m,) energy of every spring."""
+        length = np.linalg.norm(xyz[self.a] - xyz[self.b], axis=1)
+        return 0.5 * self.k * (length - self.rest) ** 2
+
+    def dir_distance(self, xyz: np.ndarray) -> np.ndarray:
+        """(c,) signed distances of the constrained nodes to their planes."""
+        P = self.dir_planes
+        return np.einsum("ij,ij->i", xyz[self.dir_nodes], P[:, :3]) + P[:, 3]
+
+    def value_xyz(self, xyz: np.ndarray) -> float:
+        """EN for nodes at xyz : (n, 3)."""
+        f = self.dir_distance(xyz)
+        return float(self.spring_energy(xyz).sum() + 0.5 * np.dot(self.dir_k, f * f))
+
+    def value(self, uv: np.ndarray) -> float:
+        """EN at uv : (n, 2)."""
+        return self.value_xyz(self.surface.points(uv))
+
+    def force_xyz(self, xyz: np.ndarray) -> tuple[float, np.ndarray]:
+        """EN and its gradient with respect to the 3D node positions, (n, 3)."""
+        d = xyz[self.a] - xyz[self.b]
+        length = np.linalg.norm(d, axis=1)
+        ext = length - self.rest
+        coef = self.k * ext / np.maximum(length, 1e-300)
+        g = d * coef[:, None]
+        G = np.empty((self.n, 3))
+        for c in range(3):
+            G[:, c] = (np.bincount(self.a, g[:, c], minlength=self.n)
+                       - np.bincount(self.b, g[:, c], minlength=self.n))
+        e = 0.5 * np.dot(self.k, ext * ext)
+        if self.dir_nodes.size:
+            f = self.dir_distance(xyz)
+            e += 0.5 * np.dot(self.dir_k, f * f)
+            gd = (self.dir_k * f)[:, None] * self.dir_planes[:, :3]
+            for c in range(3):
+                G[:, c] += np.bincount(self.dir_nodes, gd[:, c], minlength=self.n)
+        return float(e), G
+
+    def value_and_grad(self, uv: np.ndarray) -> tuple[float, np.ndarray]:
+        """EN and dEN/d(u, v), (n, 2), at uv : (n, 2)."""
+        S, Su, Sv = self.surface.derivatives(uv)
+        e, G = self.force_xyz(S)
+        return e, np.column_stack([np.einsum("ij,ij->i", G, Su), np.einsum("ij,ij->i", G, Sv)])

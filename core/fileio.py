@@ -1,0 +1,49 @@
+"""Small file helpers shared by every writer: atomic writes, JSON encoding."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from core.errors import FlatweaveError
+
+__all__ = ["atomic_write_bytes", "atomic_write_text", "write_json"]
+
+
+def atomic_write_bytes(path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so readers see the old file or the whole new one.
+
+    The bytes go to a temporary file in the same folder, are flushed to disk,
+    and the file is renamed over ``path``. On any failure the temporary file
+    is removed and a one-line FlatweaveError names the path and the reason.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise FlatweaveError(f"cannot write {path}: {exc.strerror or exc}") from None
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise FlatweaveError(f"cannot write {path}: {exc.strerror or exc}") from None
+
+
+def atomic_write_text(path, text: str) -> None:
+    """UTF-8 text version of :func:`atomic_write_bytes`."""
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def write_json(path, obj) -> None:
+    """Write ``obj`` as JSON, atomically. NaN and infinity are refused."""
+    atomic_write_text(path, json.dumps(obj, allow_nan=False, separators=(",", ":")))

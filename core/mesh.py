@@ -1,0 +1,187 @@
+"""The spring mesh of the woven fabric model (paper section 2.1).
+
+Nodes sit at lattice positions M[i, j] (row i, column j; the drape's seed is
+M[0, 0] and indices may be negative). The springs are derived from which
+lattice positions hold a node:
+
+* weft springs join M[i, j] and M[i, j+1] (along a row),
+* warp springs join M[i, j] and M[i+1, j] (along a column),
+* diagonal springs join the opposite corners of a cell; a diagonal is present
+  when both its ends exist and at least one of the cell's other two corners
+  does, i.e. every triangle of the lattice carries its diagonal.
+
+Everything is stored as arrays (endpoints, kind, rest length, constant); the
+topology depends only on the lattice, never on positions, so it is built once
+per population and cached by the caller.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import SettingsError
+
+__all__ = ["Material", "MATERIALS", "parse_material", "SpringMesh", "build_mesh",
+           "WEFT", "WARP", "DIAG", "KIND_NAMES"]
+
+WEFT, WARP, DIAG = 0, 1, 2
+KIND_NAMES = ("weft", "warp", "diag")
+
+
+@dataclass(frozen=True)
+class Material:
+    """Spring constants of the weft, warp and diagonal springs."""
+
+    name: str
+    k_weft: float
+    k_warp: float
+    k_diag: float
+
+    def constants(self) -> np.ndarray:
+        """(3,) constants indexed by spring kind."""
+        return np.array([self.k_weft, self.k_warp, self.k_diag], dtype=float)
+
+    @property
+    def ratio(self) -> str:
+        return f"{self.k_weft:g}:{self.k_warp:g}:{self.k_diag:g}"
+
+
+MATERIALS = {
+    "isotropic": Material("isotropic", 100.0, 100.0, 100.0),
+    "woven": Material("woven", 500.0, 500.0, 1.0),
+}
+
+
+def parse_material(text: str) -> Material:
+    """A preset name (``woven``, ``isotropic``) or a ratio ``WEFT:WARP:DIAG``."""
+    key = text.strip().lower()
+    if key in MATERIALS:
+        return MATERIALS[key]
+    parts = key.split(":")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        raise SettingsError(
+            f"material {text!r} is neither a preset ({', '.join(MATERIALS)}) nor a ratio WEFT:WARP:DIAG")
+    if not all(np.isfinite(values)) or min(values) <= 0:
+        raise SettingsError(f"material {text!r}: spring constants must be positive numbers")
+    return Material(f"custom {key}", *values)
+
+
+@dataclass(frozen=True)
+class SpringMesh:
+    """Topology and rest state of a spring mesh.
+
+    ij : (n, 2) int, lattice row and column of every node
+    ends : (m, 2) int, node indices of every spring
+    kind : (m,) int8, WEFT, WARP or DIAG
+    rest : (m,) float, rest lengths
+    k : (m,) float, spring constants
+    cells : (c, 4) int, lattice cells whose four corners exist and whose four
+        edges are springs, corners ordered (i, j), (i, j+1), (i+1, j+1), (i+1, j)
+    r_weft, r_warp : float, rest lengths of weft and warp springs
+    material : Material
+    """
+
+    ij: np.ndarray
+    ends: np.ndarray
+    kind: np.ndarray
+    rest: np.ndarray
+    k: np.ndarray
+    cells: np.ndarray
+    r_weft: float
+    r_warp: float
+    material: Material
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.ij.shape[0])
+
+    @property
+    def n_springs(self) -> int:
+        return int(self.ends.shape[0])
+
+    def lattice_xy(self) -> np.ndarray:
+        """(n, 2) relaxed 2D positions: M[i, j] at (j r_weft, i r_warp)."""
+        return np.column_stack([self.ij[:, 1] * self.r_weft, self.ij[:, 0] * self.r_warp]).astype(float)
+
+    def degree(self) -> np.ndarray:
+        """(n,) number of springs at every node."""
+        return np.bincount(self.ends.ravel(), minlength=self.n_nodes)
+
+    def boundary_nodes(self) -> np.ndarray:
+        """(n,) bool: nodes missing one of their four weft/warp neighbours."""
+        thread = self.kind != DIAG
+        deg = np.bincount(self.ends[thread].ravel(), minlength=self.n_nodes)
+        return deg < 4
+
+
+def lattice_index(ij: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A dense (R, C) grid of node indices (-1 where empty) and its offset.
+
+    Node ``n`` sits at ``grid[ij[n, 0] - off[0], ij[n, 1] - off[1]]``; the grid
+    has a one-cell margin of -1 all round so neighbours can be read by slicing.
+    """
+    off = ij.min(axis=0) - 1
+    R, C = ij.max(axis=0) - off + 2
+    grid = np.full((R, C), -1, dtype=np.int64)
+    grid[ij[:, 0] - off[0], ij[:, 1] - off[1]] = np.arange(ij.shape[0])
+    return grid, off
+
+
+def build_mesh(ij: np.ndarray, r_weft: float, r_warp: float, material: Material,
+               keep=None) -> SpringMesh:
+    """Springs and cells of the nodes at lattice positions ``ij``.
+
+    ``keep``, if given, is a function ``keep(ends (m, 2), kind (m,)) -> (m,) bool``
+    that removes springs (darts use it to cut the springs crossing them).
+    """
+    ij = np.asarray(ij, dtype=np.int64).reshape(-1, 2)
+    if ij.shape[0] == 0:
+        raise SettingsError("the mesh has no nodes")
+    grid, _ = lattice_index(ij)
+    a = grid[:-1, :-1]  # (i, j)
+    b = grid[:-1, 1:]   # (i, j+1)
+    c = grid[1:, 1:]    # (i+1, j+1)
+    d = grid[1:, :-1]   # (i+1, j)
+    weft_mask = (grid[:, :-1] >= 0) & (grid[:, 1:] >= 0)
+    warp_mask = (grid[:-1, :] >= 0) & (grid[1:, :] >= 0)
+    weft = np.column_stack([grid[:, :-1][weft_mask], grid[:, 1:][weft_mask]])
+    warp = np.column_stack([grid[:-1, :][warp_mask], grid[1:, :][warp_mask]])
+    d1_mask = (a >= 0) & (c >= 0) & ((b >= 0) | (d >= 0))
+    d2_mask = (b >= 0) & (d >= 0) & ((a >= 0) | (c >= 0))
+    diag = np.concatenate([np.column_stack([a[d1_mask], c[d1_mask]]),
+                           np.column_stack([b[d2_mask], d[d2_mask]])])
+    ends = np.concatenate([weft, warp, diag]).astype(np.int64)
+    kind = np.concatenate([np.full(len(weft), WEFT), np.full(len(warp), WARP),
+                           np.full(len(diag), DIAG)]).astype(np.int8)
+    r_diag = float(np.hypot(r_weft, r_warp))
+    rest = np.array([r_weft, r_warp, r_diag])[kind]
+    k = material.constants()[kind]
+    if keep is not None:
+        mask = np.asarray(keep(ends, kind), dtype=bool)
+        ends, kind, rest, k = ends[mask], kind[mask], rest[mask], k[mask]
+    # cells: four corners present and their four edges still springs
+    full = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
+    cells = np.column_stack([a[full], b[full], c[full], d[full]]).astype(np.int64)
+    if keep is not None and len(cells):
+        cells = cells[_cells_with_edges(cells, ends, kind, ij.shape[0])]
+    return SpringMesh(ij=ij, ends=ends, kind=kind, rest=rest, k=k, cells=cells,
+                      r_weft=float(r_weft), r_warp=float(r_warp), material=material)
+
+
+def _cells_with_edges(cells: np.ndarray, ends: np.ndarray, kind: np.ndarray, n: int) -> np.ndarray:
+    """(c,) bool: cells whose four weft/warp edges are all present as springs."""
+    thread = kind != DIAG
+    e = np.sort(ends[thread], axis=1)
+    keys = e[:, 0] * n + e[:, 1]
+    ok = np.ones(len(cells), dtype=bool)
+    for s, t in ((0, 1), (1, 2), (3, 2), (0, 3)):
+        lo = np.minimum(cells[:, s], cells[:, t])
+        hi = np.maximum(cells[:, s], cells[:, t])
+        ok &= np.isin(lo * n + hi, keys)
+    return ok

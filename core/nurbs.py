@@ -1,0 +1,358 @@
+"""NURBS surfaces: the data model and vectorised evaluation.
+
+A :class:`NurbsSurface` holds degrees, knot vectors, an (nu, nv, 3) control net
+and (nu, nv) weights. :meth:`NurbsSurface.evaluate` evaluates points, first (and
+optionally second) partial derivatives and unit normals at an (n, 2) array of
+(u, v) in one pass of numpy arithmetic: the B-spline basis of every parameter
+is built by the Cox-de Boor recurrence over whole arrays, the control points of
+each point's support are gathered, and the rational quotient rule is applied.
+geomdl is the oracle for this module in the tests; it is never called here.
+
+Parameters outside the domain are evaluated by polynomial extension of the end
+spans (useful to Newton iterations that step briefly outside); callers decide
+whether such points are acceptable.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import SurfaceError
+
+__all__ = ["NurbsSurface", "SurfaceEval", "basis_functions"]
+
+
+def _find_spans(knots: np.ndarray, degree: int, n_ctrl: int, x: np.ndarray) -> np.ndarray:
+    """Knot span index k of every x, with knots[k] <= x < knots[k+1], clipped to [p, n-1]."""
+    k = np.searchsorted(knots, x, side="right") - 1
+    return np.clip(k, degree, n_ctrl - 1)
+
+
+def _safe_inv(d: np.ndarray) -> np.ndarray:
+    """1/d where d != 0, else 0 (the 0/0 := 0 convention of B-spline recurrences)."""
+    out = np.zeros_like(d)
+    nz = d != 0.0
+    out[nz] = 1.0 / d[nz]
+    return out
+
+
+class _Basis:
+    """B-spline basis of one knot vector, with the recurrence's knot
+    differences inverted once per span so evaluation is gathers and products."""
+
+    def __init__(self, knots: np.ndarray, degree: int, n_ctrl: int):
+        self.knots, self.p, self.n = knots, degree, n_ctrl
+        s = np.arange(degree, n_ctrl)  # every valid span
+        self.left = {}   # (q, r) -> 1 / (t[i+q] - t[i]),     i = s - q + r, r >= 1
+        self.right = {}  # (q, r) -> 1 / (t[i+q+1] - t[i+1]),             r <= q - 1
+        for q in range(1, degree + 1):
+            for r in range(q + 1):
+                i = s - q + r
+                if r >= 1:
+                    self.left[q, r] = _safe_inv(knots[i + q] - knots[i])
+                if r <= q - 1:
+                    self.right[q, r] = _safe_inv(knots[i + q + 1] - knots[i + 1])
+
+    def spans(self, x: np.ndarray) -> np.ndarray:
+        return _find_spans(self.knots, self.p, self.n, x)
+
+    def __call__(self, spans: np.ndarray, x: np.ndarray, order: int) -> list[np.ndarray]:
+        """``[N, N', ...]`` up to ``order``, each (n, p+1); column r is the
+        function of index ``span - p + r``."""
+        p, t = self.p, self.knots
+        k = spans - p  # row into the tables
+        m = x.shape[0]
+        levels = [np.ones((m, 1))]  # levels[q][:, r] = N_{span-q+r, q}(x)
+        for q in range(1, p + 1):
+            prev = levels[-1]
+            cur = np.zeros((m, q + 1))
+            for r in range(q + 1):
+                i = spans - q + r
+                if r >= 1:
+                    cur[:, r] += (x - t[i]) * self.left[q, r][k] * prev[:, r - 1]
+                if r <= q - 1:
+                    cur[:, r] += (t[i + q + 1] - x) * self.right[q, r][k] * prev[:, r]
+            levels.append(cur)
+
+        def deriv(q: int, d: int) -> np.ndarray:
+            if d == 0:
+                return levels[q]
+            if d > q:
+                return np.zeros((m, q + 1))
+            lower = deriv(q - 1, d - 1)
+            out = np.zeros((m, q + 1))
+            for r in range(q + 1):
+                if r >= 1:
+                    out[:, r] += q * lower[:, r - 1] * self.left[q, r][k]
+                if r <= q - 1:
+                    out[:, r] -= q * lower[:, r] * self.right[q, r][k]
+            return out
+
+        return [deriv(p, d) for d in range(order + 1)]
+
+
+def basis_functions(knots: np.ndarray, degree: int, spans: np.ndarray, x: np.ndarray,
+                    order: int = 1) -> list[np.ndarray]:
+    """Non-zero B-spline basis functions and their derivatives.
+
+    Parameters
+    ----------
+    knots : (m,) float
+    degree : int, p
+    spans : (n,) int, knot span of each parameter (``knots[s] <= x < knots[s+1]``)
+    x : (n,) float
+    order : highest derivative wanted
+
+    Returns
+    -------
+    list of (n, p+1) arrays ``[N, N', N'', ...]``; column r holds the function
+    of index ``span - p + r``.
+    """
+    knots = np.asarray(knots, dtype=float)
+    return _Basis(knots, degree, len(knots) - degree - 1)(np.asarray(spans), np.asarray(x, float), order)
+
+
+@dataclass(frozen=True)
+class SurfaceEval:
+    """Surface quantities at n parameter points.
+
+    xyz, su, sv, normal : (n, 3) float
+    suu, suv, svv : (n, 3) float, or None when second derivatives were not asked for
+    """
+
+    xyz: np.ndarray
+    su: np.ndarray
+    sv: np.ndarray
+    normal: np.ndarray
+    suu: np.ndarray | None = None
+    suv: np.ndarray | None = None
+    svv: np.ndarray | None = None
+
+
+class NurbsSurface:
+    """A (possibly rational) tensor-product NURBS surface.
+
+    Parameters
+    ----------
+    degree_u, degree_v : int
+    knots_u : (nu + degree_u + 1,) float, non-decreasing
+    knots_v : (nv + degree_v + 1,) float, non-decreasing
+    ctrlpts : (nu, nv, 3) float, control point [i, j] at u-index i, v-index j
+    weights : (nu, nv) float > 0, or None for a non-rational surface
+
+    Raises :class:`SurfaceError` with a one-line message when the data do not
+    define a surface.
+    """
+
+    def __init__(self, degree_u: int, degree_v: int, knots_u, knots_v, ctrlpts,
+                 weights=None):
+        for name, deg in (("degree_u", degree_u), ("degree_v", degree_v)):
+            if isinstance(deg, bool) or not isinstance(deg, (int, np.integer)) or deg < 1:
+                raise SurfaceError(f"{name} must be a positive integer, got {deg!r}")
+        try:
+            P = np.array(ctrlpts, dtype=float)
+            ku = np.array(knots_u, dtype=float)
+            kv = np.array(knots_v, dtype=float)
+            W = None if weights is None else np.array(weights, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise SurfaceError(f"surface data are not numbers: {exc}") from None
+        if P.ndim != 3 or P.shape[2] != 3:
+            raise SurfaceError(f"control net must have shape (nu, nv, 3), got {P.shape}")
+        nu, nv = P.shape[:2]
+        if nu < degree_u + 1:
+            raise SurfaceError(
+                f"degree_u {degree_u} is too high for {nu} control points in u (needs at least {degree_u + 1})")
+        if nv < degree_v + 1:
+            raise SurfaceError(
+                f"degree_v {degree_v} is too high for {nv} control points in v (needs at least {degree_v + 1})")
+        for name, k, n, p in (("u", ku, nu, degree_u), ("v", kv, nv, degree_v)):
+            if k.ndim != 1 or k.size != n + p + 1:
+                raise SurfaceError(
+                    f"knot vector {name} has {k.size} knots; {n} control points of degree {p} need {n + p + 1}")
+            if not np.all(np.isfinite(k)):
+                raise SurfaceError(f"knot vector {name} contains NaN or infinity")
+            if np.any(np.diff(k) < 0):
+                raise SurfaceError(f"knot vector {name} is not non-decreasing")
+            if not k[p] < k[n]:
+                raise SurfaceError(f"knot vector {name} defines an empty parameter domain")
+            inner = k[1:-1]
+            mult = np.max(np.unique(inner, return_counts=True)[1]) if inner.size else 0
+            if mult > p + 1:
+                raise SurfaceError(f"knot vector {name} has a knot of multiplicity {mult} > degree + 1")
+        if not np.all(np.isfinite(P)):
+            raise SurfaceError("control points contain NaN or infinity")
+        if W is None:
+            W = np.ones((nu, nv))
+            self.rational = False
+        else:
+            if W.shape != (nu, nv):
+                raise SurfaceError(f"weights have shape {W.shape}, control net needs {(nu, nv)}")
+            if not np.all(np.isfinite(W)):
+                raise SurfaceError("weights contain NaN or infinity")
+            if np.any(W <= 0):
+                raise SurfaceError("weights must be positive; found a weight <= 0")
+            self.rational = not np.all(W == W.flat[0])
+        span = np.ptp(P.reshape(-1, 3), axis=0)
+        scale = float(np.max(np.abs(P)))
+        if not np.max(span) > 1e-12 * max(scale, 1e-300):
+            raise SurfaceError("all control points are equal: the surface is a single point")
+        self.degree_u = int(degree_u)
+        self.degree_v = int(degree_v)
+        self.knots_u = ku
+        self.knots_v = kv
+        self.ctrlpts = P
+        self.weights = W
+        # homogeneous control net (w x, w y, w z, w)
+        self._pw = np.concatenate([P * W[..., None], W[..., None]], axis=2)
+        self._basis_u = _Basis(ku, self.degree_u, nu)
+        self._basis_v = _Basis(kv, self.degree_v, nv)
+        for a in (self.knots_u, self.knots_v, self.ctrlpts, self.weights, self._pw):
+            a.setflags(write=False)
+
+    # ------------------------------------------------------------------ basic facts
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(nu, nv): control points in u and in v."""
+        return self.ctrlpts.shape[:2]
+
+    @property
+    def domain(self) -> np.ndarray:
+        """[[u0, u1], [v0, v1]], the parameter domain."""
+        nu, nv = self.shape
+        return np.array([[self.knots_u[self.degree_u], self.knots_u[nu]],
+                         [self.knots_v[self.degree_v], self.knots_v[nv]]])
+
+    def in_domain(self, uv: np.ndarray, tol: float = 0.0) -> np.ndarray:
+        """(n,) bool: which (u, v) lie in the domain (within ``tol`` in parameter units)."""
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        d = self.domain
+        return ((uv[:, 0] >= d[0, 0] - tol) & (uv[:, 0] <= d[0, 1] + tol)
+                & (uv[:, 1] >= d[1, 0] - tol) & (uv[:, 1] <= d[1, 1] + tol))
+
+    def bbox_diagonal(self) -> float:
+        """Length of the control net's bounding-box diagonal (a size scale)."""
+        P = self.ctrlpts.reshape(-1, 3)
+        return float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
+
+    # ------------------------------------------------------------------ evaluation
+    def _homogeneous(self, uv: np.ndarray, order: int) -> dict[tuple[int, int], np.ndarray]:
+        """Homogeneous derivatives A^(a,b) (n, 4) for a + b <= order."""
+        u, v = uv[:, 0], uv[:, 1]
+        p, q = self.degree_u, self.degree_v
+        nu, nv = self.shape
+        su = self._basis_u.spans(u)
+        sv = self._basis_v.spans(v)
+        Nu = self._basis_u(su, u, order)
+        Nv = self._basis_v(sv, v, order)
+        iu = su[:, None] - p + np.arange(p + 1)[None, :]
+        iv = sv[:, None] - q + np.arange(q + 1)[None, :]
+        G = self._pw[iu[:, :, None], iv[:, None, :]]  # (n, p+1, q+1, 4)
+        out = {}
+        for a in range(order + 1):
+            # contract over the u-support once per a, then over v for each b
+            Ga = np.einsum("na,nabc->nbc", Nu[a], G)
+            for b in range(order + 1 - a):
+                out[(a, b)] = np.einsum("nb,nbc->nc", Nv[b], Ga)
+        return out
+
+    def points(self, uv) -> np.ndarray:
+        """(n, 3) points S(u, v) at uv : (n, 2)."""
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        A = self._homogeneous(uv, 0)[(0, 0)]
+        return A[:, :3] / A[:, 3:4]
+
+    def derivatives(self, uv) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(S, S_u, S_v), each (n, 3), at uv : (n, 2), without normals (the cheap path)."""
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        H = self._homogeneous(uv, 1)
+        w = H[(0, 0)][:, 3:4]
+        S = H[(0, 0)][:, :3] / w
+        Su = (H[(1, 0)][:, :3] - H[(1, 0)][:, 3:4] * S) / w
+        Sv = (H[(0, 1)][:, :3] - H[(0, 1)][:, 3:4] * S) / w
+        return S, Su, Sv
+
+    def evaluate(self, uv, second: bool = False) -> SurfaceEval:
+        """Points, partial derivatives and unit normals at uv : (n, 2).
+
+        With ``second=True`` the second derivatives are filled in too. Where
+        the surface is degenerate (a pole, where S_u or S_v vanishes) the normal
+        is the limit normal from the interior.
+        """
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        H = self._homogeneous(uv, 2 if second else 1)
+        w = H[(0, 0)][:, 3:4]
+        S = H[(0, 0)][:, :3] / w
+        wu, wv = H[(1, 0)][:, 3:4], H[(0, 1)][:, 3:4]
+        Su = (H[(1, 0)][:, :3] - wu * S) / w
+        Sv = (H[(0, 1)][:, :3] - wv * S) / w
+        Suu = Suv = Svv = None
+        if second:
+            Suu = (H[(2, 0)][:, :3] - 2 * wu * Su - H[(2, 0)][:, 3:4] * S) / w
+            Svv = (H[(0, 2)][:, :3] - 2 * wv * Sv - H[(0, 2)][:, 3:4] * S) / w
+            Suv = (H[(1, 1)][:, :3] - wu * Sv - wv * Su - H[(1, 1)][:, 3:4] * S) / w
+        normal = self._normals(uv, Su, Sv)
+        return SurfaceEval(S, Su, Sv, normal, Suu, Suv, Svv)
+
+    def _normals(self, uv: np.ndarray, Su: np.ndarray, Sv: np.ndarray) -> np.ndarray:
+        n = np.cross(Su, Sv)
+        ln = np.linalg.norm(n, axis=1)
+        lu = np.linalg.norm(Su, axis=1)
+        lv = np.linalg.norm(Sv, axis=1)
+        bad = ~(ln > 1e-9 * np.maximum(lu, lv) ** 2) | ~np.isfinite(ln)
+        if np.any(bad):
+            n[bad] = self._limit_normals(uv[bad])
+            ln = np.linalg.norm(n, axis=1)
+        return n / ln[:, None]
+
+    def _limit_normals(self, uv: np.ndarray) -> np.ndarray:
+        """Normals at degenerate points, as the limit from the domain's interior.
+
+        At a pole on the edge u = u0 we have S_v(u0 + t, v) ~ t S_uv, so the
+        normal is the direction of S_u x S_uv (signed by the side the interior
+        lies on); likewise for the other edges. Points where that limit is
+        degenerate too take the normal of a point moved a hair inward.
+        """
+        ev = self.evaluate_raw2(uv)
+        Su, Sv, Suv = ev
+        d = self.domain
+        centre = d.mean(axis=1)
+        n = np.zeros_like(Su)
+        lu = np.linalg.norm(Su, axis=1)
+        lv = np.linalg.norm(Sv, axis=1)
+        v_degenerate = lv <= lu  # S_v vanishes: an edge u = const collapsed
+        s_u = np.where(uv[:, 0] < centre[0], 1.0, -1.0)[:, None]
+        s_v = np.where(uv[:, 1] < centre[1], 1.0, -1.0)[:, None]
+        n_vd = np.cross(Su, Suv) * s_u
+        n_ud = np.cross(Suv, Sv) * s_v
+        n = np.where(v_degenerate[:, None], n_vd, n_ud)
+        ln = np.linalg.norm(n, axis=1)
+        scale = np.maximum(lu, lv) * np.linalg.norm(Suv, axis=1)
+        still = ~(ln > 1e-9 * scale) | ~np.isfinite(ln)
+        if np.any(still):
+            h = 1e-7 * (d[:, 1] - d[:, 0])
+            moved = uv[still] + h * np.sign(centre - uv[still])
+            H = self._homogeneous(moved, 1)
+            w = H[(0, 0)][:, 3:4]
+            S = H[(0, 0)][:, :3] / w
+            su = (H[(1, 0)][:, :3] - H[(1, 0)][:, 3:4] * S) / w
+            sv = (H[(0, 1)][:, :3] - H[(0, 1)][:, 3:4] * S) / w
+            n[still] = np.cross(su, sv)
+        return n
+
+    def evaluate_raw2(self, uv: np.ndarray):
+        """(S_u, S_v, S_uv) at uv without normals (used for limit normals)."""
+        H = self._homogeneous(uv, 2)
+        w = H[(0, 0)][:, 3:4]
+        S = H[(0, 0)][:, :3] / w
+        wu, wv = H[(1, 0)][:, 3:4], H[(0, 1)][:, 3:4]
+        Su = (H[(1, 0)][:, :3] - wu * S) / w
+        Sv = (H[(0, 1)][:, :3] - wv * S) / w
+        Suv = (H[(1, 1)][:, :3] - wu * Sv - wv * Su - H[(1, 1)][:, 3:4] * S) / w
+        return Su, Sv, Suv
+
+    def __repr__(self) -> str:
+        nu, nv = self.shape
+        kind = "rational" if self.rational else "polynomial"
+        return f"NurbsSurface({kind}, degree=({self.degree_u}, {self.degree_v}), ctrlpts=({nu}, {nv}))"
