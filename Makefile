@@ -1,0 +1,69 @@
+# flatweave developer commands.
+#
+#   make run    create .venv if needed, install flatweave into it, open the app
+#   make test   install what the tests need (system packages too, as root), run pytest
+#
+# The venv is (re)installed only when pyproject.toml is newer than the stamp file.
+
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.flatweave-installed
+PYTEST_ARGS ?=
+
+# Debian packages a Qt xcb window on a virtual display needs beyond the base
+# image (checked with `ldd .../PySide6/Qt/plugins/platforms/libqxcb.so`).
+APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
+
+.PHONY: run test install system-deps check-qt clean-venv
+
+run: $(STAMP)
+	$(VENV)/bin/flatweave resources/surfaces/octant.json
+
+test: system-deps $(STAMP) check-qt
+	$(PY) -m pytest $(PYTEST_ARGS)
+
+install: $(STAMP)
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $@
+
+# Install the missing Debian packages when root; otherwise name them and stop.
+system-deps:
+	@if ! command -v dpkg-query >/dev/null 2>&1; then \
+	  echo "make: not a Debian system; skipping the system package check"; exit 0; \
+	fi; \
+	missing=""; \
+	for p in $(APT_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' \
+	    || missing="$$missing $$p"; \
+	done; \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ]; then \
+	  echo "make: installing system packages:$$missing"; \
+	  apt-get update -qq \
+	    && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
+	else \
+	  echo "make: missing system packages:$$missing" >&2; \
+	  echo "make: install them with: sudo apt-get install --no-install-recommends$$missing" >&2; \
+	  exit 1; \
+	fi
+
+# Qt reports a missing xcb library misleadingly (it blames libxcb-cursor0);
+# name the real culprit before the GUI tests fail on it.
+check-qt: $(STAMP)
+	@plugin="$$($(PY) -c 'import pathlib, PySide6; print(pathlib.Path(PySide6.__file__).parent / "Qt/plugins/platforms/libqxcb.so")')"; \
+	if [ -f "$$plugin" ] && command -v ldd >/dev/null 2>&1; then \
+	  missing="$$(ldd "$$plugin" | grep 'not found' | sort -u)"; \
+	  if [ -n "$$missing" ]; then \
+	    echo "make: Qt's xcb platform plugin cannot load; missing libraries:" >&2; \
+	    echo "$$missing" >&2; exit 1; \
+	  fi; \
+	fi
+
+clean-venv:
+	rm -rf $(VENV)

@@ -1,0 +1,187 @@
+"""GUI tests: real windows on the Xvfb display that pytest-xvfb starts.
+
+Asserts are on data (the mesh the view holds, the window's state, exit codes
+and the pixels of a written PNG), not on golden images.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PySide6.QtCore import Qt
+from PySide6.QtGui import QImage
+
+from app.mainwindow import GRID_POINTS, MainWindow
+from app.view3d import grid_boundary, grid_faces
+from core.examples import example_names, example_path
+from core.surface_io import load_surface
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _open_plotters() -> set[str]:
+    # pyvista registers every live plotter here (the check pyvistaqt's own tests make)
+    from pyvista.plotting.plotter import _ALL_PLOTTERS
+    return set(_ALL_PLOTTERS)
+
+
+@pytest.fixture
+def window(qtbot):
+    """The main window on the octant example, shown and ready to render.
+
+    Fails if the window's plotter outlives it.
+    """
+    before = _open_plotters()
+    win = MainWindow()
+    qtbot.addWidget(win)
+    assert win.open_example("octant")
+    win.show()
+    qtbot.waitExposed(win)
+    qtbot.waitUntil(win.view.is_ready, timeout=10000)
+    yield win
+    win.close()
+    assert _open_plotters() <= before, "the window's plotter was not closed"
+
+
+def expected_grid(surface, n=GRID_POINTS):
+    """(n * n, 3) points of the surface on an n x n grid over its domain, u slowest."""
+    (u0, u1), (v0, v1) = surface.domain
+    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+    return surface.points(np.column_stack([u.ravel(), v.ravel()]))
+
+
+def image_array(path) -> np.ndarray:
+    """(h, w, 3) uint8 pixels of an image file, read back with Qt."""
+    img = QImage(str(path))
+    assert not img.isNull(), f"{path} is not a readable image"
+    img = img.convertToFormat(QImage.Format.Format_RGB888)
+    h, w, stride = img.height(), img.width(), img.bytesPerLine()
+    raw = np.frombuffer(img.constBits(), np.uint8, count=h * stride).reshape(h, stride)
+    return raw[:, : w * 3].reshape(h, w, 3).copy()
+
+
+# ---------------------------------------------------------------------- pure helpers
+def test_grid_faces_and_boundary():
+    faces = grid_faces(3, 4).reshape(-1, 5)
+    assert faces.shape == (6, 5) and np.all(faces[:, 0] == 4)
+    assert set(faces[:, 1:].ravel()) == set(range(12))
+    loop = grid_boundary(3, 4)
+    assert loop[0] == loop[-1]
+    assert len(set(loop)) == len(loop) - 1 == 2 * (3 + 4) - 4
+    idx = np.arange(12).reshape(3, 4)
+    assert set(loop) == set(idx[0]) | set(idx[-1]) | set(idx[:, 0]) | set(idx[:, -1])
+
+
+# ---------------------------------------------------------------------- the window
+def test_window_shows_the_example_surface(window):
+    surface = load_surface(example_path("octant"))
+    pts = window.view.surface_points
+    assert window.view.surface_shape == (GRID_POINTS, GRID_POINTS)
+    assert pts.shape == (GRID_POINTS * GRID_POINTS, 3)
+    # the mesh points lie on the NURBS surface: core's evaluation at the same grid
+    np.testing.assert_allclose(pts, expected_grid(surface), atol=1e-12)
+    # and, independently of any evaluator, on the unit sphere in the first octant
+    np.testing.assert_allclose(np.linalg.norm(pts, axis=1), 1.0, atol=1e-9)
+    assert np.all(pts >= -1e-12)
+    assert "octant" in window.windowTitle()
+    assert window.surface_name == "octant"
+    assert window.actions["reset_view"].isEnabled()
+
+
+def test_examples_menu_lists_the_examples(window):
+    names = [a.data() for a in window.examples_menu.actions()]
+    assert names == example_names()
+
+
+def test_open_another_example(window):
+    other = next(n for n in example_names() if n != "octant")
+    assert window.open_file(example_path(other))
+    assert window.surface_name == Path(example_path(other)).stem
+    assert other in window.windowTitle()
+    surface = load_surface(example_path(other))
+    np.testing.assert_allclose(window.view.surface_points, expected_grid(surface), atol=1e-12)
+
+
+def test_examples_menu_action_opens_the_example(window):
+    action = next(a for a in window.examples_menu.actions() if a.data() == "saddle")
+    action.trigger()
+    assert window.surface_name == Path(example_path("saddle")).stem
+    pts = window.view.surface_points
+    # saddle z = (x^2 - y^2) / 2, exactly
+    np.testing.assert_allclose(pts[:, 2], (pts[:, 0] ** 2 - pts[:, 1] ** 2) / 2, atol=1e-12)
+
+
+@pytest.mark.parametrize("content", [
+    None,  # missing file
+    "{ this is not json",
+    json.dumps({"shape": {"type": "curve", "count": 1, "data": []}}),
+])
+def test_bad_file_shows_an_error_and_keeps_the_surface(window, qtbot, tmp_path, content):
+    path = tmp_path / "bad.json"
+    if content is not None:
+        path.write_text(content)
+    old_surface, old_points = window.surface, window.view.surface_points
+
+    assert not window.open_file(path)
+
+    message = window.last_error
+    assert message and "\n" not in message and "bad.json" in message
+    qtbot.waitUntil(lambda: window.error_box is not None and window.error_box.isVisible())
+    assert window.error_box.text() == message
+    # shown without blocking: not application-modal, and open_file has returned
+    assert window.error_box.windowModality() != Qt.WindowModality.ApplicationModal
+    assert window.surface is old_surface and window.surface_name == "octant"
+    np.testing.assert_array_equal(window.view.surface_points, old_points)
+
+
+def test_window_grab_is_not_blank(window):
+    window.view.render()
+    img = window.grab().toImage().convertToFormat(QImage.Format.Format_RGB888)
+    assert img.width() > 400 and img.height() > 300
+    h, w, stride = img.height(), img.width(), img.bytesPerLine()
+    raw = np.frombuffer(img.constBits(), np.uint8, count=h * stride).reshape(h, stride)
+    pixels = raw[:, : w * 3].reshape(h, w, 3)
+    centre = pixels[h // 4: 3 * h // 4, w // 4: 3 * w // 4].reshape(-1, 3).astype(float)
+    assert centre.std(axis=0).max() > 10, "the 3D area looks blank"
+
+
+# ---------------------------------------------------------------------- the command
+def run_app(*args, timeout=120) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "app.main", *map(str, args)], cwd=REPO,
+                          capture_output=True, text=True, timeout=timeout, env=os.environ.copy())
+
+
+def test_startup_smoke_writes_a_screenshot(tmp_path):
+    out = tmp_path / "x.png"
+    proc = run_app("resources/surfaces/octant.json", "--screenshot", out, "--quit")
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    pixels = image_array(out)
+    h, w, _ = pixels.shape
+    assert w >= 400 and h >= 300
+    assert pixels.reshape(-1, 3).astype(float).std(axis=0).max() > 10, "blank screenshot"
+    # the surface is drawn in the middle of the 3D area: many distinct colours there
+    centre = pixels[h // 4: 3 * h // 4, w // 4: 3 * w // 4].reshape(-1, 3)
+    assert len(np.unique(centre, axis=0)) > 50
+
+
+def test_bad_surface_file_exits_2_with_one_line(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text("[1, 2, 3]")
+    proc = run_app(bad, "--quit", timeout=60)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "bad.json" in lines[0], proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_missing_surface_file_exits_2(tmp_path):
+    proc = run_app(tmp_path / "nope.json", "--quit", timeout=60)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
