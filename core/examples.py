@@ -1,0 +1,69 @@
+"""The bundled example surfaces (``resources/surfaces``).
+
+``resources/surfaces/index.json`` lists every example; it and the surface
+files are written by ``resources/make_surfaces.py``. Each entry is a dict
+with the keys
+
+- ``name``, ``file``, ``title``, ``description``, ``units`` (str)
+- ``exact_area``, ``exact_boundary_length`` : float, or None without a closed form
+- ``reference_area``, ``reference_boundary_length`` : float, independent
+  high-accuracy quadrature (see ``reference_method``)
+- ``area_formula``, ``boundary_formula`` : str or None
+- ``recommended_spacing`` : float, mesh spacing in ``units``
+- ``developable`` : bool; ``parameters`` : dict of the construction's numbers
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from functools import lru_cache
+from pathlib import Path
+
+import core
+from core.errors import SettingsError
+from core.nurbs import NurbsSurface
+from core.surface_io import load_surface
+
+__all__ = ["resources_dir", "list_examples", "example_names", "example_info", "example_path",
+           "load_example"]
+
+
+def resources_dir() -> Path:
+    """The ``resources/`` directory next to the ``core`` package."""
+    return Path(core.__file__).resolve().parent.parent / "resources"
+
+
+@lru_cache(maxsize=1)
+def _index() -> tuple[dict, ...]:
+    path = resources_dir() / "surfaces" / "index.json"
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    return tuple(doc["examples"])
+
+
+def list_examples() -> list[dict]:
+    """Every example's index entry (fresh copies), in the index's order."""
+    return [copy.deepcopy(e) for e in _index()]
+
+
+def example_names() -> list[str]:
+    """Names of the bundled examples, e.g. ``['cone', 'octant', ...]``."""
+    return [e["name"] for e in _index()]
+
+
+def example_info(name: str) -> dict:
+    """Index entry of example ``name``; :class:`SettingsError` if there is none."""
+    for e in _index():
+        if e["name"] == name:
+            return copy.deepcopy(e)
+    raise SettingsError(f"unknown example {name!r}; choose one of: {', '.join(example_names())}")
+
+
+def example_path(name: str) -> Path:
+    """Path of the surface file of example ``name``; :class:`SettingsError` if unknown."""
+    return resources_dir() / "surfaces" / example_info(name)["file"]
+
+
+def load_example(name: str) -> NurbsSurface:
+    """The surface of example ``name``."""
+    return load_surface(example_path(name))

@@ -1,0 +1,400 @@
+"""Reading and writing NURBS surfaces in geomdl's JSON exchange format.
+
+The file format is the one ``geomdl.exchange.export_json`` writes for a single
+surface::
+
+    {"shape": {"type": "surface", "count": 1, "data": [{
+        "type": "spline", "rational": true, "dimension": 3,
+        "degree_u": 2, "degree_v": 1,
+        "knotvector_u": [...], "knotvector_v": [...],
+        "size_u": 3, "size_v": 2,
+        "control_points": {"points": [[x, y, z], ...], "weights": [...]}}]}}
+
+Control points are listed with v varying fastest: point ``[i, j]`` of the
+(size_u, size_v) net is entry ``i * size_v + j``. ``points`` are Cartesian
+(not multiplied by the weight); ``weights`` is optional (absent: all 1) and is
+used whenever present, as geomdl does, whatever ``rational`` says. ``count``,
+``rational``, ``dimension`` and the entry's ``type`` are optional, but checked
+when present; ``delta``, ``name``, ``id`` and ``reversed`` are ignored.
+
+Decisions about inputs geomdl would also accept:
+
+- 2D control points ``[x, y]`` (geomdl's ``dimension: 2``) are read as a flat
+  surface in the plane z = 0. Any other number of coordinates is an error.
+- Knot vectors are kept as written. geomdl's importer rescales them to [0, 1];
+  we do not, so parameters and derivative magnitudes are the file's own.
+- Trimmed surfaces (a non-empty ``trims`` entry) are refused: ignoring the
+  trim curves would give the wrong piece of fabric.
+- Numbers must be JSON numbers (not strings, not booleans), finite (the
+  ``NaN`` / ``Infinity`` literals Python's json accepts are refused, and so
+  are overflowing literals such as ``1e999``) and of magnitude at most 1e100,
+  so that evaluation cannot overflow. Integers (degrees, sizes) may be written
+  as integral floats (``3.0``).
+
+Every problem raises :class:`~core.errors.SurfaceError` with a one-line
+message naming the file (or the ``source`` label given) and the problem.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core.errors import SurfaceError
+from core.nurbs import NurbsSurface
+
+__all__ = [
+    "load_surface",
+    "parse_surface_json",
+    "surface_from_json_dict",
+    "surface_to_json_dict",
+    "save_surface",
+    "dumps_surface",
+]
+
+MAX_ABS_VALUE = 1e100
+"""Largest magnitude accepted for a coordinate, knot or weight."""
+
+_TYPE_NAMES = {
+    dict: "an object", list: "a list", str: "a string", bool: "a boolean",
+    int: "an integer", float: "a number", type(None): "null",
+}
+
+
+# ---------------------------------------------------------------------- messages
+def _one_line(text: str, limit: int = 300) -> str:
+    """``text`` with line breaks and control characters flattened, cut to ``limit``."""
+    flat = re.sub(r"[\x00-\x1f\x7f]+", " ", str(text))
+    return flat if len(flat) <= limit else flat[: limit - 3] + "..."
+
+
+def _describe(value: Any) -> str:
+    """Short description of a JSON value for messages, e.g. ``a string '3'``."""
+    kind = _TYPE_NAMES.get(type(value), type(value).__name__)
+    if value is None or isinstance(value, (dict, list)):
+        return kind
+    shown = repr(value)
+    return f"{kind} {shown if len(shown) <= 40 else shown[:37] + '...'}"
+
+
+class _Reader:
+    """Validates one surface record, raising SurfaceError prefixed with ``source``."""
+
+    def __init__(self, source: str):
+        self.source = _one_line(source, 200)
+
+    def fail(self, problem: str) -> SurfaceError:
+        return SurfaceError(_one_line(f"{self.source}: {problem}", 400))
+
+    # -------------------------------------------------------------- structure
+    def obj(self, value: Any, where: str) -> dict:
+        if not isinstance(value, dict):
+            raise self.fail(f"{where} must be a JSON object, got {_describe(value)}")
+        return value
+
+    def key(self, d: dict, key: str, where: str) -> Any:
+        if key not in d:
+            raise self.fail(f"missing key '{key}' in {where}")
+        return d[key]
+
+    def integer(self, value: Any, where: str, minimum: int) -> int:
+        ok = type(value) is int or (type(value) is float and math.isfinite(value) and value.is_integer())
+        if not ok:
+            raise self.fail(f"{where} must be an integer, got {_describe(value)}")
+        if abs(value) > 1e9:
+            raise self.fail(f"{where} = {value!r} is out of range")
+        if value < minimum:
+            raise self.fail(f"{where} must be at least {minimum}, got {int(value)}")
+        return int(value)
+
+    def number(self, value: Any, where: str) -> float:
+        if type(value) not in (int, float):
+            raise self.fail(f"{where} must be a number, got {_describe(value)}")
+        try:
+            x = float(value)
+        except OverflowError:
+            raise self.fail(f"{where} is a number too large to represent") from None
+        if not math.isfinite(x):
+            raise self.fail(f"{where} is not a finite number ({value!r}); NaN and Infinity are not allowed")
+        if abs(x) > MAX_ABS_VALUE:
+            raise self.fail(f"{where} = {x:g} is too large (magnitude above {MAX_ABS_VALUE:g})")
+        return x
+
+    def vector(self, value: Any, where: str) -> np.ndarray:
+        """(n,) float from a JSON list of numbers."""
+        if not isinstance(value, list):
+            raise self.fail(f"{where} must be a list of numbers, got {_describe(value)}")
+        return np.array([self.number(x, f"{where}[{k}]") for k, x in enumerate(value)], dtype=float)
+
+    def point_list(self, value: Any, where: str) -> np.ndarray:
+        """(n, 3) float from a JSON list of [x, y, z] (or [x, y], then z = 0)."""
+        if not isinstance(value, list):
+            raise self.fail(f"{where} must be a list of [x, y, z] points, got {_describe(value)}")
+        if not value:
+            raise self.fail(f"{where} is empty: no control points")
+        rows = []
+        dim = None
+        for k, row in enumerate(value):
+            if not isinstance(row, list):
+                raise self.fail(f"{where}[{k}] must be a list [x, y, z], got {_describe(row)}")
+            if len(row) not in (2, 3):
+                plural = "s" if len(row) != 1 else ""
+                raise self.fail(
+                    f"{where}[{k}] has {len(row)} coordinate{plural}; control points must be 3D "
+                    f"[x, y, z] (or 2D [x, y], read as z = 0)")
+            if dim is None:
+                dim = len(row)
+            elif len(row) != dim:
+                raise self.fail(
+                    f"{where}[{k}] has {len(row)} coordinates but earlier points have {dim}; "
+                    f"control points must all be 3D [x, y, z]")
+            rows.append([self.number(x, f"{where}[{k}][{c}]") for c, x in enumerate(row)])
+        pts = np.array(rows, dtype=float)
+        if dim == 2:
+            pts = np.column_stack([pts, np.zeros(len(pts))])
+        return pts
+
+    # -------------------------------------------------------------- the record
+    def surface(self, doc: Any) -> NurbsSurface:
+        doc = self.obj(doc, "the top level")
+        shape = self.obj(self.key(doc, "shape", "the top level"), "'shape'")
+        kind = self.key(shape, "type", "'shape'")
+        if kind != "surface":
+            if kind in ("curve", "volume"):
+                raise self.fail(f"file holds a {kind}, not a surface (shape.type is '{kind}')")
+            raise self.fail(f"shape.type must be 'surface', got {_describe(kind)}")
+        data = self.key(shape, "data", "'shape'")
+        if not isinstance(data, list):
+            raise self.fail(f"shape.data must be a list of surfaces, got {_describe(data)}")
+        if "count" in shape:
+            count = self.integer(shape["count"], "shape.count", 0)
+            if count != len(data):
+                raise self.fail(f"shape.count is {count} but shape.data holds {len(data)} "
+                                f"entr{'y' if len(data) == 1 else 'ies'}")
+        if len(data) > 1:
+            raise self.fail(f"file holds {len(data)} surfaces; flatweave reads one surface per file")
+        if not data:
+            raise self.fail("shape.data is empty: the file holds no surface")
+        return self.record(self.obj(data[0], "shape.data[0]"))
+
+    def record(self, rec: dict) -> NurbsSurface:
+        where = "shape.data[0]"
+        if "type" in rec and rec["type"] != "spline":
+            raise self.fail(f"{where}.type must be 'spline', got {_describe(rec['type'])}")
+        if "rational" in rec and not isinstance(rec["rational"], bool):
+            raise self.fail(f"{where}.rational must be true or false, got {_describe(rec['rational'])}")
+        if "trims" in rec:
+            tdata = self.obj(rec["trims"], "trims").get("data", [])
+            if not isinstance(tdata, list):
+                raise self.fail(f"trims.data must be a list, got {_describe(tdata)}")
+            if tdata:
+                raise self.fail("trimmed surfaces are not supported (the file has trim curves)")
+
+        deg = {d: self.integer(self.key(rec, f"degree_{d}", where), f"degree_{d}", 1) for d in "uv"}
+        size = {d: self.integer(self.key(rec, f"size_{d}", where), f"size_{d}", 1) for d in "uv"}
+        raw_knots = {d: self.key(rec, f"knotvector_{d}", where) for d in "uv"}
+        cp = self.obj(self.key(rec, "control_points", where), "control_points")
+        raw_points = self.key(cp, "points", "control_points")
+
+        for d in "uv":
+            if size[d] < deg[d] + 1:
+                raise self.fail(
+                    f"degree_{d} {deg[d]} is too high for size_{d} = {size[d]} control points "
+                    f"(degree {deg[d]} needs at least {deg[d] + 1})")
+        n_pts = size["u"] * size["v"]
+        if isinstance(raw_points, list) and len(raw_points) != n_pts:
+            raise self.fail(
+                f"control point count mismatch: {len(raw_points)} points but size_u * size_v = "
+                f"{size['u']} * {size['v']} = {n_pts}")
+        pts = self.point_list(raw_points, "control_points.points")
+        if "dimension" in rec:
+            dim = self.integer(rec["dimension"], "dimension", 1)
+            given = len(raw_points[0])
+            if dim != given:
+                raise self.fail(f"dimension is {dim} but control points have {given} coordinates")
+
+        weights = None
+        if "weights" in cp:
+            weights = self.vector(cp["weights"], "control_points.weights")
+            if weights.size != n_pts:
+                raise self.fail(
+                    f"weight count mismatch: {weights.size} weights for {n_pts} control points")
+            bad = np.flatnonzero(weights <= 0)
+            if bad.size:
+                raise self.fail(
+                    f"weights must be positive; control_points.weights[{bad[0]}] = {weights[bad[0]]:g}")
+
+        knots = {}
+        for d in "uv":
+            k = self.vector(raw_knots[d], f"knotvector_{d}")
+            need = size[d] + deg[d] + 1
+            if k.size != need:
+                raise self.fail(
+                    f"knotvector_{d} has {k.size} knots; size_{d} = {size[d]} with degree_{d} = {deg[d]} "
+                    f"needs {need}")
+            dec = np.flatnonzero(np.diff(k) < 0)
+            if dec.size:
+                i = int(dec[0])
+                raise self.fail(
+                    f"knotvector_{d} is not in non-decreasing order: knot [{i}] = {k[i]:g} > "
+                    f"knot [{i + 1}] = {k[i + 1]:g}")
+            knots[d] = k
+
+        nu, nv = size["u"], size["v"]
+        try:
+            return NurbsSurface(deg["u"], deg["v"], knots["u"], knots["v"],
+                                pts.reshape(nu, nv, 3),
+                                None if weights is None else weights.reshape(nu, nv))
+        except SurfaceError as exc:
+            raise self.fail(str(exc)) from None
+
+
+# ---------------------------------------------------------------------- reading
+def surface_from_json_dict(d: Any, source: str = "surface data") -> NurbsSurface:
+    """Build a :class:`NurbsSurface` from an already parsed geomdl JSON document.
+
+    Parameters
+    ----------
+    d : the object ``json.load`` returned (``{"shape": {...}}``)
+    source : label used at the start of error messages (a file name)
+
+    Raises
+    ------
+    SurfaceError : one line, ``"<source>: <problem>"``
+    """
+    return _Reader(source).surface(d)
+
+
+def parse_surface_json(data: bytes | str, source: str = "surface data") -> NurbsSurface:
+    """Parse geomdl JSON text (bytes or str) into a :class:`NurbsSurface`.
+
+    Bytes must be UTF-8 (a leading byte-order mark is allowed). Raises
+    :class:`SurfaceError` (one line, starting with ``source``) for every
+    problem: empty input, binary data, invalid JSON (with line and column),
+    and everything :func:`surface_from_json_dict` checks.
+    """
+    reader = _Reader(source)
+    if isinstance(data, (bytes, bytearray, memoryview)):
+        raw = bytes(data)
+        if not raw.strip():
+            raise reader.fail("file is empty" if not raw else "file is empty (only whitespace)")
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise reader.fail(
+                f"file is binary or not UTF-8 text, not JSON (byte 0x{raw[exc.start]:02x} at offset {exc.start})"
+            ) from None
+    elif isinstance(data, str):
+        text = data[1:] if data.startswith("\ufeff") else data
+    else:
+        raise TypeError(f"parse_surface_json expects bytes or str, got {type(data).__name__}")
+    if not text.strip():
+        raise reader.fail("file is empty" if not text else "file is empty (only whitespace)")
+    nul = text.find("\x00")
+    if nul >= 0:
+        raise reader.fail(f"file is binary (NUL byte at offset {nul}), not JSON text")
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise reader.fail(f"not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})") from None
+    except RecursionError:
+        raise reader.fail("not usable JSON: nested too deeply") from None
+    except ValueError as exc:  # e.g. an integer literal with too many digits
+        raise reader.fail(f"not usable JSON: {exc}") from None
+    return reader.surface(doc)
+
+
+def load_surface(path: str | os.PathLike) -> NurbsSurface:
+    """Read a single NURBS surface from a geomdl JSON file.
+
+    Parameters
+    ----------
+    path : file name
+
+    Returns
+    -------
+    NurbsSurface
+
+    Raises
+    ------
+    SurfaceError : one line naming the file and the problem, for a file that
+        cannot be read or does not hold exactly one valid untrimmed surface.
+    """
+    name = os.fspath(path)
+    try:
+        raw = Path(name).read_bytes()
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise SurfaceError(_one_line(f"{name}: cannot read file: {reason}", 400)) from None
+    except ValueError as exc:  # e.g. a NUL character in the path
+        raise SurfaceError(_one_line(f"{name!r}: cannot read file: {exc}", 400)) from None
+    return parse_surface_json(raw, source=name)
+
+
+# ---------------------------------------------------------------------- writing
+def surface_to_json_dict(surface: NurbsSurface) -> dict:
+    """The geomdl JSON document of ``surface`` (plain Python lists and floats).
+
+    Weights are written, and ``rational`` is true, unless every weight is 1.
+    """
+    nu, nv = surface.shape
+    w = np.asarray(surface.weights, dtype=float)
+    rational = bool(np.any(w != 1.0))
+    cp: dict[str, Any] = {"points": surface.ctrlpts.reshape(nu * nv, 3).tolist()}
+    if rational:
+        cp["weights"] = w.reshape(nu * nv).tolist()
+    rec = {
+        "type": "spline",
+        "rational": rational,
+        "dimension": 3,
+        "degree_u": int(surface.degree_u),
+        "degree_v": int(surface.degree_v),
+        "knotvector_u": np.asarray(surface.knots_u, dtype=float).tolist(),
+        "knotvector_v": np.asarray(surface.knots_v, dtype=float).tolist(),
+        "size_u": int(nu),
+        "size_v": int(nv),
+        "control_points": cp,
+    }
+    return {"shape": {"type": "surface", "count": 1, "data": [rec]}}
+
+
+_NUMBER_LIST = re.compile(r"\[([^\[\]{}\"]*)\]")
+
+
+def dumps_surface(surface: NurbsSurface) -> str:
+    """geomdl JSON text of ``surface``: indented, one control point per line.
+
+    Floats are written with ``repr`` precision, so reading the text back gives
+    bit-identical arrays.
+    """
+    text = json.dumps(surface_to_json_dict(surface), indent=2, allow_nan=False)
+    # put every innermost list of numbers on one line
+    return _NUMBER_LIST.sub(lambda m: "[" + " ".join(m.group(1).split()) + "]", text) + "\n"
+
+
+def save_surface(surface: NurbsSurface, path: str | os.PathLike) -> None:
+    """Write ``surface`` to ``path`` in geomdl's JSON format (UTF-8).
+
+    ``geomdl.exchange.import_json`` reads the file (it rescales the knot
+    vectors to [0, 1]); :func:`load_surface` gives back identical arrays.
+    The file is written to a temporary name first and then renamed, so an
+    existing file is never left half-written. Raises ``OSError`` when the
+    file cannot be written.
+    """
+    if not isinstance(surface, NurbsSurface):
+        raise TypeError(f"save_surface expects a NurbsSurface, got {type(surface).__name__}")
+    target = Path(path)
+    text = dumps_surface(surface)
+    tmp = target.with_name(target.name + ".tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, target)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
