@@ -40,7 +40,7 @@ from core.errors import SettingsError
 from core.mesh import DIAG, Material, SpringMesh, build_mesh
 from core.nurbs import NurbsSurface
 
-__all__ = ["DrapeSettings", "DrapeResult", "drape", "estimate_node_count"]
+__all__ = ["DrapeSettings", "DrapeResult", "drape", "refill", "estimate_node_count"]
 
 _NEWTON_MAXIT = 40
 
@@ -517,3 +517,25 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
         "seconds": time.perf_counter() - t0,
     }
     return DrapeResult(mesh=mesh, uv=uv, xyz=xyz, stats=stats)
+
+
+def refill(surface: NurbsSurface, settings: DrapeSettings, ij: np.ndarray, uv: np.ndarray,
+           dead_ij: np.ndarray = np.zeros((0, 2), dtype=np.int64)) -> tuple[np.ndarray, np.ndarray]:
+    """Node Filling from an existing mesh state (population control, paper 3.3).
+
+    ij : (n, 2) lattice positions and uv : (n, 2) parameters of the current
+    nodes; dead_ij : (k, 2) positions never to refill. Returns the added
+    nodes' (ij (a, 2), uv (a, 2)); the springs they form are at rest length.
+    """
+    b = _Builder(surface, settings)
+    b.add(np.asarray(ij, dtype=np.int64), np.asarray(uv, dtype=float), 0)
+    n0 = len(b.uv)
+    dead = np.asarray(dead_ij, dtype=np.int64).reshape(-1, 2)
+    if len(dead):
+        b.lat.ensure(dead)
+        b.lat.kill(dead)
+    while True:
+        b.two_neighbour_fill()
+        if b.filling_seeds() == 0:
+            break
+    return b.ij[n0:], b.uv[n0:]

@@ -103,6 +103,16 @@ class Energy:
         self.dir_planes = np.concatenate(planes) if planes else np.zeros((0, 4))
         self.dir_k = np.concatenate(weights) if weights else np.zeros(0)
 
+    def masked(self, spring_on: np.ndarray, node_on: np.ndarray) -> "Energy":
+        """The same energy with springs ``~spring_on`` and the yarn terms of
+        nodes ``~node_on`` switched off (constants set to zero); topology and
+        node numbering are kept, so a solver's sparse pattern stays valid."""
+        out = object.__new__(Energy)
+        out.__dict__.update(self.__dict__)
+        out.k = np.where(spring_on, self.k, 0.0)
+        out.dir_k = np.where(node_on[self.dir_nodes], self.dir_k, 0.0) if self.dir_nodes.size else self.dir_k
+        return out
+
     # ------------------------------------------------------------ pieces
     def spring_energy(self, xyz: np.ndarray) -> np.ndarray:
         """(m,) energy of every spring."""

@@ -45,6 +45,12 @@ class _Basis:
     def __init__(self, knots: np.ndarray, degree: int, n_ctrl: int):
         self.knots, self.p, self.n = knots, degree, n_ctrl
         s = np.arange(degree, n_ctrl)  # every valid span
+        # non-empty span to use for each: the last non-empty one at or below it
+        # (the first non-empty one for empty spans at the domain's start)
+        nonempty = knots[s] < knots[s + 1]
+        last = np.maximum.accumulate(np.where(nonempty, s, -1))
+        first = s[np.argmax(nonempty)]
+        self.span_map = np.where(last >= 0, last, first)
         self.left = {}   # (q, r) -> 1 / (t[i+q] - t[i]),     i = s - q + r, r >= 1
         self.right = {}  # (q, r) -> 1 / (t[i+q+1] - t[i+1]),             r <= q - 1
         for q in range(1, degree + 1):
@@ -56,7 +62,9 @@ class _Basis:
                     self.right[q, r] = _safe_inv(knots[i + q + 1] - knots[i + 1])
 
     def spans(self, x: np.ndarray) -> np.ndarray:
-        return _find_spans(self.knots, self.p, self.n, x)
+        """Span of every x, never an empty one (a repeated knot at the domain's
+        end would otherwise give the span [t, t) and a point of NaNs)."""
+        return self.span_map[_find_spans(self.knots, self.p, self.n, x) - self.p]
 
     def __call__(self, spans: np.ndarray, x: np.ndarray, order: int) -> list[np.ndarray]:
         """``[N, N', ...]`` up to ``order``, each (n, p+1); column r is the
@@ -300,7 +308,7 @@ class NurbsSurface:
         ln = np.linalg.norm(n, axis=1)
         lu = np.linalg.norm(Su, axis=1)
         lv = np.linalg.norm(Sv, axis=1)
-        bad = ~(ln > 1e-9 * np.maximum(lu, lv) ** 2) | ~np.isfinite(ln)
+        bad = ~(ln > 1e-7 * np.maximum(lu, lv) ** 2) | ~np.isfinite(ln)
         if np.any(bad):
             n[bad] = self._limit_normals(uv[bad])
             ln = np.linalg.norm(n, axis=1)

@@ -1,0 +1,781 @@
+"""Energy minimisation over the nodes' (u, v) (paper sections 3.2 and 3.3).
+
+Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
+
+* ``paper``: the paper's scheme: one steepest-descent step, then
+  Fletcher-Reeves conjugate gradients, each step length found by golden-section
+  search; restarted with steepest descent after every change of population.
+* ``fast`` (default): Levenberg-Marquardt on the residuals sqrt(k) (l - r) of
+  the springs (and sqrt(k) f of the yarn constraints). The Jacobian has four
+  non-zeros per row; J^T J is assembled straight into a fixed CSR pattern,
+  damped by lambda diag(J^T J), and factorised by SuperLU. The 500:1 stiffness
+  of woven cloth, which makes gradient methods crawl, costs it nothing.
+
+Both are generators (:func:`iterate`) that yield a :class:`Snapshot` after every
+iteration, so a GUI can draw and a caller can stop within one iteration by no
+longer asking for the next; :func:`minimize` drives one to the end.
+
+Adaptive population control (3.3): a node whose (u, v) leaves the domain is
+deleted with its springs; when the solver has converged, regions the mesh has
+uncovered are refilled by Node Filling (:func:`core.drape.refill`), and the
+solve goes on until the population stops changing. A lattice position deleted
+twice is never refilled, and the seed node is held at its (u, v) (an anchor
+that removes the sliding of the whole mesh over the surface, along which the
+energy barely changes).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from core.energy import Energy
+from core.errors import SettingsError
+from core.mesh import SpringMesh
+from core.metrics import spring_strain
+
+__all__ = ["SolverOptions", "Snapshot", "SolveResult", "iterate", "minimize", "METHODS", "State"]
+
+METHODS = ("fast", "paper")
+CLAMP = 0.0
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """method : "fast" or "paper"
+    tol : stop when an iteration lowers EN by less than tol * EN
+    max_iter : iteration budget (all rounds together)
+    max_seconds : time budget
+    anchor_seed : hold the seed node M[0, 0] at its (u, v)
+    refill : refill uncovered regions after convergence
+    """
+
+    method: str = "fast"
+    tol: float = 1e-9
+    max_iter: int = 1000
+    max_seconds: float = math.inf
+    anchor_seed: bool = True
+    refill: bool = True
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise SettingsError(f"solver {self.method!r} is not one of {', '.join(METHODS)}")
+        if not (self.tol > 0 and math.isfinite(self.tol)):
+            raise SettingsError(f"tolerance must be a positive number, got {self.tol!r}")
+        if not (isinstance(self.max_iter, int) and self.max_iter >= 0):
+            raise SettingsError(f"max iterations must be a non-negative integer, got {self.max_iter!r}")
+
+
+@dataclass(frozen=True)
+class State:
+    """A mesh and its nodes' parameters: what a solve starts from and returns."""
+
+    mesh: SpringMesh
+    uv: np.ndarray
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """One iteration of a solve (a copy: safe to keep and hand to another thread).
+
+    iteration : iterations so far; energy : EN; nfev : energy evaluations so far
+    mesh, uv (n, 2), xyz (n, 3), strain (m,) : the current state
+    population_changed : nodes were deleted or added in this iteration
+    """
+
+    iteration: int
+    energy: float
+    nfev: int
+    mesh: SpringMesh
+    uv: np.ndarray
+    xyz: np.ndarray
+    strain: np.ndarray
+    population_changed: bool
+    seconds: float
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """Like scipy's OptimizeResult: x (= uv), fun (= EN), nit, nfev, status, success, message."""
+
+    mesh: SpringMesh
+    uv: np.ndarray
+    xyz: np.ndarray
+    fun: float
+    nit: int
+    nfev: int
+    status: int  # 0 converged, 1 iteration budget, 2 time budget, 3 stopped by caller
+    message: str
+    seconds: float
+    deleted: int = 0
+    added: int = 0
+    history: list = field(default_factory=list)
+
+    @property
+    def x(self) -> np.ndarray:
+        return self.uv
+
+    @property
+    def success(self) -> bool:
+        return self.status == 0
+
+
+class Problem:
+    """What the solvers need beyond a state: the surface, how a population's
+    topology is built, which nodes must be deleted, and how to refill.
+
+    build(ij, uv) -> SpringMesh; invalid(uv_old, uv_new) -> (n,) bool
+    refill(mesh, uv, dead_ij) -> (ij_new, uv_new) of added nodes
+    """
+
+    def __init__(self, surface, build, yarns=(), refill=None, invalid=None):
+        self.surface = surface
+        self.build = build
+        self.yarns = tuple(yarns)
+        self._refill = refill
+        self._invalid = invalid
+
+    def invalid(self, uv_old: np.ndarray, uv_new: np.ndarray) -> np.ndarray:
+        bad = ~self.surface.in_domain(uv_new)
+        if self._invalid is not None:
+            bad |= self._invalid(uv_old, uv_new)
+        return bad
+
+    def refill(self, mesh, uv, dead_ij):
+        if self._refill is None:
+            return np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2))
+        return self._refill(mesh, uv, dead_ij)
+
+
+# ------------------------------------------------------------------ population control
+class _Population:
+    """Deletion bookkeeping: how often each lattice position lost its node."""
+
+    def __init__(self):
+        self.counts: dict[tuple[int, int], int] = {}
+        self.deleted = 0
+        self.added = 0
+
+    def record(self, ij: np.ndarray) -> None:
+        for key in map(tuple, ij.tolist()):
+            self.counts[key] = self.counts.get(key, 0) + 1
+        self.deleted += len(ij)
+
+    def dead(self) -> np.ndarray:
+        """(k, 2) positions deleted twice or more: never refilled."""
+        dead = [k for k, c in self.counts.items() if c >= 2]
+        return np.array(dead, dtype=np.int64).reshape(-1, 2)
+
+
+def _delete(problem: Problem, mesh: SpringMesh, uv: np.ndarray, drop: np.ndarray, pop: _Population,
+            fixed: int | None):
+    """Remove nodes ``drop`` (bool mask); isolated leftovers go too."""
+    if fixed is not None:
+        drop[fixed] = False
+    while True:
+        keep = ~drop
+        new = problem.build(mesh.ij[keep], uv[keep])
+        deg = new.degree()
+        lonely = deg == 0
+        if fixed is not None and keep[fixed]:
+            lonely[np.searchsorted(np.flatnonzero(keep), fixed)] = False
+        if not lonely.any():
+            break
+        idx = np.flatnonzero(keep)[lonely]
+        drop[idx] = True
+    pop.record(mesh.ij[drop])
+    return new, uv[keep]
+
+
+def _fixed_index(mesh: SpringMesh, anchor: bool) -> int | None:
+    if not anchor:
+        return None
+    hit = np.flatnonzero((mesh.ij[:, 0] == 0) & (mesh.ij[:, 1] == 0))
+    return int(hit[0]) if hit.size else None
+
+
+# ------------------------------------------------------------------ Levenberg-Marquardt
+def _dissection_rank(shape: tuple[int, int], leaf: int = 32) -> np.ndarray:
+    """Nested-dissection rank of every cell of an (R, C) lattice rectangle.
+
+    Springs join nodes at most one row and one column apart, so one lattice
+    line splits the mesh in two; splitting the longer side in the middle,
+    recursively, and numbering each separator after both halves gives an
+    elimination order with little fill. Any subset of the rectangle inherits
+    a good order by sorting on these ranks.
+    """
+    R, C = shape
+    rank = np.empty((R, C), dtype=np.int64)
+    counter = 0
+    stack = [(0, R, 0, C, False)]
+    while stack:
+        i0, i1, j0, j1, is_sep = stack.pop()
+        h, w = i1 - i0, j1 - j0
+        if h <= 0 or w <= 0:
+            continue
+        if is_sep or h * w <= leaf or (h < 3 and w < 3):
+            rank[i0:i1, j0:j1] = counter + np.arange(h * w).reshape(h, w)
+            counter += h * w
+            continue
+        if h >= w:
+            m = (i0 + i1) // 2
+            parts = [(i0, m, j0, j1, False), (m + 1, i1, j0, j1, False), (m, m + 1, j0, j1, True)]
+        else:
+            m = (j0 + j1) // 2
+            parts = [(i0, i1, j0, m, False), (i0, i1, m + 1, j1, False), (i0, i1, m, m + 1, True)]
+        stack.extend(reversed(parts))  # first half, second half, then the separator
+    return rank
+
+
+def _dissection_order(ij: np.ndarray) -> np.ndarray:
+    """Order of lattice nodes ij : (n, 2) with little fill (see _dissection_rank)."""
+    if len(ij) == 0:
+        return np.zeros(0, dtype=np.int64)
+    lo = ij.min(axis=0)
+    shape = tuple(int(x) for x in ij.max(axis=0) - lo + 1)
+    rank = _dissection_rank(shape)[ij[:, 0] - lo[0], ij[:, 1] - lo[1]]
+    return np.argsort(rank, kind="stable")
+
+
+class _Normal:
+    """The Newton system on a 2 x 2 block-sparse pattern fixed per population.
+
+    Free nodes (all but the anchor) are numbered in nested-dissection order;
+    each owns two variables (u, v). A spring's 4 x 4 block splits into two
+    diagonal blocks, summed per node by ``np.bincount``, and two off-diagonal
+    blocks that are the only entries at their place (one spring joins two
+    nodes), copied straight into the block-CSR data. SuperLU then factorises
+    without reordering.
+    """
+
+    def __init__(self, energy: Energy, fixed: int | None):
+        n = energy.n
+        free = np.ones(n, dtype=bool)
+        if fixed is not None:
+            free[fixed] = False
+        order = np.flatnonzero(free)[_dissection_order(energy.mesh.ij[free])]
+        num = np.full(n, -1, dtype=np.int64)
+        num[order] = np.arange(len(order))
+        self.num, self.order = num, order
+        nb = len(order)
+        self.nb, self.nvar = nb, 2 * nb
+        a, b = num[energy.a], num[energy.b]
+        self.a, self.b = a, b
+        both = (a >= 0) & (b >= 0)
+        self.both = both
+        # block pattern: diagonal blocks + (a, b) and (b, a) for springs between free nodes
+        rows = np.concatenate([np.arange(nb), a[both], b[both]])
+        cols = np.concatenate([np.arange(nb), b[both], a[both]])
+        perm = np.lexsort((cols, rows))
+        self.indices = cols[perm].astype(np.int32)
+        self.indptr = np.searchsorted(rows[perm], np.arange(nb + 1)).astype(np.int32)
+        pos = np.empty_like(perm)
+        pos[perm] = np.arange(len(perm))
+        self.pos_diag = pos[:nb]
+        k = int(both.sum())
+        self.pos_ab = pos[nb:nb + k]
+        self.pos_ba = pos[nb + k:]
+        self.nnzb = len(perm)
+        self.dir_num = num[energy.dir_nodes]
+
+    def _diag_sum(self, idx: np.ndarray, blocks: np.ndarray, out: np.ndarray) -> None:
+        ok = idx >= 0
+        for p in range(2):
+            for q in range(2):
+                out[:, p, q] += np.bincount(idx[ok], weights=blocks[ok, p, q], minlength=self.nb)
+
+    def assemble(self, Hs: np.ndarray, Jd: np.ndarray, Hn: np.ndarray, damp_rel: float):
+        """(A + damping as CSC, the damping vector) from spring blocks Hs
+        (m, 4, 4), yarn rows Jd (c, 2) and node blocks Hn (n, 2, 2).
+        Damping is lambda diag(A) (Marquardt)."""
+        data = np.zeros((self.nnzb, 2, 2))
+        diag = Hn[self.order].copy()
+        self._diag_sum(self.a, Hs[:, :2, :2], diag)
+        self._diag_sum(self.b, Hs[:, 2:, 2:], diag)
+        if len(Jd):
+            self._diag_sum(self.dir_num, Jd[:, :, None] * Jd[:, None, :], diag)
+        d = diag[:, [0, 1], [0, 1]]
+        damp = damp_rel * np.maximum(d, 1e-12 * max(d.max(initial=0.0), 1e-300))
+        diag[:, 0, 0] += damp[:, 0]
+        diag[:, 1, 1] += damp[:, 1]
+        data[self.pos_diag] = diag
+        data[self.pos_ab] = Hs[self.both, :2, 2:]
+        data[self.pos_ba] = Hs[self.both, 2:, :2]
+        A = sp.bsr_matrix((data, self.indices, self.indptr), shape=(self.nvar, self.nvar))
+        return A.tocsc(), damp.ravel()
+
+    def gradient(self, Q, rs, Jd, rd, energy: Energy) -> np.ndarray:
+        """J^T r over the free variables, in block order."""
+        n = energy.n
+        g = np.zeros((n, 2))
+        gs = Q * (np.sqrt(energy.k) * rs)[:, None]
+        for c in range(2):
+            g[:, c] = (np.bincount(energy.a, gs[:, c], minlength=n)
+                       + np.bincount(energy.b, gs[:, 2 + c], minlength=n))
+            if len(rd):
+                g[:, c] += np.bincount(energy.dir_nodes, Jd[:, c] * rd, minlength=n)
+        return g[self.order].ravel()
+
+    def scatter(self, step: np.ndarray, n: int) -> np.ndarray:
+        """(n, 2) node steps from the block-ordered variable vector."""
+        out = np.zeros((n, 2))
+        out[self.order] = step.reshape(-1, 2)
+        return out
+
+
+def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Row-wise dot products of (k, 3) arrays."""
+    return x[:, 0] * y[:, 0] + x[:, 1] * y[:, 1] + x[:, 2] * y[:, 2]
+
+
+def _residuals(energy: Energy, S, Su, Sv):
+    """Residuals and Jacobian blocks at surface data (S, S_u, S_v).
+
+    Returns (rs (m,), Q (m, 4), rd (c,), Jd (c, 2)): spring residuals
+    sqrt(k) (l - r); Q = t^T [S_u(a), S_v(a), -S_u(b), -S_v(b)] with t the
+    spring's unit direction, so the spring's Jacobian row is sqrt(k) Q; the
+    yarn residuals sqrt(k) f and their Jacobian rows.
+    """
+    a, b = energy.a, energy.b
+    d = S[a] - S[b]
+    length = np.sqrt(_dot(d, d))
+    t = d / np.maximum(length, 1e-300)[:, None]
+    rs = np.sqrt(energy.k) * (length - energy.rest)
+    Q = np.column_stack([_dot(t, Su[a]), _dot(t, Sv[a]), -_dot(t, Su[b]), -_dot(t, Sv[b])])
+    if energy.dir_nodes.size:
+        sd = np.sqrt(energy.dir_k)
+        rd = sd * energy.dir_distance(S)
+        Nn = energy.dir_planes[:, :3]
+        c = energy.dir_nodes
+        Jd = np.column_stack([_dot(Nn, Su[c]), _dot(Nn, Sv[c])]) * sd[:, None]
+    else:
+        rd, Jd = np.zeros(0), np.zeros((0, 2))
+    return rs, Q, rd, Jd
+
+
+def _energy_floor(mesh: SpringMesh) -> float:
+    """An energy below which the mesh is at rest to round-off (strain ~ 1e-13)."""
+    return 1e-26 * 0.5 * float(np.dot(mesh.k, mesh.rest ** 2))
+
+
+class _Run:
+    """Shared bookkeeping of both solvers: counters, budgets, snapshots."""
+
+    def __init__(self, problem: Problem, state: State, options: SolverOptions):
+        self.problem = problem
+        self.options = options
+        self.mesh = state.mesh
+        self.uv = np.array(state.uv, dtype=float)
+        self.pop = _Population()
+        self.nit = 0
+        self.nfev = 0
+        self.t0 = time.perf_counter()
+        self.history = []
+        self.status = None
+        self.message = ""
+
+    def budget_left(self) -> bool:
+        if self.nit >= self.options.max_iter:
+            self.status, self.message = 1, f"stopped at the iteration budget ({self.options.max_iter})"
+            return False
+        if time.perf_counter() - self.t0 > self.options.max_seconds:
+            self.status, self.message = 2, f"stopped at the time budget ({self.options.max_seconds:g} s)"
+            return False
+        return True
+
+    def snapshot(self, energy: float, xyz: np.ndarray, changed: bool) -> Snapshot:
+        self.history.append(energy)
+        return Snapshot(self.nit, energy, self.nfev, self.mesh, self.uv.copy(), xyz.copy(),
+                        spring_strain(xyz, self.mesh), changed, time.perf_counter() - self.t0)
+
+    def remove_invalid(self, uv_old: np.ndarray, uv_new: np.ndarray) -> bool:
+        """Delete nodes that left the domain (or crossed a dart); True if any did."""
+        bad = self.problem.invalid(uv_old, uv_new)
+        fixed = _fixed_index(self.mesh, self.options.anchor_seed)
+        if fixed is not None:
+            bad[fixed] = False
+        if not bad.any():
+            self.uv = uv_new
+            return False
+        self.mesh, self.uv = _delete(self.problem, self.mesh, uv_new, bad, self.pop, fixed)
+        return True
+
+    def try_refill(self) -> bool:
+        if not self.options.refill:
+            return False
+        ij, uv = self.problem.refill(self.mesh, self.uv, self.pop.dead())
+        if len(ij) == 0:
+            return False
+        all_ij = np.concatenate([self.mesh.ij, ij])
+        all_uv = np.concatenate([self.uv, uv])
+        order = np.lexsort((all_ij[:, 1], all_ij[:, 0]))
+        self.mesh = self.problem.build(all_ij[order], all_uv[order])
+        self.uv = all_uv[order]
+        self.pop.added += len(ij)
+        return True
+
+    def result(self, energy: float) -> SolveResult:
+        xyz = self.problem.surface.points(self.uv)
+        return SolveResult(self.mesh, self.uv, xyz, energy, self.nit, self.nfev, self.status,
+                           self.message, time.perf_counter() - self.t0, self.pop.deleted,
+                           self.pop.added, list(self.history))
+
+
+def _psd2(H: np.ndarray) -> np.ndarray:
+    """Project symmetric 2 x 2 blocks (n, 2, 2) onto the PSD cone (closed form)."""
+    a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
+    mean = 0.5 * (a + c)
+    rad = np.sqrt(0.25 * (a - c) ** 2 + b * b)
+    l1, l2 = mean + rad, mean - rad  # l1 >= l2
+    out = H.copy()
+    neg2 = l2 < 0
+    # only l2 negative: keep l1 times its eigenvector's outer product
+    with np.errstate(invalid="ignore", divide="ignore"):
+        v1 = np.where(np.abs(b)[:, None] > 1e-300,
+                      np.column_stack([b, l1 - a]),
+                      np.where((a >= c)[:, None], [[1.0, 0.0]], [[0.0, 1.0]]))
+        v1 = v1 / np.linalg.norm(v1, axis=1, keepdims=True)
+    P = np.maximum(l1, 0.0)[:, None, None] * v1[:, :, None] * v1[:, None, :]
+    out[neg2] = P[neg2]
+    return out
+
+
+def _hessian_blocks(energy: Energy, S, Su, Sv, q, Suu, Suv, Svv):
+    """Projected-Newton blocks: per spring (m, 4, 4) and per node (n, 2, 2).
+
+    A spring's Hessian in 3D is k [t t^T + c (I - t t^T)] with c = 1 - r/l;
+    c is clamped at 0 (compressed springs' negative geometric stiffness is
+    dropped) so every block is positive semidefinite. Mapped to (u, v) by the
+    surface derivatives; the surface-curvature term G . S_uv of every node
+    (G its 3D energy gradient) is projected onto the PSD cone.
+    """
+    a, b = energy.a, energy.b
+    d = S[a] - S[b]
+    length = np.sqrt(_dot(d, d))
+    c = np.maximum(CLAMP, 1.0 - energy.rest / np.maximum(length, 1e-300))
+    Hs = ((energy.k * (1 - c))[:, None, None]) * q[:, :, None] * q[:, None, :]
+    t = np.flatnonzero(c != 0)  # springs in tension: add k c E^T E
+    if t.size:
+        gram = np.empty((len(S), 2, 2))
+        gram[:, 0, 0] = _dot(Su, Su)
+        gram[:, 0, 1] = gram[:, 1, 0] = _dot(Su, Sv)
+        gram[:, 1, 1] = _dot(Sv, Sv)
+        at, bt = a[t], b[t]
+        cross = np.empty((len(t), 2, 2))
+        cross[:, 0, 0] = -_dot(Su[at], Su[bt])
+        cross[:, 0, 1] = -_dot(Su[at], Sv[bt])
+        cross[:, 1, 0] = -_dot(Sv[at], Su[bt])
+        cross[:, 1, 1] = -_dot(Sv[at], Sv[bt])
+        w = (energy.k[t] * c[t])[:, None, None]
+        Hs[t, :2, :2] += w * gram[at]
+        Hs[t, 2:, 2:] += w * gram[bt]
+        Hs[t, :2, 2:] += w * cross
+        Hs[t, 2:, :2] += w * cross.transpose(0, 2, 1)
+    _, G = energy.force_xyz(S)
+    Hn = np.empty((energy.n, 2, 2))
+    Hn[:, 0, 0] = _dot(G, Suu)
+    Hn[:, 0, 1] = Hn[:, 1, 0] = _dot(G, Suv)
+    Hn[:, 1, 1] = _dot(G, Svv)
+    return Hs, _psd2(Hn)
+
+
+class _Round:
+    """One population of the fast solver: a fixed node set and sparse pattern.
+
+    Nodes that leave the domain during the round are switched off rather than
+    removed (their springs get k = 0, their variables an identity block), so
+    the pattern and the last factorisation stay usable; ``run.mesh`` and
+    ``run.uv`` always hold the compact live population.
+    """
+
+    def __init__(self, run: _Run):
+        self.run = run
+        self.mesh = run.mesh
+        self.uv = run.uv.copy()
+        self.full = Energy(run.problem.surface, self.mesh, run.problem.yarns)
+        self.energy = self.full
+        self.fixed = _fixed_index(self.mesh, run.options.anchor_seed)
+        self.normal = _Normal(self.full, self.fixed)
+        self.alive = np.ones(self.mesh.n_nodes, dtype=bool)
+        self.floor = _energy_floor(self.mesh)
+        self.settled = False  # True once a refill found nothing to add
+        n = self.mesh.n_nodes
+        e = np.sort(self.mesh.ends, axis=1)
+        self.keys = e[:, 0] * n + e[:, 1]
+
+    def switch_off(self, bad: np.ndarray) -> None:
+        """Delete nodes ``bad`` (and nodes left without springs)."""
+        run = self.run
+        if self.fixed is not None:
+            bad[self.fixed] = False
+        alive = self.alive & ~bad
+        while True:
+            idx = np.flatnonzero(alive)
+            compact = run.problem.build(self.mesh.ij[idx], self.uv[idx])
+            lonely = compact.degree() == 0
+            if self.fixed is not None:
+                lonely[idx == self.fixed] = False
+            if not lonely.any():
+                break
+            alive[idx[lonely]] = False
+        run.pop.record(self.mesh.ij[self.alive & ~alive])
+        self.alive = alive
+        n = self.mesh.n_nodes
+        e = np.sort(idx[compact.ends], axis=1)
+        spring_on = np.isin(self.keys, e[:, 0] * n + e[:, 1])
+        self.energy = self.full.masked(spring_on, alive)
+        run.mesh, run.uv = compact, self.uv[idx]
+
+    def solve(self, A, g: np.ndarray) -> np.ndarray:
+        """A x = -g by a sparse LU factorisation in the pattern's own order.
+
+        (Preconditioned CG on the previous factorisation was measured and
+        needed 7-10 iterations, costing as much as a new factorisation.)
+        """
+        lu = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        return lu.solve(-g)
+
+
+def _iterate_fast(run: _Run):
+    surface = run.problem.surface
+    opts = run.options
+    lam, nu = 1e-3, 2.0
+    eye = np.eye(2)
+    loose = max(opts.tol, 1e-5)
+
+    def start():
+        rd_ = _Round(run)
+        ev_ = surface.evaluate(rd_.uv, second=True)
+        run.nfev += 1
+        return rd_, ev_, _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv)
+
+    rnd, ev, (rs, Q, rd, Jd) = start()
+    E = 0.5 * (rs @ rs + rd @ rd)
+    while True:
+        converged = E <= rnd.floor
+        if not converged and not run.budget_left():
+            yield run.snapshot(E, ev.xyz[rnd.alive], False)
+            return
+        if not converged:
+            energy, normal = rnd.energy, rnd.normal
+            Hs, Hn = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
+            if not rnd.alive.all():  # switched-off nodes keep still
+                Hn[~rnd.alive] = eye * max(float(np.abs(Hs).max(initial=0.0)), 1e-300)
+            A, damp = normal.assemble(Hs, Jd, Hn, lam)
+            g = normal.gradient(Q, rs, Jd, rd, energy)
+            try:
+                step = rnd.solve(A, g)
+            except RuntimeError:  # singular: damp harder
+                lam *= 10
+                run.nit += 1
+                continue
+            # decrease predicted by the undamped quadratic model
+            pred = -float(g @ step) - 0.5 * float(step @ (A @ step) - (damp * step) @ step)
+            uv_try = rnd.uv + normal.scatter(step, energy.n)
+            ev2 = surface.evaluate(uv_try, second=True)
+            run.nfev += 1
+            rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
+            E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
+            run.nit += 1
+            rho = (E - E2) / pred if pred > 0 else -1.0
+            if np.isfinite(E2) and rho > 1e-4:
+                decrease = E - E2
+                lam *= max(1 / 3, 1 - (2 * rho - 1) ** 3)
+                nu = 2.0
+                bad = run.problem.invalid(rnd.uv, uv_try) & rnd.alive
+                rnd.uv = uv_try
+                run.uv = uv_try[rnd.alive]
+                ev = ev2
+                if bad.any():
+                    rnd.switch_off(bad)
+                    rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
+                    E = 0.5 * (rs @ rs + rd @ rd)
+                    yield run.snapshot(E, ev.xyz[rnd.alive], True)
+                    continue
+                rs, Q, rd, Jd, E = rs2, Q2, rd2, Jd2, E2
+                yield run.snapshot(E, ev.xyz[rnd.alive], False)
+                # until the population has settled, a loose tolerance will do
+                converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
+            else:
+                lam *= nu
+                nu *= 2
+                yield run.snapshot(E, ev.xyz[rnd.alive], False)
+                converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
+        if converged:
+            if run.try_refill():
+                rnd, ev, (rs, Q, rd, Jd) = start()
+                E = 0.5 * (rs @ rs + rd @ rd)
+                yield run.snapshot(E, ev.xyz, True)
+                continue
+            if not rnd.settled and E > rnd.floor:
+                rnd.settled = True  # nothing to refill: now converge tightly
+                continue
+            run.status, run.message = 0, "converged"
+            return
+
+
+# ------------------------------------------------------------------ the paper's CG
+_GOLD = (math.sqrt(5) - 1) / 2
+
+
+def _line_search(f, alpha0: float, f0: float, max_eval: int = 60):
+    """Minimise f(alpha), alpha > 0, by bracketing then golden-section search.
+
+    Returns (alpha, f(alpha), evaluations). alpha = 0 if no decrease is found.
+    """
+    evals = 0
+    a, fa = 0.0, f0
+    b = alpha0
+    fb = f(b)
+    evals += 1
+    while not fb < fa:  # shrink until we go downhill
+        b *= 0.1
+        fb = f(b)
+        evals += 1
+        if b < 1e-30 or evals > max_eval // 2:
+            return 0.0, f0, evals
+    c = b / _GOLD
+    fc = f(c)
+    evals += 1
+    while fc < fb and evals < max_eval:  # expand
+        a, fa, b, fb = b, fb, c, fc
+        c = b + (b - a) / _GOLD
+        fc = f(c)
+        evals += 1
+    # golden section on [a, c] around b
+    lo, hi = a, c
+    x1 = hi - _GOLD * (hi - lo)
+    x2 = lo + _GOLD * (hi - lo)
+    f1, f2 = f(x1), f(x2)
+    evals += 2
+    while evals < max_eval and (hi - lo) > 1e-6 * max(hi, 1e-300):
+        if f1 < f2:
+            hi, x2, f2 = x2, x1, f1
+            x1 = hi - _GOLD * (hi - lo)
+            f1 = f(x1)
+        else:
+            lo, x1, f1 = x1, x2, f2
+            x2 = lo + _GOLD * (hi - lo)
+            f2 = f(x2)
+        evals += 1
+    best = min(((fb, b), (f1, x1), (f2, x2)))
+    if best[0] < f0:
+        return best[1], best[0], evals
+    return 0.0, f0, evals
+
+
+def _iterate_paper(run: _Run):
+    surface = run.problem.surface
+    opts = run.options
+    while True:  # one round per population
+        mesh = run.mesh
+        energy = Energy(surface, mesh, run.problem.yarns)
+        fixed = _fixed_index(mesh, opts.anchor_seed)
+        floor = _energy_floor(mesh)
+        E, g = energy.value_and_grad(run.uv)
+        run.nfev += 1
+        if fixed is not None:
+            g[fixed] = 0.0
+        D = -g  # steepest descent first, and after every change of population
+        gg = float(np.sum(g * g))
+        dom = surface.domain
+        alpha = 1e-3 * float(np.min(dom[:, 1] - dom[:, 0])) / max(float(np.abs(D).max()), 1e-300)
+        converged = False
+        while not converged:
+            if not run.budget_left():
+                S = surface.points(run.uv)
+                yield run.snapshot(E, S, False)
+                return
+            if E <= floor or gg == 0.0:
+                converged = True
+                break
+            uv0 = run.uv
+
+            def f(t):
+                return energy.value(uv0 + t * D)
+
+            t, E2, ev = _line_search(f, alpha, E)
+            run.nfev += ev
+            run.nit += 1
+            if t == 0.0:
+                if np.array_equal(D, -g):
+                    converged = True  # no descent even along the gradient
+                    S = surface.points(run.uv)
+                    yield run.snapshot(E, S, False)
+                    break
+                D = -g  # restart
+                continue
+            alpha = t
+            uv_new = uv0 + t * D
+            decrease = E - E2
+            if run.remove_invalid(uv0, uv_new):
+                S = surface.points(run.uv)
+                yield run.snapshot(Energy(surface, run.mesh, run.problem.yarns).value_xyz(S), S, True)
+                break  # new population: restart with steepest descent
+            E = E2
+            g_new = energy.value_and_grad(run.uv)[1]
+            run.nfev += 1
+            if fixed is not None:
+                g_new[fixed] = 0.0
+            gg_new = float(np.sum(g_new * g_new))
+            beta = gg_new / gg if gg > 0 else 0.0  # Fletcher-Reeves
+            D = -g_new + beta * D
+            if float(np.sum(D * g_new)) >= 0:  # not a descent direction: restart
+                D = -g_new
+            g, gg = g_new, gg_new
+            S = surface.points(run.uv)
+            yield run.snapshot(E, S, False)
+            if decrease <= opts.tol * (E + decrease):
+                converged = True
+        if converged:
+            if run.try_refill():
+                S = surface.points(run.uv)
+                yield run.snapshot(Energy(surface, run.mesh, run.problem.yarns).value_xyz(S), S, True)
+                continue
+            run.status, run.message = 0, "converged"
+            return
+
+
+def iterate(problem: Problem, state: State, options: SolverOptions = SolverOptions()):
+    """Generator of :class:`Snapshot` s; its return value (``StopIteration.value``)
+    is the :class:`SolveResult`. Closing it early stops the solve."""
+    run = _Run(problem, state, options)
+    inner = _iterate_fast(run) if options.method == "fast" else _iterate_paper(run)
+    try:
+        yield from inner
+    except GeneratorExit:
+        inner.close()
+        raise
+    S = problem.surface.points(run.uv)
+    return run.result(Energy(problem.surface, run.mesh, problem.yarns).value_xyz(S))
+
+
+def minimize(problem: Problem, state: State, options: SolverOptions = SolverOptions(),
+             callback=None) -> SolveResult:
+    """Run a solver to the end. ``callback(snapshot)`` is called every
+    iteration; returning True (or raising StopIteration) stops the solve
+    within that iteration, with status 3."""
+    gen = iterate(problem, state, options)
+    last = None
+    while True:
+        try:
+            snap = next(gen)
+        except StopIteration as done:
+            return done.value
+        last = snap
+        stop = False
+        if callback is not None:
+            try:
+                stop = bool(callback(snap))
+            except StopIteration:
+                stop = True
+        if stop:
+            gen.close()
+            xyz = last.xyz
+            return SolveResult(last.mesh, last.uv, xyz, last.energy, last.iteration, last.nfev, 3,
+                               "stopped by the caller", last.seconds)
