@@ -42,7 +42,6 @@ from core.metrics import spring_strain
 __all__ = ["SolverOptions", "Snapshot", "SolveResult", "iterate", "minimize", "METHODS", "State"]
 
 METHODS = ("fast", "paper")
-CLAMP = 0.0
 
 
 @dataclass(frozen=True)
@@ -190,6 +189,74 @@ def _delete(problem: Problem, mesh: SpringMesh, uv: np.ndarray, drop: np.ndarray
         drop[idx] = True
     pop.record(mesh.ij[drop])
     return new, uv[keep]
+
+
+class _OrientationPin:
+    """The anchor of the mesh's orientation, as a hard constraint.
+
+    The seed node is fixed; its weft neighbour M[0, 1] (or M[0, -1]) may only
+    move within the plane through the seed that contains the seed's normal and
+    the chord to that neighbour, so the weft direction the user chose stays
+    where it was put. Together the two remove the rigid sliding and turning of
+    the mesh over the surface, along which the energy barely changes (the
+    mesh-drift trap), without adding a term to the energy: the neighbour's
+    Newton step is confined to the plane's tangent and the node is put back
+    on the plane after every step (a retraction).
+    """
+
+    def __init__(self, surface, mesh: SpringMesh, uv: np.ndarray):
+        self.surface = surface
+        self.ij = None
+        seed = _fixed_index(mesh, True)
+        if seed is None:
+            return
+        for j in (1, -1):
+            hit = np.flatnonzero((mesh.ij[:, 0] == 0) & (mesh.ij[:, 1] == j))
+            if hit.size:
+                ev = surface.evaluate(uv[[seed, hit[0]]])
+                normal = np.cross(ev.normal[0], ev.xyz[1] - ev.xyz[0])
+                if np.linalg.norm(normal) > 0:
+                    self.normal = normal / np.linalg.norm(normal)
+                    self.d = -float(self.normal @ ev.xyz[0])
+                    self.ij = (0, j)
+                return
+
+    def index(self, mesh: SpringMesh) -> int | None:
+        if self.ij is None:
+            return None
+        hit = np.flatnonzero((mesh.ij[:, 0] == self.ij[0]) & (mesh.ij[:, 1] == self.ij[1]))
+        return int(hit[0]) if hit.size else None
+
+    def constraint(self, uv_node: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Gradient (2,) and Hessian (2, 2) in (u, v) of the plane function
+        c = n . S(u, v) + d at the node (for the Lagrangian's Hessian)."""
+        ev = self.surface.evaluate(uv_node[None, :], second=True)
+        n = self.normal
+        grad = np.array([n @ ev.su[0], n @ ev.sv[0]])
+        hess = np.array([[n @ ev.suu[0], n @ ev.suv[0]], [n @ ev.suv[0], n @ ev.svv[0]]])
+        return grad, hess
+
+    def off_plane_uv(self, uv_node: np.ndarray) -> np.ndarray:
+        """(2,) unit direction in (u, v) that leaves the plane fastest."""
+        _, Su, Sv = self.surface.derivatives(uv_node[None, :])
+        grad = np.array([self.normal @ Su[0], self.normal @ Sv[0]])
+        norm = np.linalg.norm(grad)
+        return grad / norm if norm > 0 else np.zeros(2)
+
+    def retract(self, uv: np.ndarray, node: int | None) -> None:
+        """Move node's (u, v) back onto the plane (a few scalar Newton steps)."""
+        if node is None:
+            return
+        p = uv[node].copy()
+        for _ in range(8):
+            S, Su, Sv = self.surface.derivatives(p[None, :])
+            f = float(self.normal @ S[0]) + self.d
+            grad = np.array([self.normal @ Su[0], self.normal @ Sv[0]])
+            gg = float(grad @ grad)
+            if gg == 0 or abs(f) < 1e-15:
+                break
+            p = p - f * grad / gg
+        uv[node] = p
 
 
 def _fixed_index(mesh: SpringMesh, anchor: bool) -> int | None:
@@ -378,6 +445,8 @@ class _Run:
         self.history = []
         self.status = None
         self.message = ""
+        self.terms = problem.yarns
+        self.pin = _OrientationPin(problem.surface, self.mesh, self.uv) if options.anchor_seed else None
 
     def budget_left(self) -> bool:
         if self.nit >= self.options.max_iter:
@@ -426,62 +495,45 @@ class _Run:
                            self.pop.added, list(self.history))
 
 
-def _psd2(H: np.ndarray) -> np.ndarray:
-    """Project symmetric 2 x 2 blocks (n, 2, 2) onto the PSD cone (closed form)."""
-    a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
-    mean = 0.5 * (a + c)
-    rad = np.sqrt(0.25 * (a - c) ** 2 + b * b)
-    l1, l2 = mean + rad, mean - rad  # l1 >= l2
-    out = H.copy()
-    neg2 = l2 < 0
-    # only l2 negative: keep l1 times its eigenvector's outer product
-    with np.errstate(invalid="ignore", divide="ignore"):
-        v1 = np.where(np.abs(b)[:, None] > 1e-300,
-                      np.column_stack([b, l1 - a]),
-                      np.where((a >= c)[:, None], [[1.0, 0.0]], [[0.0, 1.0]]))
-        v1 = v1 / np.linalg.norm(v1, axis=1, keepdims=True)
-    P = np.maximum(l1, 0.0)[:, None, None] * v1[:, :, None] * v1[:, None, :]
-    out[neg2] = P[neg2]
-    return out
-
-
 def _hessian_blocks(energy: Energy, S, Su, Sv, q, Suu, Suv, Svv):
-    """Projected-Newton blocks: per spring (m, 4, 4) and per node (n, 2, 2).
+    """Newton blocks: per spring (m, 4, 4) and per node (n, 2, 2), and the
+    3D energy gradient G (n, 3).
 
-    A spring's Hessian in 3D is k [t t^T + c (I - t t^T)] with c = 1 - r/l;
-    c is clamped at 0 (compressed springs' negative geometric stiffness is
-    dropped) so every block is positive semidefinite. Mapped to (u, v) by the
-    surface derivatives; the surface-curvature term G . S_uv of every node
-    (G its 3D energy gradient) is projected onto the PSD cone.
+    A spring's Hessian in 3D is k [t t^T + c (I - t t^T)] with c = 1 - r/l,
+    mapped to (u, v) by the surface derivatives; each node adds the
+    surface-curvature term G . S_uv. This is the exact Hessian of EN: it is
+    indefinite where springs are compressed, which the Levenberg-Marquardt
+    damping and gain-ratio test handle. (Projecting the blocks onto the PSD
+    cone, as projected Newton methods do, was measured: it slows the final
+    convergence to a linear crawl, up to 96 iterations on the isotropic
+    garment against 12.)
     """
     a, b = energy.a, energy.b
     d = S[a] - S[b]
     length = np.sqrt(_dot(d, d))
-    c = np.maximum(CLAMP, 1.0 - energy.rest / np.maximum(length, 1e-300))
-    Hs = ((energy.k * (1 - c))[:, None, None]) * q[:, :, None] * q[:, None, :]
-    t = np.flatnonzero(c != 0)  # springs in tension: add k c E^T E
-    if t.size:
-        gram = np.empty((len(S), 2, 2))
-        gram[:, 0, 0] = _dot(Su, Su)
-        gram[:, 0, 1] = gram[:, 1, 0] = _dot(Su, Sv)
-        gram[:, 1, 1] = _dot(Sv, Sv)
-        at, bt = a[t], b[t]
-        cross = np.empty((len(t), 2, 2))
-        cross[:, 0, 0] = -_dot(Su[at], Su[bt])
-        cross[:, 0, 1] = -_dot(Su[at], Sv[bt])
-        cross[:, 1, 0] = -_dot(Sv[at], Su[bt])
-        cross[:, 1, 1] = -_dot(Sv[at], Sv[bt])
-        w = (energy.k[t] * c[t])[:, None, None]
-        Hs[t, :2, :2] += w * gram[at]
-        Hs[t, 2:, 2:] += w * gram[bt]
-        Hs[t, :2, 2:] += w * cross
-        Hs[t, 2:, :2] += w * cross.transpose(0, 2, 1)
+    c = 1.0 - energy.rest / np.maximum(length, 1e-300)
+    kc = energy.k * c
+    # k [(1 - c) q q^T + c E^T E], q = t^T E, E = [S_u(a), S_v(a), -S_u(b), -S_v(b)]
+    Hs = (energy.k - kc)[:, None, None] * q[:, :, None] * q[:, None, :]
+    gram = np.empty((len(S), 2, 2))
+    gram[:, 0, 0] = _dot(Su, Su)
+    gram[:, 0, 1] = gram[:, 1, 0] = _dot(Su, Sv)
+    gram[:, 1, 1] = _dot(Sv, Sv)
+    w = kc[:, None, None]
+    Hs[:, :2, :2] += w * gram[a]
+    Hs[:, 2:, 2:] += w * gram[b]
+    Sua, Sva, Sub, Svb = Su[a], Sv[a], Su[b], Sv[b]
+    Hs[:, 0, 2] -= kc * _dot(Sua, Sub)
+    Hs[:, 0, 3] -= kc * _dot(Sua, Svb)
+    Hs[:, 1, 2] -= kc * _dot(Sva, Sub)
+    Hs[:, 1, 3] -= kc * _dot(Sva, Svb)
+    Hs[:, 2:, :2] = Hs[:, :2, 2:].transpose(0, 2, 1)
     _, G = energy.force_xyz(S)
     Hn = np.empty((energy.n, 2, 2))
     Hn[:, 0, 0] = _dot(G, Suu)
     Hn[:, 0, 1] = Hn[:, 1, 0] = _dot(G, Suv)
     Hn[:, 1, 1] = _dot(G, Svv)
-    return Hs, _psd2(Hn)
+    return Hs, Hn, G
 
 
 class _Round:
@@ -497,7 +549,7 @@ class _Round:
         self.run = run
         self.mesh = run.mesh
         self.uv = run.uv.copy()
-        self.full = Energy(run.problem.surface, self.mesh, run.problem.yarns)
+        self.full = Energy(run.problem.surface, self.mesh, run.terms)
         self.energy = self.full
         self.fixed = _fixed_index(self.mesh, run.options.anchor_seed)
         self.normal = _Normal(self.full, self.fixed)
@@ -563,9 +615,17 @@ def _iterate_fast(run: _Run):
             return
         if not converged:
             energy, normal = rnd.energy, rnd.normal
-            Hs, Hn = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
+            Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
+            big = max(float(np.abs(Hs).max(initial=0.0)), 1e-300)
             if not rnd.alive.all():  # switched-off nodes keep still
-                Hn[~rnd.alive] = eye * max(float(np.abs(Hs).max(initial=0.0)), 1e-300)
+                Hn[~rnd.alive] = eye * big
+            pinned = run.pin.index(rnd.mesh) if run.pin is not None else None
+            if pinned is not None:  # the orientation anchor moves along its plane only
+                cg_, ch_ = run.pin.constraint(rnd.uv[pinned])
+                g_uv = np.array([G[pinned] @ ev.su[pinned], G[pinned] @ ev.sv[pinned]])
+                mu = float(g_uv @ cg_) / float(cg_ @ cg_)  # Lagrange multiplier
+                off = cg_ / np.linalg.norm(cg_)
+                Hn[pinned] += 1e8 * big * np.outer(off, off) - mu * ch_
             A, damp = normal.assemble(Hs, Jd, Hn, lam)
             g = normal.gradient(Q, rs, Jd, rd, energy)
             try:
@@ -577,6 +637,8 @@ def _iterate_fast(run: _Run):
             # decrease predicted by the undamped quadratic model
             pred = -float(g @ step) - 0.5 * float(step @ (A @ step) - (damp * step) @ step)
             uv_try = rnd.uv + normal.scatter(step, energy.n)
+            if pinned is not None:
+                run.pin.retract(uv_try, pinned)
             ev2 = surface.evaluate(uv_try, second=True)
             run.nfev += 1
             rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
@@ -674,13 +736,22 @@ def _iterate_paper(run: _Run):
     opts = run.options
     while True:  # one round per population
         mesh = run.mesh
-        energy = Energy(surface, mesh, run.problem.yarns)
+        energy = Energy(surface, mesh, run.terms)
         fixed = _fixed_index(mesh, opts.anchor_seed)
         floor = _energy_floor(mesh)
+        pinned = run.pin.index(mesh) if run.pin is not None else None
+
+        def constrain(grad):
+            if fixed is not None:
+                grad[fixed] = 0.0
+            if pinned is not None:
+                off = run.pin.off_plane_uv(run.uv[pinned])
+                grad[pinned] -= (grad[pinned] @ off) * off
+            return grad
+
         E, g = energy.value_and_grad(run.uv)
         run.nfev += 1
-        if fixed is not None:
-            g[fixed] = 0.0
+        g = constrain(g)
         D = -g  # steepest descent first, and after every change of population
         gg = float(np.sum(g * g))
         dom = surface.domain
@@ -696,8 +767,14 @@ def _iterate_paper(run: _Run):
                 break
             uv0 = run.uv
 
+            def moved(t):
+                uv_t = uv0 + t * D
+                if pinned is not None:
+                    run.pin.retract(uv_t, pinned)
+                return uv_t
+
             def f(t):
-                return energy.value(uv0 + t * D)
+                return energy.value(moved(t))
 
             t, E2, ev = _line_search(f, alpha, E)
             run.nfev += ev
@@ -711,17 +788,15 @@ def _iterate_paper(run: _Run):
                 D = -g  # restart
                 continue
             alpha = t
-            uv_new = uv0 + t * D
+            uv_new = moved(t)
             decrease = E - E2
             if run.remove_invalid(uv0, uv_new):
                 S = surface.points(run.uv)
-                yield run.snapshot(Energy(surface, run.mesh, run.problem.yarns).value_xyz(S), S, True)
+                yield run.snapshot(Energy(surface, run.mesh, run.terms).value_xyz(S), S, True)
                 break  # new population: restart with steepest descent
             E = E2
-            g_new = energy.value_and_grad(run.uv)[1]
+            g_new = constrain(energy.value_and_grad(run.uv)[1])
             run.nfev += 1
-            if fixed is not None:
-                g_new[fixed] = 0.0
             gg_new = float(np.sum(g_new * g_new))
             beta = gg_new / gg if gg > 0 else 0.0  # Fletcher-Reeves
             D = -g_new + beta * D
@@ -735,7 +810,7 @@ def _iterate_paper(run: _Run):
         if converged:
             if run.try_refill():
                 S = surface.points(run.uv)
-                yield run.snapshot(Energy(surface, run.mesh, run.problem.yarns).value_xyz(S), S, True)
+                yield run.snapshot(Energy(surface, run.mesh, run.terms).value_xyz(S), S, True)
                 continue
             run.status, run.message = 0, "converged"
             return

@@ -1,0 +1,119 @@
+"""The initial drape (paper 3.1) on every bundled example.
+
+The issue's three criteria: weft and warp springs at rest length (except the
+loop-closing ones the drape reports), no node outside the domain, and the mesh
+covers the surface: every point lies within one cell diagonal of a node.
+"""
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from core.drape import DrapeSettings, drape, refill
+from core.errors import SettingsError
+from core.examples import example_names, load_example
+from core.mesh import DIAG, MATERIALS
+from core.quadrature import region_area
+
+
+def dense_points(surface, n=200):
+    dom = surface.domain
+    g = np.linspace(0, 1, n)
+    U, V = np.meshgrid(dom[0, 0] + g * np.ptp(dom[0]), dom[1, 0] + g * np.ptp(dom[1]))
+    return surface.points(np.column_stack([U.ravel(), V.ravel()]))
+
+
+def check_drape(surface, result, spacing):
+    mesh, xyz = result.mesh, result.xyz
+    # every node on the surface at its (u, v), inside the domain
+    assert surface.in_domain(result.uv).all()
+    assert np.allclose(surface.points(result.uv), xyz, atol=1e-12)
+    # weft and warp springs at rest length except the reported loop closers
+    length = np.linalg.norm(xyz[mesh.ends[:, 0]] - xyz[mesh.ends[:, 1]], axis=1)
+    strain = np.abs(length / mesh.rest - 1)[mesh.kind != DIAG]
+    off = strain >= 1e-6
+    assert off.sum() == result.stats["loop_closing_springs"]
+    assert off.sum() <= 0.01 * len(strain)
+    # coverage
+    d, _ = cKDTree(xyz).query(dense_points(surface))
+    assert d.max() <= np.sqrt(2) * spacing
+    # no two nodes on top of each other
+    pairs = cKDTree(xyz).query_pairs(0.5 * spacing)
+    assert not pairs
+
+
+@pytest.mark.parametrize("name", example_names())
+@pytest.mark.parametrize("div", [10, 25, 60])
+def test_drape_criteria_on_every_example(name, div):
+    s = load_example(name)
+    spacing = np.sqrt(region_area(s)) / div
+    for angle in (0.0, 30.0):
+        r = drape(s, DrapeSettings(spacing, angle_deg=angle), MATERIALS["woven"])
+        check_drape(s, r, spacing)
+
+
+def test_octant_pole_is_covered():
+    s = load_example("octant")
+    r = drape(s, DrapeSettings(0.05), MATERIALS["woven"])
+    d = np.linalg.norm(r.xyz - [0, 0, 1], axis=1).min()
+    assert d <= 0.05 * np.sqrt(2)
+
+
+def test_seed_and_angle_are_honoured():
+    s = load_example("garment")
+    for seed, angle in [((0.5, 0.5), 0.0), ((0.3, 0.6), 45.0)]:
+        r = drape(s, DrapeSettings(0.02, seed=seed, angle_deg=angle), MATERIALS["woven"])
+        dom = s.domain
+        uv0 = dom[:, 0] + np.array(seed) * np.ptp(dom, axis=1)
+        i0 = np.flatnonzero((r.mesh.ij == 0).all(axis=1))[0]
+        assert np.allclose(r.uv[i0], uv0)
+        i1 = np.flatnonzero((r.mesh.ij == [0, 1]).all(axis=1))[0]
+        ev = s.evaluate(uv0[None])
+        e1 = ev.su[0] / np.linalg.norm(ev.su[0])
+        e2 = np.cross(ev.normal[0], e1)
+        chord = r.xyz[i1] - r.xyz[i0]
+        measured = np.degrees(np.arctan2(chord @ e2, chord @ e1))
+        assert abs(measured - angle) < 2.0  # chord vs tangent: O(spacing * curvature)
+
+
+def test_geodesic_paths_drape_a_cylinder_at_rest():
+    # on a developable surface geodesic threads give a drape with zero energy
+    s = load_example("half_cylinder")
+    r = drape(s, DrapeSettings(0.05, angle_deg=30, paths="geodesic"), MATERIALS["isotropic"])
+    length = np.linalg.norm(r.xyz[r.mesh.ends[:, 0]] - r.xyz[r.mesh.ends[:, 1]], axis=1)
+    diag = r.mesh.kind == DIAG
+    # diagonals of a developed lattice are chords of the rolled-up plane: shorter by O(r^2 kappa^2)
+    assert np.abs(length[diag] / r.mesh.rest[diag] - 1).max() < 2e-3
+
+
+def test_refill_restores_deleted_nodes():
+    s = load_example("octant")
+    settings = DrapeSettings(0.05)
+    r = drape(s, settings, MATERIALS["woven"])
+    keep = r.mesh.ij[:, 1] < 5  # cut away the columns j >= 5
+    ij, uv = refill(s, settings, r.mesh.ij[keep], r.uv[keep])
+    assert len(ij) == np.sum(~keep)
+    assert set(map(tuple, ij.tolist())) == set(map(tuple, r.mesh.ij[~keep].tolist()))
+    # dead positions are never refilled
+    dead = np.array([[0, 6], [1, 7]])
+    ij2, _ = refill(s, settings, r.mesh.ij[keep], r.uv[keep], dead)
+    assert not ({(0, 6), (1, 7)} & set(map(tuple, ij2.tolist())))
+
+
+@pytest.mark.parametrize("kw, word", [
+    (dict(spacing_weft=-1.0), "spacing"),
+    (dict(spacing_weft=float("nan")), "spacing"),
+    (dict(spacing_weft=0.1, seed=(1.5, 0.5)), "seed"),
+    (dict(spacing_weft=0.1, paths="spiral"), "paths"),
+    (dict(spacing_weft=0.1, angle_deg=float("inf")), "angle"),
+])
+def test_bad_settings(kw, word):
+    with pytest.raises(SettingsError, match=word):
+        drape(load_example("octant"), DrapeSettings(**kw), MATERIALS["woven"])
+
+
+def test_oversize_mesh_is_refused_up_front():
+    s = load_example("octant")
+    with pytest.raises(SettingsError, match="nodes") as err:
+        drape(s, DrapeSettings(1e-4, max_nodes=100_000), MATERIALS["woven"], area=region_area(s))
+    assert "157,079,633" in str(err.value) and "0.00396" in str(err.value)
