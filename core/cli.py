@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 import traceback
 from pathlib import Path
 
@@ -68,7 +69,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="weft direction at the seed, degrees from the u direction (default 0)")
     f.add_argument("--paths", choices=("plane", "geodesic"), default="plane",
                    help="constrained paths: the paper's normal-section planes or geodesics (default plane)")
-    f.add_argument("--solver", default="none", help="none (drape only)")
+    f.add_argument("--solver", choices=("fast", "paper", "none"), default="fast",
+                   help="fast (Levenberg-Marquardt, default), paper (steepest descent + Fletcher-Reeves "
+                        "CG with golden-section search) or none (the initial drape only)")
+    f.add_argument("--tol", type=float, default=1e-9, metavar="T",
+                   help="stop when an iteration lowers the energy by less than T times the energy (default 1e-9)")
+    f.add_argument("--max-iter", type=int, default=1000, metavar="N", help="iteration budget (default 1000)")
+    f.add_argument("--max-seconds", type=float, default=None, metavar="S", help="time budget of the solver")
+    f.add_argument("--warm-start", metavar="RESULT.json", default=None,
+                   help="start the solver from the nodes of an earlier result instead of a new drape")
+    f.add_argument("--quiet", action="store_true", help="no progress on stderr")
     f.add_argument("--yarn", action="append", default=[], metavar="weft:I|warp:J",
                    help="hold a weft row I or warp column J to --yarn-plane (repeatable)")
     f.add_argument("--yarn-plane", action="append", default=[], metavar="A,B,C,D",
@@ -100,7 +110,7 @@ def _yarns(args) -> tuple:
 def _cmd_flatten(args) -> int:
     from core.fileio import write_json
     from core.mesh import parse_material
-    from core.pipeline import FlattenSettings, flatten, result_to_dict
+    from core.pipeline import FlattenSettings, flatten, result_to_dict, state_from_dict
     from core.quadrature import region_area
 
     out = Path(args.out)
@@ -110,14 +120,51 @@ def _cmd_flatten(args) -> int:
     settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
         seed=_floats(args.seed, 2, "seed"), angle_deg=args.angle, paths=args.paths, solver=args.solver,
+        tol=args.tol, max_iter=args.max_iter,
+        max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"),
         yarns=_yarns(args), max_nodes=args.max_nodes)
-    result = flatten(surface, settings, area=region_area(surface))
+    initial = None
+    if args.warm_start:
+        initial = state_from_dict(_read_json(args.warm_start), surface, settings)
+    result = flatten(surface, settings, initial=initial, area=region_area(surface),
+                     callback=None if args.quiet else _Progress())
     write_json(out, result_to_dict(result, source))
     m = result.metrics
-    print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
-          f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
-          f"{m['seconds']:.2f} s -> {out}", file=sys.stderr)
+    if not args.quiet:
+        print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
+              f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
+              f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
+              f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s -> {out}",
+              file=sys.stderr)
     return 0
+
+
+class _Progress:
+    """Progress of long runs on stderr: a line at most every half second."""
+
+    def __init__(self, every: float = 0.5):
+        self.every = every
+        self.next = time.perf_counter() + every
+
+    def __call__(self, snap) -> bool:
+        now = time.perf_counter()
+        if now >= self.next:
+            self.next = now + self.every
+            print(f"  iteration {snap.iteration}: energy {snap.energy:.9g}, {snap.mesh.n_nodes} nodes, "
+                  f"{snap.seconds:.1f} s", file=sys.stderr)
+        return False
+
+
+def _read_json(path: str) -> dict:
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return json.load(fh)
+    except OSError as exc:
+        raise SettingsError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SettingsError(f"{path} is not a JSON result file: {exc}") from None
 
 
 def _cmd_info(args) -> int:

@@ -1,26 +1,35 @@
 """One path from surface to result, shared by the CLI, the GUI and the tests.
 
-surface -> drape -> (minimise) -> metrics -> result dictionary
+surface -> drape -> minimise -> pattern -> metrics -> result dictionary
+
+:func:`flatten_iter` is the generator the GUI's worker runs (a snapshot per
+solver iteration, the :class:`FlattenResult` as its return value);
+:func:`flatten` drains it for the CLI and the tests.
 """
 
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 import core
-from core.drape import DrapeResult, DrapeSettings, drape
+from core.drape import DrapeSettings, drape, refill
 from core.energy import Energy, YarnConstraint
 from core.errors import SettingsError
-from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh
+from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
 from core.metrics import cell_shear_deg, deformation_summary, spring_lengths
 from core.nurbs import NurbsSurface
+from core.pattern import Pattern, make_pattern
+from core.quadrature import boundary_length, region_area
+from core.solver import Problem, SolveResult, SolverOptions, State, iterate
 
-__all__ = ["FlattenSettings", "FlattenResult", "flatten", "result_to_dict", "SOLVERS"]
+__all__ = ["FlattenSettings", "FlattenResult", "flatten", "flatten_iter", "result_to_dict",
+           "make_problem", "compute_metrics", "state_from_dict", "SOLVERS"]
 
-SOLVERS = ("none",)
+SOLVERS = ("fast", "paper", "none")
 
 
 @dataclass(frozen=True)
@@ -33,8 +42,10 @@ class FlattenSettings:
     seed : seed point as fractions of the parameter domain
     angle_deg : weft direction at the seed, from S_u towards S_v
     paths : constrained paths, "plane" (paper) or "geodesic"
-    solver : "none" (the drape only)
+    solver : "fast" (default), "paper" or "none" (the drape only)
+    tol, max_iter, max_seconds : stopping rule and budgets of the solver
     yarns : yarn constraints (directional energy)
+    max_nodes : refuse meshes estimated larger than this, up front
     """
 
     spacing: float
@@ -43,7 +54,10 @@ class FlattenSettings:
     seed: tuple[float, float] = (0.5, 0.5)
     angle_deg: float = 0.0
     paths: str = "plane"
-    solver: str = "none"
+    solver: str = "fast"
+    tol: float = 1e-9
+    max_iter: int = 1000
+    max_seconds: float = math.inf
     yarns: tuple[YarnConstraint, ...] = ()
     max_nodes: int = 2_000_000
 
@@ -51,14 +65,19 @@ class FlattenSettings:
         return DrapeSettings(self.spacing, self.spacing_warp, tuple(self.seed), float(self.angle_deg),
                              self.paths, self.max_nodes)
 
+    def solver_options(self) -> SolverOptions:
+        return SolverOptions(method=self.solver, tol=self.tol, max_iter=self.max_iter,
+                             max_seconds=self.max_seconds)
+
 
 @dataclass(frozen=True)
 class FlattenResult:
     """A flattened piece.
 
     mesh : SpringMesh; uv : (n, 2); xyz : (n, 3) nodes on the surface
-    energy : EN at the result; metrics : dict (see :func:`compute_metrics`)
-    drape_stats : dict from the drape
+    pattern : the 2D pattern (nodes' xy and outline)
+    metrics : dict (see :func:`compute_metrics`)
+    drape_stats : dict from the drape; solve : SolveResult or None
     """
 
     surface: NurbsSurface
@@ -66,14 +85,34 @@ class FlattenResult:
     mesh: SpringMesh
     uv: np.ndarray
     xyz: np.ndarray
+    pattern: Pattern
     metrics: dict
     drape_stats: dict = field(default_factory=dict)
+    solve: SolveResult | None = None
+
+    def state(self) -> State:
+        """The mesh state, to warm-start another solve."""
+        return State(self.mesh, self.uv)
 
 
-def compute_metrics(surface: NurbsSurface, mesh: SpringMesh, uv: np.ndarray, xyz: np.ndarray,
-                    yarns=()) -> dict:
-    """Energy, thread strain, shear and sizes of a mesh state."""
-    m = {"energy": Energy(surface, mesh, yarns).value_xyz(xyz)}
+def compute_metrics(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, pattern: Pattern,
+                    yarns=(), L3: float | None = None, A3: float | None = None) -> dict:
+    """Energy, boundary and area errors, thread strain, shear and sizes.
+
+    boundary_error_pct = 100 |L2 - L3| / L3 with L3 the boundary length on
+    the surface and L2 the outline's perimeter; area_error_pct likewise with
+    A3 the region's area and A2 the area inside the outline. The signed
+    values are kept too (``*_signed_pct``).
+    """
+    L3 = boundary_length(surface) if L3 is None else L3
+    A3 = region_area(surface) if A3 is None else A3
+    L2, A2 = pattern.perimeter, pattern.area
+    m = {"energy": Energy(surface, mesh, yarns).value_xyz(xyz),
+         "boundary_error_pct": 100 * abs(L2 - L3) / L3,
+         "area_error_pct": 100 * abs(A2 - A3) / A3,
+         "boundary_error_signed_pct": 100 * (L2 - L3) / L3,
+         "area_error_signed_pct": 100 * (A2 - A3) / A3,
+         "boundary_length_3d": L3, "boundary_length_2d": L2, "area_3d": A3, "area_2d": A2}
     m.update(deformation_summary(xyz, mesh))
     m["nodes"] = mesh.n_nodes
     m["springs"] = mesh.n_springs
@@ -81,16 +120,86 @@ def compute_metrics(surface: NurbsSurface, mesh: SpringMesh, uv: np.ndarray, xyz
     return m
 
 
-def flatten(surface: NurbsSurface, settings: FlattenSettings, area: float | None = None) -> FlattenResult:
-    """Drape the mesh and (with a solver) minimise its energy."""
+def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
+    """The solver's view of a piece: how a population's springs are built and refilled."""
+    ds = settings.drape_settings()
+    material = settings.material
+
+    def build(ij, uv):
+        return build_mesh(ij, ds.r_weft, ds.r_warp, material)
+
+    def refill_nodes(mesh, uv, dead):
+        return refill(surface, ds, mesh.ij, uv, dead)
+
+    return Problem(surface, build, settings.yarns, refill_nodes)
+
+
+def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
+                 area: float | None = None):
+    """Generator: drape (or warm-start from ``initial``), minimise, pattern.
+
+    Yields the solver's :class:`core.solver.Snapshot` s; returns the
+    :class:`FlattenResult`. Closing it stops the solve at once.
+    """
     if settings.solver not in SOLVERS:
         raise SettingsError(f"solver {settings.solver!r} is not one of {', '.join(SOLVERS)}")
     t0 = time.perf_counter()
-    d: DrapeResult = drape(surface, settings.drape_settings(), settings.material, area=area)
-    metrics = compute_metrics(surface, d.mesh, d.uv, d.xyz, settings.yarns)
-    metrics["seconds"] = time.perf_counter() - t0
-    metrics["drape_seconds"] = d.stats["seconds"]
-    return FlattenResult(surface, settings, d.mesh, d.uv, d.xyz, metrics, d.stats)
+    A3 = region_area(surface) if area is None else area
+    problem = make_problem(surface, settings)
+    if initial is None:
+        d = drape(surface, settings.drape_settings(), settings.material, area=A3)
+        state, stats = State(d.mesh, d.uv), d.stats
+    else:
+        uv = np.asarray(initial.uv, dtype=float)
+        state, stats = State(problem.build(initial.mesh.ij, uv), uv), {"warm_start": True, "seconds": 0.0}
+    solve = None
+    if settings.solver != "none":
+        solve = yield from iterate(problem, state, settings.solver_options())
+        state = State(solve.mesh, solve.uv)
+    xyz = surface.points(state.uv)
+    pattern = make_pattern(surface, state.mesh, xyz)
+    metrics = compute_metrics(surface, state.mesh, xyz, pattern, settings.yarns, A3=A3)
+    metrics.update({
+        "iterations": solve.nit if solve else 0,
+        "energy_evaluations": solve.nfev if solve else 0,
+        "solver_status": solve.message if solve else "no solver",
+        "nodes_deleted": solve.deleted if solve else 0,
+        "nodes_refilled": solve.added if solve else 0,
+        "drape_seconds": stats.get("seconds", 0.0),
+        "solve_seconds": solve.seconds if solve else 0.0,
+        "seconds": time.perf_counter() - t0,
+    })
+    return FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve)
+
+
+def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
+            area: float | None = None, callback=None) -> FlattenResult:
+    """Run :func:`flatten_iter` to the end. ``callback(snapshot)`` is called
+    at every solver iteration; returning True stops the solve there (the
+    result is then the last iterate, with its pattern and metrics)."""
+    gen = flatten_iter(surface, settings, initial, area)
+    while True:
+        try:
+            snap = next(gen)
+        except StopIteration as done:
+            return done.value
+        if callback is not None and callback(snap):
+            gen.close()
+            return flatten(surface, replace(settings, solver="none"), State(snap.mesh, snap.uv), area)
+
+
+def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:
+    """The mesh state stored in a result file (for a warm start)."""
+    try:
+        ij = np.asarray(d["nodes"]["ij"], dtype=np.int64).reshape(-1, 2)
+        uv = np.asarray(d["nodes"]["uv"], dtype=float).reshape(-1, 2)
+    except (KeyError, TypeError, ValueError):
+        raise SettingsError("the warm-start file has no nodes.ij and nodes.uv") from None
+    if len(ij) != len(uv) or len(ij) == 0:
+        raise SettingsError("the warm-start file's nodes.ij and nodes.uv differ in length or are empty")
+    if not surface.in_domain(uv).all():
+        raise SettingsError("the warm-start file's nodes lie outside this surface's domain")
+    return State(make_problem(surface, settings).build(ij, uv), uv)
 
 
 def _settings_dict(s: FlattenSettings) -> dict:
@@ -99,13 +208,14 @@ def _settings_dict(s: FlattenSettings) -> dict:
                        "k_warp": s.material.k_warp, "k_diag": s.material.k_diag}
     out["spacing_warp"] = s.spacing_warp if s.spacing_warp is not None else s.spacing
     out["seed"] = list(s.seed)
+    out["max_seconds"] = s.max_seconds if math.isfinite(s.max_seconds) else None
     out["yarns"] = [{"kind": y.kind, "index": y.index, "plane": list(y.plane), "k": y.k} for y in s.yarns]
     return out
 
 
 def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> dict:
     """The result file's content (see README, "Result file")."""
-    mesh, xyz = result.mesh, result.xyz
+    mesh, xyz, pattern = result.mesh, result.xyz, result.pattern
     length = spring_lengths(xyz, mesh)
     return {
         "format": "flatweave-result",
@@ -119,6 +229,7 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
             "ij": mesh.ij.tolist(),
             "uv": result.uv.tolist(),
             "xyz": xyz.tolist(),
+            "xy": pattern.xy.tolist(),
         },
         "springs": {
             "ends": mesh.ends.tolist(),
@@ -130,5 +241,10 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
         "cells": {
             "corners": mesh.cells.tolist(),
             "shear_deg": cell_shear_deg(xyz, mesh).tolist(),
+        },
+        "pattern": {
+            "outline": pattern.outline.tolist(),
+            "outline3d": pattern.outline3d.tolist(),
+            "outline_uv": pattern.outline_uv.tolist(),
         },
     }
