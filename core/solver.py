@@ -636,6 +636,10 @@ def _iterate_fast(run: _Run):
                 continue
             # decrease predicted by the undamped quadratic model
             pred = -float(g @ step) - 0.5 * float(step @ (A @ step) - (damp * step) @ step)
+            tol_now = opts.tol if rnd.settled else loose
+            if 0 <= pred <= 0.1 * tol_now * E and lam <= 1e-2:
+                converged = True  # the Newton decrement says we are there
+        if not converged:
             uv_try = rnd.uv + normal.scatter(step, energy.n)
             if pinned is not None:
                 run.pin.retract(uv_try, pinned)

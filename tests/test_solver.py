@@ -1,0 +1,155 @@
+"""Minimisation (paper 3.2, 3.3): the two solvers, population control,
+streaming, cancellation, warm start, directional energy."""
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from core.drape import DrapeSettings, drape
+from core.energy import Energy, YarnConstraint
+from core.errors import SettingsError
+from core.examples import load_example
+from core.mesh import MATERIALS
+from core.pipeline import FlattenSettings, flatten, make_problem
+from core.solver import SolverOptions, State, _Normal, _residuals, iterate, minimize
+from tests.test_drape import dense_points
+
+
+def drape_state(name, spacing, material="woven", **kw):
+    s = load_example(name)
+    settings = FlattenSettings(spacing, material=MATERIALS[material], **kw)
+    d = drape(s, settings.drape_settings(), settings.material)
+    return s, settings, State(d.mesh, d.uv)
+
+
+def test_lm_gradient_equals_energy_gradient():
+    s, settings, st = drape_state("garment", 0.05)
+    yarn = YarnConstraint("weft", 1, (0, 1, 0.2, -0.1), 30.0)
+    E = Energy(s, st.mesh, [yarn])
+    uv = st.uv + 1e-3 * np.random.default_rng(0).standard_normal(st.uv.shape)
+    S, Su, Sv = s.derivatives(uv)
+    rs, Q, rd, Jd = _residuals(E, S, Su, Sv)
+    normal = _Normal(E, fixed=None)
+    g = normal.scatter(normal.gradient(Q, rs, Jd, rd, E), E.n)
+    e, g_ref = E.value_and_grad(uv)
+    assert 0.5 * (rs @ rs + rd @ rd) == pytest.approx(e, rel=1e-12)
+    assert np.allclose(g, g_ref, rtol=1e-9, atol=1e-12 * np.abs(g_ref).max())
+
+
+@pytest.mark.parametrize("name, spacing, material", [
+    ("octant", 0.1, "woven"), ("octant", 0.1, "isotropic"), ("garment", 0.05, "woven"),
+    ("saddle", 0.2, "isotropic"), ("cone", 0.1, "woven"), ("dome", 0.15, "woven")])
+def test_fast_reaches_no_higher_energy_than_paper(name, spacing, material):
+    # Refilling is off so both minimise over the same population (a solver
+    # stopped by its budget has not refilled yet, and more nodes mean more
+    # springs and more energy): this compares the minimisers themselves.
+    s, settings, st = drape_state(name, spacing, material)
+    problem = make_problem(s, settings)
+    paper = minimize(problem, st, SolverOptions("paper", tol=1e-12, max_iter=1000, refill=False))
+    fast = minimize(problem, st, SolverOptions("fast", refill=False))
+    assert fast.success
+    assert fast.mesh.n_nodes == paper.mesh.n_nodes
+    assert fast.fun <= paper.fun * (1 + 1e-6) + 1e-14
+    assert fast.nit * 5 < paper.nit
+
+
+def test_both_solvers_agree_with_population_control():
+    s, settings, st = drape_state("octant", 0.1, "isotropic")
+    problem = make_problem(s, settings)
+    paper = minimize(problem, st, SolverOptions("paper", tol=1e-12))
+    fast = minimize(problem, st, SolverOptions("fast"))
+    assert paper.success and fast.success and paper.added > 0
+    assert fast.mesh.n_nodes == paper.mesh.n_nodes
+    assert fast.fun == pytest.approx(paper.fun, rel=1e-6)
+
+
+def test_energy_falls_and_snapshots_are_copies():
+    s, settings, st = drape_state("octant", 0.08, "isotropic")
+    snaps = list(iterate(make_problem(s, settings), st, SolverOptions()))
+    E0 = Energy(s, st.mesh).value(st.uv)
+    assert snaps[-1].energy < 0.5 * E0
+    for a, b in zip(snaps, snaps[1:]):
+        if not b.population_changed:
+            assert b.energy <= a.energy * (1 + 1e-12)
+    for sn in snaps:  # consistent state in every snapshot
+        assert sn.uv.shape == (sn.mesh.n_nodes, 2) and sn.xyz.shape == (sn.mesh.n_nodes, 3)
+        assert sn.strain.shape == (sn.mesh.n_springs,)
+        assert np.allclose(s.points(sn.uv), sn.xyz)
+        assert s.in_domain(sn.uv).all()
+    before = snaps[0].uv.copy()
+    snaps[1].uv[:] = 0  # a snapshot is a copy: changing it changes nothing else
+    assert np.array_equal(snaps[0].uv, before)
+
+
+def test_stop_within_one_iteration():
+    s, settings, st = drape_state("octant", 0.05)
+    problem = make_problem(s, settings)
+    seen = []
+
+    def cb(snap):
+        seen.append(snap.iteration)
+        return snap.iteration >= 2
+
+    r = minimize(problem, st, SolverOptions(), callback=cb)
+    assert r.status == 3 and not r.success and r.nit == 2 and seen[-1] == 2
+    gen = iterate(problem, st, SolverOptions())
+    next(gen)
+    gen.close()  # closing the generator is the GUI's stop: no error, nothing left running
+
+
+def test_budgets_are_reported():
+    s, settings, st = drape_state("octant", 0.05)
+    r = minimize(make_problem(s, settings), st, SolverOptions("paper", max_iter=5))
+    assert r.status == 1 and r.nit == 5 and "iteration budget" in r.message
+    r = minimize(make_problem(s, settings), st, SolverOptions("paper", max_seconds=0.0))
+    assert r.status == 2 and "time budget" in r.message
+
+
+def test_warm_start_converges_at_once():
+    s = load_example("octant")
+    settings = FlattenSettings(0.05)
+    first = flatten(s, settings)
+    again = flatten(s, settings, initial=first.state())
+    assert again.metrics["iterations"] <= 3
+    assert again.metrics["energy"] == pytest.approx(first.metrics["energy"], rel=1e-8)
+    assert again.mesh.n_nodes == first.mesh.n_nodes
+
+
+def test_population_control_deletes_and_refills():
+    # push every node a quarter of the domain along u: those beyond u = 1 leave
+    s, settings, st = drape_state("garment", 0.04, "isotropic")
+    uv = st.uv.copy()
+    uv[:, 0] = uv[:, 0] * 0.8 + 0.2 + 0.05 * (uv[:, 0] > 0.75)
+    gone = uv[:, 0] > 1.0
+    assert gone.sum() > 5
+    problem = make_problem(s, settings)
+    r = minimize(problem, State(problem.build(st.mesh.ij, uv), uv), SolverOptions())
+    assert r.success and r.deleted >= gone.sum() and r.added > 0
+    assert s.in_domain(r.uv).all()
+    # the refilled mesh covers the surface again
+    d, _ = cKDTree(r.xyz).query(dense_points(s, 120))
+    assert d.max() <= np.sqrt(2) * 0.04
+
+
+def test_yarn_is_held_to_its_plane():
+    s = load_example("octant")
+    base = FlattenSettings(0.08)
+    free = flatten(s, base)
+    col = 2
+    # the plane x = 0.3 (a warp column near it is pulled into it)
+    yarn = YarnConstraint("warp", col, (1.0, 0.0, 0.0, -0.3), 1e4)
+    held = flatten(s, FlattenSettings(0.08, yarns=(yarn,)))
+    idx = yarn.nodes(held.mesh)
+    assert len(idx) > 5
+    assert np.abs(held.xyz[idx, 0] - 0.3).max() < 5e-3
+    idx0 = yarn.nodes(free.mesh)
+    assert np.abs(free.xyz[idx0, 0] - 0.3).max() > 2e-2
+
+
+def test_solver_options_are_checked():
+    with pytest.raises(SettingsError, match="solver"):
+        SolverOptions("newton")
+    with pytest.raises(SettingsError, match="tolerance"):
+        SolverOptions(tol=0.0)
+    with pytest.raises(SettingsError, match="iterations"):
+        SolverOptions(max_iter=-1)
