@@ -191,41 +191,19 @@ def _delete(problem: Problem, mesh: SpringMesh, uv: np.ndarray, drop: np.ndarray
     return new, uv[keep]
 
 
-class _OrientationPin:
-    """The anchor of the mesh's orientation, as a hard constraint.
+class _PlanePin:
+    """A node held to a plane as a hard constraint (an anchor).
 
-    The seed node is fixed; its weft neighbour M[0, 1] (or M[0, -1]) may only
-    move within the plane through the seed that contains the seed's normal and
-    the chord to that neighbour, so the weft direction the user chose stays
-    where it was put. Together the two remove the rigid sliding and turning of
-    the mesh over the surface, along which the energy barely changes (the
-    mesh-drift trap), without adding a term to the energy: the neighbour's
-    Newton step is confined to the plane's tangent and the node is put back
-    on the plane after every step (a retraction).
+    The node's Newton step is confined to the plane's tangent and the node is
+    put back on the plane after every step (a retraction); no term is added
+    to the energy. See :func:`_anchors` for where pins go.
     """
 
-    def __init__(self, surface, mesh: SpringMesh, uv: np.ndarray):
+    def __init__(self, surface, ij: tuple[int, int], normal: np.ndarray, point: np.ndarray):
         self.surface = surface
-        self.ij = None
-        seed = _fixed_index(mesh, True)
-        if seed is None:
-            return
-        for j in (1, -1):
-            hit = np.flatnonzero((mesh.ij[:, 0] == 0) & (mesh.ij[:, 1] == j))
-            if hit.size:
-                ev = surface.evaluate(uv[[seed, hit[0]]])
-                normal = np.cross(ev.normal[0], ev.xyz[1] - ev.xyz[0])
-                if np.linalg.norm(normal) > 0:
-                    self.normal = normal / np.linalg.norm(normal)
-                    self.d = -float(self.normal @ ev.xyz[0])
-                    self.ij = (0, j)
-                return
-
-    def index(self, mesh: SpringMesh) -> int | None:
-        if self.ij is None:
-            return None
-        hit = np.flatnonzero((mesh.ij[:, 0] == self.ij[0]) & (mesh.ij[:, 1] == self.ij[1]))
-        return int(hit[0]) if hit.size else None
+        self.ij = ij
+        self.normal = normal / np.linalg.norm(normal)
+        self.d = -float(self.normal @ point)
 
     def constraint(self, uv_node: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Gradient (2,) and Hessian (2, 2) in (u, v) of the plane function
@@ -259,11 +237,62 @@ class _OrientationPin:
         uv[node] = p
 
 
-def _fixed_index(mesh: SpringMesh, anchor: bool) -> int | None:
-    if not anchor:
+def _node_at(mesh: SpringMesh, ij) -> int | None:
+    """Index of the node at lattice position ij (None if there is none)."""
+    if ij is None:
         return None
-    hit = np.flatnonzero((mesh.ij[:, 0] == 0) & (mesh.ij[:, 1] == 0))
+    hit = np.flatnonzero((mesh.ij[:, 0] == ij[0]) & (mesh.ij[:, 1] == ij[1]))
     return int(hit[0]) if hit.size else None
+
+
+def _anchors(problem: Problem, mesh: SpringMesh, uv: np.ndarray, options: SolverOptions):
+    """The anchors that keep the mesh from drifting: (fixed lattice position, pin).
+
+    The energy barely changes when the whole mesh slides or turns over the
+    surface, and nodes that slide out are deleted: the mesh-drift trap. So:
+
+    * no yarn constraints: the seed M[0, 0] is fixed at its (u, v), and its
+      weft neighbour M[0, 1] (or M[0, -1]) is pinned to the plane through the
+      seed containing its normal and the chord to that neighbour: the weft
+      direction the user chose at the seed stays where it was put;
+    * yarn constraints fix the orientation themselves, so there is no pin;
+      the seed stays fixed, unless it lies on a constrained yarn: then it is
+      pinned to the plane across that yarn (normal along the yarn), so the
+      yarn's plane holds it one way and the pin the other.
+    """
+    if not options.anchor_seed:
+        return None, None
+    seed = _node_at(mesh, (0, 0))
+    if seed is None:
+        return None, None
+    surface = problem.surface
+
+    def chord_to(ij):
+        n = _node_at(mesh, ij)
+        if n is None:
+            return None
+        ev = surface.evaluate(uv[[seed, n]])
+        return ev.normal[0], ev.xyz[0], ev.xyz[1] - ev.xyz[0]
+
+    if not problem.yarns:
+        for j in (1, -1):
+            got = chord_to((0, j))
+            if got is not None:
+                n0, p0, chord = got
+                normal = np.cross(n0, chord)
+                if np.linalg.norm(normal) > 0:
+                    return (0, 0), _PlanePin(surface, (0, j), normal, p0)
+        return (0, 0), None
+    for y in problem.yarns:
+        if seed in set(y.nodes(mesh).tolist()):
+            steps = ((0, 1), (0, -1)) if y.kind == "weft" else ((1, 0), (-1, 0))
+            for ij in steps:
+                got = chord_to(ij)
+                if got is not None:
+                    _, p0, chord = got
+                    return None, _PlanePin(surface, (0, 0), chord, p0)
+            return None, None
+    return (0, 0), None
 
 
 # ------------------------------------------------------------------ Levenberg-Marquardt
@@ -446,7 +475,7 @@ class _Run:
         self.status = None
         self.message = ""
         self.terms = problem.yarns
-        self.pin = _OrientationPin(problem.surface, self.mesh, self.uv) if options.anchor_seed else None
+        self.fixed_ij, self.pin = _anchors(problem, self.mesh, self.uv, options)
 
     def budget_left(self) -> bool:
         if self.nit >= self.options.max_iter:
@@ -465,7 +494,7 @@ class _Run:
     def remove_invalid(self, uv_old: np.ndarray, uv_new: np.ndarray) -> bool:
         """Delete nodes that left the domain (or crossed a dart); True if any did."""
         bad = self.problem.invalid(uv_old, uv_new)
-        fixed = _fixed_index(self.mesh, self.options.anchor_seed)
+        fixed = _node_at(self.mesh, self.fixed_ij)
         if fixed is not None:
             bad[fixed] = False
         if not bad.any():
@@ -551,7 +580,7 @@ class _Round:
         self.uv = run.uv.copy()
         self.full = Energy(run.problem.surface, self.mesh, run.terms)
         self.energy = self.full
-        self.fixed = _fixed_index(self.mesh, run.options.anchor_seed)
+        self.fixed = _node_at(self.mesh, run.fixed_ij)
         self.normal = _Normal(self.full, self.fixed)
         self.alive = np.ones(self.mesh.n_nodes, dtype=bool)
         self.floor = _energy_floor(self.mesh)
@@ -619,7 +648,7 @@ def _iterate_fast(run: _Run):
             big = max(float(np.abs(Hs).max(initial=0.0)), 1e-300)
             if not rnd.alive.all():  # switched-off nodes keep still
                 Hn[~rnd.alive] = eye * big
-            pinned = run.pin.index(rnd.mesh) if run.pin is not None else None
+            pinned = _node_at(rnd.mesh, run.pin.ij) if run.pin is not None else None
             if pinned is not None:  # the orientation anchor moves along its plane only
                 cg_, ch_ = run.pin.constraint(rnd.uv[pinned])
                 g_uv = np.array([G[pinned] @ ev.su[pinned], G[pinned] @ ev.sv[pinned]])
@@ -741,9 +770,9 @@ def _iterate_paper(run: _Run):
     while True:  # one round per population
         mesh = run.mesh
         energy = Energy(surface, mesh, run.terms)
-        fixed = _fixed_index(mesh, opts.anchor_seed)
+        fixed = _node_at(mesh, run.fixed_ij)
         floor = _energy_floor(mesh)
-        pinned = run.pin.index(mesh) if run.pin is not None else None
+        pinned = _node_at(mesh, run.pin.ij) if run.pin is not None else None
 
         def constrain(grad):
             if fixed is not None:

@@ -1,0 +1,116 @@
+"""The 2D pattern (paper 3.5) and the paper's Examples I to III."""
+
+import numpy as np
+import pytest
+
+from core.energy import Energy, YarnConstraint
+from core.examples import load_example
+from core.mesh import MATERIALS
+from core.pattern import boundary_samples, make_pattern, polygon_area, polygon_perimeter
+from core.pipeline import FlattenSettings, flatten
+from tests.helpers import diameter, fit_circle, hausdorff, rigid_align
+
+
+@pytest.fixture(scope="module")
+def cone():
+    s = load_example("cone")
+    return s, flatten(s, FlattenSettings(0.05))
+
+
+def test_polygon_measures():
+    sq = np.array([[0, 0], [2, 0], [2, 1], [0, 1]], float)
+    assert polygon_area(sq) == 2 and polygon_area(sq[::-1]) == -2 and polygon_perimeter(sq) == 6
+
+
+def test_lattice_and_outline_correspondence(cone):
+    s, r = cone
+    p = r.pattern
+    assert np.allclose(p.xy, np.column_stack([r.mesh.ij[:, 1], r.mesh.ij[:, 0]]) * 0.05)
+    assert polygon_area(p.outline) > 0  # counter-clockwise
+    # every outline point comes from a boundary point on the surface
+    assert np.allclose(s.points(p.outline_uv), p.outline3d, atol=1e-12)
+    dom = s.domain
+    on_edge = np.isclose(p.outline_uv, dom[:, 0]) | np.isclose(p.outline_uv, dom[:, 1])
+    assert on_edge.any(axis=1).all()
+    # the four corners of the domain are outline points (corners are kept)
+    for corner in [(0, 0), (1, 0), (0, 1), (1, 1)]:
+        assert np.min(np.linalg.norm(p.outline_uv - corner, axis=1)) < 1e-12
+
+
+def test_example_1_cone_flattens_to_an_annulus_sector(cone):
+    """Example I: the woven conical frustum is developable."""
+    s, r = cone
+    m = r.metrics
+    assert m["energy"] < 1e-4 * r.solve.history[0]
+    assert m["boundary_error_pct"] < 0.5 and m["area_error_pct"] < 0.5
+    p = r.pattern
+    uv = p.outline_uv
+    # the bottom edge (v = 0, radius 1 on the surface) develops into a circle of
+    # radius 2 (its slant distance to the apex), the top (v = 1) into radius 1
+    for edge, radius in ((np.isclose(uv[:, 1], 0.0), 2.0), (np.isclose(uv[:, 1], 1.0), 1.0)):
+        centre, R, dist = fit_circle(p.outline[edge])
+        assert (dist.max() - dist.min()) / R < 0.005
+        assert R == pytest.approx(radius, rel=0.005)
+    c0 = fit_circle(p.outline[np.isclose(uv[:, 1], 0.0)])[0]
+    c1 = fit_circle(p.outline[np.isclose(uv[:, 1], 1.0)])[0]
+    assert np.linalg.norm(c0 - c1) < 0.005  # concentric
+
+
+def test_half_cylinder_flattens_to_a_rectangle():
+    s = load_example("half_cylinder")
+    r = flatten(s, FlattenSettings(0.05, angle_deg=20.0))
+    assert r.metrics["boundary_error_pct"] < 0.5 and r.metrics["area_error_pct"] < 0.5
+    p, uv = r.pattern, r.pattern.outline_uv
+    # each edge is a straight segment: pi R = pi / 2 long (the arcs) or 1.5 (the rulings)
+    for edge, length in ((np.isclose(uv[:, 1], 0.0), np.pi / 2), (np.isclose(uv[:, 1], 1.0), np.pi / 2),
+                         (np.isclose(uv[:, 0], 0.0), 1.5), (np.isclose(uv[:, 0], 1.0), 1.5)):
+        pts = p.outline[edge]
+        c = pts.mean(axis=0)
+        _, sv, vt = np.linalg.svd(pts - c)
+        off_line = np.abs((pts - c) @ vt[1])
+        assert off_line.max() < 0.005 * length
+        extent = np.ptp((pts - c) @ vt[0])
+        assert extent == pytest.approx(length, rel=0.005)
+
+
+def test_outline_perimeter_does_not_grow_with_sampling():
+    s = load_example("octant")
+    r = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"]))
+    per = [make_pattern(s, r.mesh, r.xyz, boundary_samples(s, 0.05, per_spacing=k)).perimeter
+           for k in (2, 8, 32)]
+    assert max(per) - min(per) < 1e-4 * per[0]
+
+
+def test_example_2_isotropic_octant_is_orientation_free():
+    """Example II: the isotropic octant at 0 and 45 degrees: the same outline up to a rigid motion."""
+    s = load_example("octant")
+    a = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"], angle_deg=0.0))
+    b = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"], angle_deg=45.0))
+    A, B = rigid_align(a.pattern.outline, b.pattern.outline)
+    assert hausdorff(A, B) < 0.02 * diameter(A)
+    for r in (a, b):
+        assert r.metrics["boundary_error_pct"] <= 5.35 and r.metrics["area_error_pct"] <= 0.5
+
+
+def test_example_3_yarn_direction_changes_the_woven_pattern():
+    """Example III: a warp column held to two different planes gives two patterns."""
+    s = load_example("octant")
+    ev = s.evaluate([[0.5, 0.5]])
+    p0, n0 = ev.xyz[0], ev.normal[0]
+    e1 = ev.su[0] / np.linalg.norm(ev.su[0])
+    warp = np.cross(n0, e1)  # the warp direction of the drape at angle 0
+    outlines = []
+    for turn in (0.0, 25.0):  # planes through the seed and its normal, turned about the normal
+        t = np.radians(turn)
+        direction = np.cos(t) * warp + np.sin(t) * e1
+        normal = np.cross(n0, direction)
+        plane = (*normal, -float(normal @ p0))
+        y = YarnConstraint("warp", 0, plane, 1e4)
+        r = flatten(s, FlattenSettings(0.05, yarns=(y,)))
+        assert r.solve.success
+        idx = y.nodes(r.mesh)
+        dist = np.abs(r.xyz[idx] @ normal + plane[3])
+        assert len(idx) > 10 and dist.max() < 0.01  # the yarn lies in its plane
+        outlines.append(r.pattern.outline)
+    A, B = rigid_align(*outlines)
+    assert hausdorff(A, B) > 0.01 * diameter(A)
