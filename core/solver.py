@@ -52,6 +52,8 @@ class SolverOptions:
     max_seconds : time budget
     anchor_seed : hold the seed node M[0, 0] at its (u, v)
     refill : refill uncovered regions after convergence
+    delete : delete nodes that leave the domain (off: a fixed population, for
+        comparing minimisers; nodes outside sit on the surface's extension)
     """
 
     method: str = "fast"
@@ -60,6 +62,7 @@ class SolverOptions:
     max_seconds: float = math.inf
     anchor_seed: bool = True
     refill: bool = True
+    delete: bool = True
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -494,6 +497,8 @@ class _Run:
     def remove_invalid(self, uv_old: np.ndarray, uv_new: np.ndarray) -> bool:
         """Delete nodes that left the domain (or crossed a dart); True if any did."""
         bad = self.problem.invalid(uv_old, uv_new)
+        if not self.options.delete:
+            bad[:] = False
         fixed = _node_at(self.mesh, self.fixed_ij)
         if fixed is not None:
             bad[fixed] = False
@@ -682,7 +687,7 @@ def _iterate_fast(run: _Run):
                 decrease = E - E2
                 lam *= max(1 / 3, 1 - (2 * rho - 1) ** 3)
                 nu = 2.0
-                bad = run.problem.invalid(rnd.uv, uv_try) & rnd.alive
+                bad = run.problem.invalid(rnd.uv, uv_try) & rnd.alive & opts.delete
                 rnd.uv = uv_try
                 run.uv = uv_try[rnd.alive]
                 ev = ev2

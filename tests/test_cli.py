@@ -1,0 +1,111 @@
+"""The headless CLI: ``python -m core``."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from core.cli import main
+from core.examples import example_path
+from core.nurbs import NurbsSurface
+from core.surface_io import save_surface
+
+REQUIRED_METRICS = {"energy", "max_thread_strain_pct", "max_shear_deg", "mean_shear_deg", "nodes", "springs",
+                    "seconds", "boundary_error_pct", "area_error_pct", "iterations", "energy_evaluations"}
+
+
+def run_cli(*args):
+    """Run ``python -m core`` in a subprocess: (exit status, stdout, stderr)."""
+    p = subprocess.run([sys.executable, "-m", "core", *args], capture_output=True, text=True, timeout=300)
+    return p.returncode, p.stdout, p.stderr
+
+
+def test_flatten_drape_only_writes_the_documented_result(tmp_path):
+    out = tmp_path / "r.json"
+    assert main(["flatten", str(example_path("octant")), "--spacing", "0.1", "--material", "woven",
+                 "--solver", "none", "--quiet", "--out", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert REQUIRED_METRICS <= set(r["metrics"])
+    n, m = r["metrics"]["nodes"], r["metrics"]["springs"]
+    assert len(r["nodes"]["ij"]) == len(r["nodes"]["uv"]) == len(r["nodes"]["xyz"]) == len(r["nodes"]["xy"]) == n
+    for key in ("ends", "kind", "rest", "length", "strain"):
+        assert len(r["springs"][key]) == m
+    assert set(r["springs"]["kind"]) == {"weft", "warp", "diag"}
+    assert r["metrics"]["iterations"] == 0
+    strain = np.array(r["springs"]["strain"])
+    thread = np.array(r["springs"]["kind"]) != "diag"
+    assert np.abs(strain[thread]).max() < 1e-6  # the drape keeps threads at rest length
+    assert len(r["pattern"]["outline"]) == len(r["pattern"]["outline3d"]) > 100
+
+
+def test_flatten_any_geomdl_surface(tmp_path):
+    # a surface that is not one of the examples: a random bicubic bump, 9 x 7
+    rng = np.random.default_rng(4)
+    u, v = np.meshgrid(np.linspace(0, 2, 9), np.linspace(0, 1.5, 7), indexing="ij")
+    P = np.stack([u, v, 0.2 * rng.random(u.shape)], axis=-1)
+    ku = [0, 0, 0, 0, .2, .4, .6, .8, .9, 1, 1, 1, 1]
+    kv = [0, 0, 0, 0, .3, .5, .7, 1, 1, 1, 1]
+    path = tmp_path / "bump.json"
+    save_surface(NurbsSurface(3, 3, ku, kv, P), path)
+    out = tmp_path / "r.json"
+    code, _, err = run_cli("flatten", str(path), "--spacing", "0.1", "--material", "isotropic",
+                           "--seed", "0.4,0.6", "--angle", "30", "--out", str(out))
+    assert code == 0, err
+    r = json.loads(out.read_text())
+    assert r["metrics"]["solver_status"] == "converged" and r["metrics"]["nodes"] > 200
+    assert r["settings"]["seed"] == [0.4, 0.6] and r["settings"]["angle_deg"] == 30
+
+
+def test_example_name_warm_start_and_yarn(tmp_path):
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    assert main(["flatten", "octant", "--spacing", "0.1", "--quiet", "--out", str(a)]) == 0
+    assert main(["flatten", "octant", "--spacing", "0.1", "--quiet", "--warm-start", str(a),
+                 "--yarn", "warp:0", "--yarn-plane", "1,-1,0,0", "--yarn-k", "100", "--out", str(b)]) == 0
+    rb = json.loads(b.read_text())
+    assert rb["drape"].get("warm_start") is True
+    assert rb["settings"]["yarns"] == [{"kind": "warp", "index": 0, "plane": [1.0, -1.0, 0.0, 0.0], "k": 100.0}]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["flatten", "{bad}", "--spacing", "0.1"], ["weights"]),
+    (["flatten", "{octant}", "--spacing", "-1"], ["spacing"]),
+    (["flatten", "{octant}", "--spacing", "0.1", "--material", "silk"], ["material"]),
+    (["flatten", "{octant}", "--spacing", "0.1", "--seed", "0.5"], ["seed"]),
+    (["flatten", "{octant}", "--spacing", "0.1", "--yarn", "warp:x", "--yarn-plane", "1,0,0,0"], ["yarn"]),
+    (["flatten", "{octant}", "--spacing", "0.1", "--yarn", "warp:1"], ["--yarn-plane"]),
+    (["flatten", "nowhere.json", "--spacing", "0.1"], ["nowhere.json"]),
+    (["flatten", "teapot", "--spacing", "0.1"], ["teapot", "example"]),
+    (["flatten", "{octant}", "--spacing", "0.0001", "--max-nodes", "1000"], ["nodes", "spacing"]),
+    (["flatten", "{octant}", "--spacing", "0.1", "--warm-start", "{bad}"], ["warm-start"]),
+])
+def test_bad_input_is_one_line_and_status_2(tmp_path, args, words):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"shape": {"type": "surface", "count": 1, "data": [{
+        "type": "spline", "rational": True, "degree_u": 1, "degree_v": 1,
+        "knotvector_u": [0, 0, 1, 1], "knotvector_v": [0, 0, 1, 1], "size_u": 2, "size_v": 2,
+        "control_points": {"points": [[0, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 1]],
+                           "weights": [1, 1, -1, 1]}}]}}))
+    subst = {"{bad}": str(bad), "{octant}": str(example_path("octant"))}
+    args = [subst.get(a, a) for a in args] + ["--out", str(tmp_path / "out.json")]
+    code, out, err = run_cli(*args)
+    assert code == 2
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("flatweave: error:"), err
+    assert "Traceback" not in err
+    for w in words:
+        assert w.lower() in lines[0].lower()
+    assert not (tmp_path / "out.json").exists()
+
+
+def test_unwritable_output_is_a_clean_error(tmp_path):
+    code, _, err = run_cli("flatten", "octant", "--spacing", "0.2", "--out", str(tmp_path / "no" / "r.json"))
+    assert code == 2 and "does not exist" in err and "Traceback" not in err
+
+
+def test_info_and_examples():
+    code, out, _ = run_cli("info", "octant")
+    assert code == 0 and "area 1.570796327" in out and "boundary length 4.71238898" in out
+    code, out, _ = run_cli("examples")
+    assert code == 0 and all(name in out for name in ("octant", "cone", "garment", "saddle", "dome"))
