@@ -39,8 +39,8 @@ def main(argv: list[str] | None = None) -> int:
     from core.examples import example_path
     from core.surface_io import load_surface
 
-    path = args.surface if args.surface is not None else Path(example_path(DEFAULT_EXAMPLE))
     try:
+        path = args.surface if args.surface is not None else Path(example_path(DEFAULT_EXAMPLE))
         surface = load_surface(path)
     except (FlatweaveError, OSError) as exc:
         print(f"flatweave: error: {exc}", file=sys.stderr)

@@ -81,7 +81,10 @@ class MainWindow(QMainWindow):
         file_menu.addSeparator()
         file_menu.addAction(self.actions["quit"])
         self.examples_menu = bar.addMenu("&Examples")
-        examples = list_examples()
+        try:
+            examples = list_examples()
+        except (FlatweaveError, OSError, ValueError):  # a broken install: no menu entries
+            examples = []
         for entry in examples:
             name = entry["name"]
             act = QAction(entry.get("title") or name, self)
