@@ -264,6 +264,7 @@ class _Builder:
         self.normal = np.zeros((0, 3))
         self.how = np.zeros(0, dtype=np.int8)  # 0 seed, 1 path, 2 two-neighbour, 3 filling
         self.tree, self.tree_n = None, 0
+        self.separated = None  # callable(uv_a, uv_b) -> bool: a dart lies between
         self.rmin = min(settings.r_weft, settings.r_warp)
         dom = surface.domain
         self.dom = dom
@@ -408,6 +409,8 @@ class _Builder:
             ok &= np.einsum("ij,ij->i", P - Cx, A + B - 2 * Cx) > 0
             ok &= np.linalg.norm(P - Cx, axis=1) > 0.5 * self.rmin
             ok &= np.linalg.norm(P - (A + B - Cx), axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
+            if self.separated is not None:  # never a spring across a dart
+                ok &= ~self.separated(self.uv[iA], uv_new) & ~self.separated(self.uv[iB], uv_new)
             ok[ok] = self.far_from_mesh(P[ok])
             self.lat.kill(pos[~ok])
             if ok.any():
@@ -444,6 +447,8 @@ class _Builder:
         ok, uv_new = self.accept_uv(uv_new, conv)
         P = self.surface.points(uv_new)
         ok &= np.einsum("ij,ij->i", P - self.xyz[src], chord) > 0
+        if self.separated is not None:
+            ok &= ~self.separated(self.uv[src], uv_new)
         ok[ok] = self.far_from_mesh(P[ok])
         # a position is dead only when no source can reach it
         g = pos + self.lat.off
@@ -520,14 +525,18 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
 
 
 def refill(surface: NurbsSurface, settings: DrapeSettings, ij: np.ndarray, uv: np.ndarray,
-           dead_ij: np.ndarray = np.zeros((0, 2), dtype=np.int64)) -> tuple[np.ndarray, np.ndarray]:
+           dead_ij: np.ndarray = np.zeros((0, 2), dtype=np.int64),
+           separated=None) -> tuple[np.ndarray, np.ndarray]:
     """Node Filling from an existing mesh state (population control, paper 3.3).
 
     ij : (n, 2) lattice positions and uv : (n, 2) parameters of the current
-    nodes; dead_ij : (k, 2) positions never to refill. Returns the added
-    nodes' (ij (a, 2), uv (a, 2)); the springs they form are at rest length.
+    nodes; dead_ij : (k, 2) positions never to refill; separated(uv_a, uv_b)
+    -> (k,) bool says where a dart lies between two points (no node is placed
+    from a neighbour across a dart). Returns the added nodes' (ij (a, 2),
+    uv (a, 2)); the springs they form are at rest length.
     """
     b = _Builder(surface, settings)
+    b.separated = separated
     b.add(np.asarray(ij, dtype=np.int64), np.asarray(uv, dtype=float), 0)
     n0 = len(b.uv)
     dead = np.asarray(dead_ij, dtype=np.int64).reshape(-1, 2)

@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 import core
+from core.darts import CurveDart, DartSet, PlaneDart
 from core.drape import DrapeSettings, drape, refill
 from core.energy import Energy, YarnConstraint
 from core.errors import SettingsError
@@ -45,6 +46,7 @@ class FlattenSettings:
     solver : "fast" (default), "paper" or "none" (the drape only)
     tol, max_iter, max_seconds : stopping rule and budgets of the solver
     yarns : yarn constraints (directional energy)
+    darts : plane and curve darts (:mod:`core.darts`)
     max_nodes : refuse meshes estimated larger than this, up front
     """
 
@@ -59,6 +61,7 @@ class FlattenSettings:
     max_iter: int = 1000
     max_seconds: float = math.inf
     yarns: tuple[YarnConstraint, ...] = ()
+    darts: tuple = ()
     max_nodes: int = 2_000_000
 
     def drape_settings(self) -> DrapeSettings:
@@ -124,14 +127,18 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
     """The solver's view of a piece: how a population's springs are built and refilled."""
     ds = settings.drape_settings()
     material = settings.material
+    darts = DartSet(surface, settings.darts)
 
     def build(ij, uv):
-        return build_mesh(ij, ds.r_weft, ds.r_warp, material)
+        keep = darts.keep_springs(np.asarray(uv)) if len(darts) else None
+        return build_mesh(ij, ds.r_weft, ds.r_warp, material, keep=keep)
 
     def refill_nodes(mesh, uv, dead):
-        return refill(surface, ds, mesh.ij, uv, dead)
+        return refill(surface, ds, mesh.ij, uv, dead, separated=darts.crossing if len(darts) else None)
 
-    return Problem(surface, build, settings.yarns, refill_nodes)
+    # a node whose step would carry it through a dart is deleted (3.3)
+    invalid = darts.crossing if len(darts) else None
+    return Problem(surface, build, settings.yarns, refill_nodes, invalid)
 
 
 def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
@@ -148,7 +155,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     problem = make_problem(surface, settings)
     if initial is None:
         d = drape(surface, settings.drape_settings(), settings.material, area=A3)
-        state, stats = State(d.mesh, d.uv), d.stats
+        state, stats = State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
     else:
         uv = np.asarray(initial.uv, dtype=float)
         state, stats = State(problem.build(initial.mesh.ij, uv), uv), {"warm_start": True, "seconds": 0.0}
@@ -157,7 +164,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         solve = yield from iterate(problem, state, settings.solver_options())
         state = State(solve.mesh, solve.uv)
     xyz = surface.points(state.uv)
-    pattern = make_pattern(surface, state.mesh, xyz)
+    darts = DartSet(surface, settings.darts)
+    pattern = make_pattern(surface, state.mesh, xyz, darts=darts if len(darts) else None, uv=state.uv)
     metrics = compute_metrics(surface, state.mesh, xyz, pattern, settings.yarns, A3=A3)
     metrics.update({
         "iterations": solve.nit if solve else 0,
@@ -168,6 +176,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "drape_seconds": stats.get("seconds", 0.0),
         "solve_seconds": solve.seconds if solve else 0.0,
         "seconds": time.perf_counter() - t0,
+        "pieces": _components(state.mesh),
     })
     return FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve)
 
@@ -186,6 +195,16 @@ def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | N
         if callback is not None and callback(snap):
             gen.close()
             return flatten(surface, replace(settings, solver="none"), State(snap.mesh, snap.uv), area)
+
+
+def _components(mesh: SpringMesh) -> int:
+    """Number of connected pieces of the spring mesh."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = mesh.n_nodes
+    g = coo_matrix((np.ones(mesh.n_springs), (mesh.ends[:, 0], mesh.ends[:, 1])), shape=(n, n))
+    return int(connected_components(g, directed=False)[0])
 
 
 def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:
@@ -246,5 +265,32 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
             "outline": pattern.outline.tolist(),
             "outline3d": pattern.outline3d.tolist(),
             "outline_uv": pattern.outline_uv.tolist(),
+            "on_boundary": pattern.on_boundary.tolist() if pattern.on_boundary is not None else None,
+            "pieces": [{"outline": pattern.outline.tolist(), "holes": [h.tolist() for h in pattern.holes],
+                        "nodes": list(range(mesh.n_nodes))}],
         },
+        "darts": _darts_dict(result),
     }
+
+
+def _darts_dict(result: FlattenResult) -> list[dict]:
+    """The darts: definition, curve, leg lengths, opening angle, dart nodes."""
+    s = result.settings
+    if not s.darts:
+        return []
+    full = build_mesh(result.mesh.ij, result.mesh.r_weft, result.mesh.r_warp, s.material)
+    labels = DartSet(result.surface, s.darts).dart_nodes(full.ends, result.uv, result.xyz)
+    out = []
+    for dart, opening, nodes in zip(s.darts, result.pattern.darts, labels):
+        entry = {"kind": dart.kind, "name": dart.name}
+        if dart.kind == "plane":
+            entry["plane"] = list(dart.plane)
+            entry["box"] = list(dart.box) if dart.box is not None else None
+        entry.update({
+            "curve_uv": opening.curve_uv.tolist(), "curve": opening.curve3d.tolist(),
+            "mouth_on_boundary": opening.mouth,
+            "leg_lengths": list(opening.leg_lengths), "opening_deg": opening.opening_deg,
+            "positive_nodes": nodes["positive"].tolist(), "negative_nodes": nodes["negative"].tolist(),
+        })
+        out.append(entry)
+    return out

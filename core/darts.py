@@ -1,0 +1,268 @@
+"""Darts (paper section 3.4): cuts in the spring mesh that release strain.
+
+A dart removes the springs that cross it; their end nodes become positive
+and negative dart nodes (by the side of the dart they lie on). During
+minimisation a node may not pass through a dart (it is deleted, 3.3), and no
+spring is formed across a dart when nodes are refilled.
+
+* :class:`PlaneDart`: the intersection of a plane a x + b y + c z + d = 0 with
+  the surface inside a bounding box. A spring crosses it when one end is in
+  the box and the plane function changes sign between its ends (the paper's
+  test, F[node1] F[node2] < 0).
+* :class:`CurveDart`: a curve on the surface given by its (u, v) polyline
+  (the biarc fit of a curve drawn in a view and projected onto the surface,
+  :mod:`core.curves`). The crossing test runs in the (u, v) domain, springs
+  taken as straight segments there.
+
+Both describe their curve on the surface from the mouth (the end on the
+region's boundary, if any) to the tip, which the pattern needs to open the
+dart into a V.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from core.errors import SettingsError
+from core.nurbs import NurbsSurface
+
+__all__ = ["PlaneDart", "CurveDart", "segments_cross", "DartSet"]
+
+
+def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Twice the signed area of triangles (a, b, c), row-wise (k, 2) -> (k,)."""
+    return (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
+
+
+def segments_cross(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """(m,) bool: does segment p (m, 2) cross the polyline of segments q (k, 2)?
+
+    A crossing needs the ends of p strictly on opposite sides of a dart
+    segment (a node lying exactly on the dart counts as on its positive
+    side, so the spring is cut on one side only) and the dart segment to
+    reach p (its end points touching p count: a dart ending exactly on a
+    spring cuts it).
+    """
+    m = len(p0)
+    out = np.zeros(m, dtype=bool)
+    if m == 0 or len(q0) == 0:
+        return out
+    # bounding-box prefilter: only springs near the dart's extent
+    lo = np.minimum(q0, q1).min(axis=0)
+    hi = np.maximum(q0, q1).max(axis=0)
+    near = np.flatnonzero(np.all(np.maximum(p0, p1) >= lo, axis=1) & np.all(np.minimum(p0, p1) <= hi, axis=1))
+    if near.size == 0:
+        return out
+    step = max(1, 2_000_000 // max(len(q0), 1))
+    for s in range(0, near.size, step):
+        idx = near[s:s + step]
+        a, b = p0[idx][:, None, :], p1[idx][:, None, :]
+        c, d = q0[None, :, :], q1[None, :, :]
+        sa = _orient(c, d, a) >= 0
+        sb = _orient(c, d, b) >= 0
+        oc = _orient(a, b, c)
+        od = _orient(a, b, d)
+        hit = (sa != sb) & (oc * od <= 0) & ~((oc == 0) & (od == 0))
+        out[idx] = hit.any(axis=1)
+    return out
+
+
+@dataclass(frozen=True)
+class PlaneDart:
+    """plane : (a, b, c, d); box : (xmin, xmax, ymin, ymax, zmin, zmax) or None (no limit)."""
+
+    plane: tuple[float, float, float, float]
+    box: tuple[float, float, float, float, float, float] | None = None
+    name: str = "plane dart"
+    kind: str = field(default="plane", init=False)
+
+    def __post_init__(self):
+        p = np.asarray(self.plane, dtype=float)
+        if p.shape != (4,) or not np.all(np.isfinite(p)) or not np.any(p[:3]):
+            raise SettingsError(f"plane dart {self.plane!r} must be four numbers A,B,C,D with (A,B,C) != 0")
+        if self.box is not None:
+            b = np.asarray(self.box, dtype=float)
+            if b.shape != (6,) or not np.all(np.isfinite(b)) or np.any(b[0::2] > b[1::2]):
+                raise SettingsError(f"plane dart box {self.box!r} must be XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX")
+
+    def F(self, xyz: np.ndarray) -> np.ndarray:
+        p = np.asarray(self.plane, dtype=float)
+        return xyz @ p[:3] + p[3]
+
+    def in_box(self, xyz: np.ndarray) -> np.ndarray:
+        if self.box is None:
+            return np.ones(len(xyz), dtype=bool)
+        b = np.asarray(self.box, dtype=float)
+        return np.all((xyz >= b[0::2]) & (xyz <= b[1::2]), axis=1)
+
+    def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
+        """(m,) bool: springs from a to b crossing the dart (paper's test)."""
+        return (self.in_box(xa) | self.in_box(xb)) & (self.F(xa) * self.F(xb) < 0)
+
+    def side(self, uv, xyz) -> np.ndarray:
+        """(n,) +1 / -1: the side of the plane (on it counts as +1)."""
+        return np.where(self.F(xyz) >= 0, 1, -1).astype(np.int8)
+
+    def curve_uv(self, surface: NurbsSurface, n: int = 256) -> np.ndarray:
+        """(k, 2) the dart's curve in (u, v), from the mouth to the tip.
+
+        Zero crossings of F(S(u, v)) on the edges of an n x n parameter grid,
+        refined by Newton onto F = 0, kept inside the box, chained into a
+        polyline (the longest chain when the plane cuts the surface more than
+        once).
+        """
+        dom = surface.domain
+        u = np.linspace(dom[0, 0], dom[0, 1], n)
+        v = np.linspace(dom[1, 0], dom[1, 1], n)
+        U, V = np.meshgrid(u, v, indexing="ij")
+        F = self.F(surface.points(np.column_stack([U.ravel(), V.ravel()]))).reshape(n, n)
+        pts = []
+        for axis in (0, 1):
+            f0 = F[:-1, :] if axis == 0 else F[:, :-1]
+            f1 = F[1:, :] if axis == 0 else F[:, 1:]
+            i, j = np.nonzero((f0 < 0) != (f1 < 0))
+            t = f0[i, j] / (f0[i, j] - f1[i, j])
+            if axis == 0:
+                pts.append(np.column_stack([u[i] + t * (u[i + 1] - u[i]), v[j]]))
+            else:
+                pts.append(np.column_stack([u[i], v[j] + t * (v[j + 1] - v[j])]))
+        P = np.concatenate(pts) if pts else np.zeros((0, 2))
+        if len(P) == 0:
+            return P
+        P = _newton_onto_level(surface, self.F, P)
+        P = P[self.in_box(surface.points(P))]
+        return _chain(P, 3.0 * np.max(np.ptp(dom, axis=1)) / n, surface)
+
+
+def _newton_onto_level(surface, F, uv: np.ndarray, steps: int = 6) -> np.ndarray:
+    """Move points along the gradient of F(S(u, v)) onto its zero level."""
+    dom = surface.domain
+    for _ in range(steps):
+        S, Su, Sv = surface.derivatives(uv)
+        f = F(S)
+        grad = np.column_stack([F(S + Su) - F(S), F(S + Sv) - F(S)])  # F is affine
+        gg = np.einsum("ij,ij->i", grad, grad)
+        ok = gg > 0
+        uv[ok] -= (f[ok] / gg[ok])[:, None] * grad[ok]
+        uv = np.clip(uv, dom[:, 0], dom[:, 1])
+    return uv
+
+
+def _chain(P: np.ndarray, link: float, surface: NurbsSurface) -> np.ndarray:
+    """Order scattered curve points into polylines by nearest neighbours; the
+    longest chain, oriented from its end nearest the domain boundary."""
+    from scipy.spatial import cKDTree
+
+    P = np.unique(np.round(P, 12), axis=0)
+    if len(P) < 2:
+        return P
+    tree = cKDTree(P)
+    unused = np.ones(len(P), dtype=bool)
+    chains = []
+    while unused.any():
+        start = int(np.flatnonzero(unused)[0])
+        chain = [start]
+        unused[start] = False
+        for direction in (0, 1):
+            cur = chain[-1] if direction == 0 else chain[0]
+            while True:
+                d, idx = tree.query(P[cur], k=min(8, len(P)))
+                nxt = next((int(j) for dd, j in zip(np.atleast_1d(d), np.atleast_1d(idx))
+                            if unused[j] and dd <= link), None)
+                if nxt is None:
+                    break
+                unused[nxt] = False
+                if direction == 0:
+                    chain.append(nxt)
+                else:
+                    chain.insert(0, nxt)
+                cur = nxt
+        chains.append(chain)
+    best = P[max(chains, key=len)]
+    if _boundary_distance(surface, best[-1:])[0] < _boundary_distance(surface, best[:1])[0]:
+        best = best[::-1]
+    return best
+
+
+def _boundary_distance(surface: NurbsSurface, uv: np.ndarray) -> np.ndarray:
+    """(k,) distance of parameter points to the domain's boundary, in fractions of the domain."""
+    dom = surface.domain
+    t = (uv - dom[:, 0]) / np.ptp(dom, axis=1)
+    return np.min(np.column_stack([t, 1 - t]), axis=1)
+
+
+@dataclass(frozen=True)
+class CurveDart:
+    """A dart along a (u, v) polyline, ordered from its mouth to its tip.
+
+    uv : (k, 2) points of the curve in the parameter domain (k >= 2)
+    """
+
+    uv: np.ndarray
+    name: str = "curve dart"
+    kind: str = field(default="curve", init=False)
+
+    def __post_init__(self):
+        uv = np.asarray(self.uv, dtype=float)
+        if uv.ndim != 2 or uv.shape[1] != 2 or len(uv) < 2 or not np.all(np.isfinite(uv)):
+            raise SettingsError("a curve dart needs at least two finite (u, v) points")
+        object.__setattr__(self, "uv", uv)
+
+    def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
+        return segments_cross(uva, uvb, self.uv[:-1], self.uv[1:])
+
+    def side(self, uv, xyz) -> np.ndarray:
+        """(n,) +1 / -1: left or right of the nearest dart segment in (u, v)."""
+        a, b = self.uv[:-1], self.uv[1:]
+        ab = b - a
+        L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+        t = np.clip(np.einsum("nkj,kj->nk", uv[:, None, :] - a[None], ab) / L2, 0, 1)
+        foot = a[None] + t[..., None] * ab[None]
+        k = np.argmin(np.einsum("nkj,nkj->nk", uv[:, None, :] - foot, uv[:, None, :] - foot), axis=1)
+        s = _orient(a[k], b[k], uv)
+        return np.where(s >= 0, 1, -1).astype(np.int8)
+
+    def curve_uv(self, surface: NurbsSurface, n: int = 256) -> np.ndarray:
+        return self.uv
+
+
+class DartSet:
+    """The darts of a piece, with the operations the mesh and solver need."""
+
+    def __init__(self, surface: NurbsSurface, darts=()):
+        self.surface = surface
+        self.darts = tuple(darts)
+
+    def __len__(self) -> int:
+        return len(self.darts)
+
+    def crossing(self, uva, uvb) -> np.ndarray:
+        """(m,) bool: segments (in uv; their 3D ends for plane darts) crossing any dart."""
+        out = np.zeros(len(uva), dtype=bool)
+        if not self.darts or len(uva) == 0:
+            return out
+        xa = xb = None
+        if any(d.kind == "plane" for d in self.darts):
+            xa, xb = self.surface.points(uva), self.surface.points(uvb)
+        for d in self.darts:
+            out |= d.crosses(uva, uvb, xa, xb)
+        return out
+
+    def keep_springs(self, uv: np.ndarray):
+        """A ``keep(ends, kind)`` for :func:`core.mesh.build_mesh`: drop crossing springs."""
+        def keep(ends, kind):
+            return ~self.crossing(uv[ends[:, 0]], uv[ends[:, 1]])
+        return keep
+
+    def dart_nodes(self, mesh_ends_cut: np.ndarray, uv: np.ndarray, xyz: np.ndarray) -> list[dict]:
+        """Per dart, its positive and negative nodes: ends of the springs it cuts."""
+        out = []
+        a, b = mesh_ends_cut[:, 0], mesh_ends_cut[:, 1]
+        for d in self.darts:
+            cut = d.crosses(uv[a], uv[b], xyz[a], xyz[b])
+            nodes = np.unique(np.concatenate([a[cut], b[cut]]))
+            side = d.side(uv[nodes], xyz[nodes]) if len(nodes) else np.zeros(0, np.int8)
+            out.append({"positive": nodes[side > 0], "negative": nodes[side < 0]})
+        return out
