@@ -98,8 +98,12 @@ class PlaneDart:
         return np.all((xyz >= b[0::2]) & (xyz <= b[1::2]), axis=1)
 
     def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
-        """(m,) bool: springs from a to b crossing the dart (paper's test)."""
-        return (self.in_box(xa) | self.in_box(xb)) & (self.F(xa) * self.F(xb) < 0)
+        """(m,) bool: springs from a to b crossing the dart: one end in the box
+        and the ends on opposite sides of the plane. The paper's test is
+        F[a] F[b] < 0; here a point on the plane (F = 0) counts as on its
+        positive side, as for curve darts, so a node on the dart keeps the
+        springs to one side only and stepping off to the other side crosses."""
+        return (self.in_box(xa) | self.in_box(xb)) & ((self.F(xa) >= 0) != (self.F(xb) >= 0))
 
     def side(self, uv, xyz) -> np.ndarray:
         """(n,) +1 / -1: the side of the plane (on it counts as +1)."""
@@ -256,13 +260,23 @@ class DartSet:
             return ~self.crossing(uv[ends[:, 0]], uv[ends[:, 1]])
         return keep
 
-    def dart_nodes(self, mesh_ends_cut: np.ndarray, uv: np.ndarray, xyz: np.ndarray) -> list[dict]:
-        """Per dart, its positive and negative nodes: ends of the springs it cuts."""
+    def dart_nodes(self, curves3d, uv: np.ndarray, xyz: np.ndarray, reach: float) -> list[dict]:
+        """Per dart, its positive and negative nodes: the nodes along the cut
+        (within ``reach``, one cell diagonal, of the dart's curve), by side.
+
+        (The ends of the springs a dart removed, as the paper defines them; a
+        node that sat exactly on the dart and stepped off it was deleted, so
+        the nodes along the cut are found by distance, not from the springs.)
+        """
         out = []
-        a, b = mesh_ends_cut[:, 0], mesh_ends_cut[:, 1]
-        for d in self.darts:
-            cut = d.crosses(uv[a], uv[b], xyz[a], xyz[b])
-            nodes = np.unique(np.concatenate([a[cut], b[cut]]))
-            side = d.side(uv[nodes], xyz[nodes]) if len(nodes) else np.zeros(0, np.int8)
-            out.append({"positive": nodes[side > 0], "negative": nodes[side < 0]})
+        for d, curve in zip(self.darts, curves3d):
+            a, b = curve[:-1], curve[1:]
+            ab = b - a
+            t = np.clip(np.einsum("nkj,kj->nk", xyz[:, None, :] - a[None], ab)
+                        / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-300), 0, 1)
+            foot = a[None] + t[..., None] * ab[None]
+            dist = np.sqrt(np.einsum("nkj,nkj->nk", xyz[:, None, :] - foot, xyz[:, None, :] - foot)).min(axis=1)
+            near = np.flatnonzero(dist <= reach)
+            side = d.side(uv[near], xyz[near]) if len(near) else np.zeros(0, np.int8)
+            out.append({"positive": near[side > 0], "negative": near[side < 0]})
         return out

@@ -278,8 +278,9 @@ def _darts_dict(result: FlattenResult) -> list[dict]:
     s = result.settings
     if not s.darts:
         return []
-    full = build_mesh(result.mesh.ij, result.mesh.r_weft, result.mesh.r_warp, s.material)
-    labels = DartSet(result.surface, s.darts).dart_nodes(full.ends, result.uv, result.xyz)
+    reach = float(np.hypot(result.mesh.r_weft, result.mesh.r_warp))
+    labels = DartSet(result.surface, s.darts).dart_nodes(
+        [o.curve3d for o in result.pattern.darts], result.uv, result.xyz, reach)
     out = []
     for dart, opening, nodes in zip(s.darts, result.pattern.darts, labels):
         entry = {"kind": dart.kind, "name": dart.name}

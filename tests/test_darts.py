@@ -1,0 +1,141 @@
+"""Darts (paper 3.4): crossing tests, cutting, nodes that never cross, the V."""
+
+import numpy as np
+import pytest
+
+from core.darts import CurveDart, DartSet, PlaneDart, segments_cross
+from core.errors import SettingsError
+from core.examples import load_example
+from core.mesh import MATERIALS
+from core.pipeline import FlattenSettings, flatten, flatten_iter
+
+A = np.array
+
+
+def test_segments_cross_cases():
+    dart = (A([[0.0, 0.0]]), A([[1.0, 0.0]]))  # one dart segment on the x axis
+    springs = A([
+        [[0.5, -1], [0.5, 1]],      # proper crossing
+        [[1.0, -1], [1.0, 1]],      # through the dart's end point: cut
+        [[1.5, -1], [1.5, 1]],      # beyond the dart's end: not cut
+        [[0.5, 0.0], [0.5, 1]],     # one node on the dart, the other on its + side: not cut
+        [[0.5, 0.0], [0.5, -1]],    # one node on the dart, the other on its - side: cut
+        [[0.2, 0.0], [0.8, 0.0]],   # along the dart: not cut
+        [[0.5, 0.1], [0.7, 0.5]],   # same side: not cut
+    ])
+    got = segments_cross(springs[:, 0], springs[:, 1], *dart)
+    assert got.tolist() == [True, True, False, False, True, False, False]
+
+
+def test_polyline_dart_cuts_each_spring_once():
+    t = np.linspace(0, np.pi, 50)
+    uv = np.column_stack([0.5 + 0.3 * np.cos(t), 0.2 + 0.3 * np.sin(t)])  # a half circle
+    d = CurveDart(uv)
+    # radial springs from the centre outwards cross it once each; inner ones don't
+    ang = np.linspace(0.1, np.pi - 0.1, 20)
+    a = np.column_stack([0.5 + 0.1 * np.cos(ang), 0.2 + 0.1 * np.sin(ang)])
+    b = np.column_stack([0.5 + 0.5 * np.cos(ang), 0.2 + 0.5 * np.sin(ang)])
+    assert d.crosses(a, b, None, None).all()
+    assert not d.crosses(a, 0.5 * (a + b) - 0.05 * (b - a), None, None).any()
+    assert (d.side(a, None) != d.side(b, None)).all()
+
+
+def test_plane_dart_box_rule():
+    d = PlaneDart((1.0, 0.0, 0.0, 0.0), (-1, 1, -1, 1, 0.0, 0.5))
+    xa = A([[-0.1, 0, 0.2], [-0.1, 0, 0.6], [-0.1, 0, 0.5], [-0.1, 0, 0.6], [0.0, 0, 0.2]])
+    xb = A([[0.1, 0, 0.2], [0.1, 0, 0.6], [0.1, 0, 0.55], [0.1, 0, 0.49], [0.1, 0, 0.2]])
+    # inside; both outside the box; one end on the box's face; the other end inside; an end on the
+    # plane (counted on its positive side, like the other end)
+    assert d.crosses(None, None, xa, xb).tolist() == [True, False, True, True, False]
+    assert d.crosses(None, None, A([[0.0, 0, 0.2]]), A([[-0.1, 0, 0.2]])).tolist() == [True]
+
+
+@pytest.mark.parametrize("kw, word", [(dict(plane=(0, 0, 0, 1)), "plane"),
+                                      (dict(plane=(1, 0, 0, 0), box=(1, 0, 0, 1, 0, 1)), "box")])
+def test_bad_plane_darts(kw, word):
+    with pytest.raises(SettingsError, match=word):
+        PlaneDart(**kw)
+
+
+def test_bad_curve_dart():
+    with pytest.raises(SettingsError, match="two"):
+        CurveDart(np.zeros((1, 2)))
+
+
+# the plane through the pole and the middle of the octant's equator edge, cut from the
+# equator up to z = 0.55: a dart along the octant's symmetry line
+OCTANT_DART = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55))
+
+
+def test_plane_dart_curve_lies_on_plane_and_surface():
+    s = load_example("octant")
+    uv = OCTANT_DART.curve_uv(s)
+    xyz = s.points(uv)
+    assert len(uv) > 20
+    assert np.abs(xyz[:, 0] - xyz[:, 1]).max() < 1e-9
+    assert xyz[:, 2].max() <= 0.55 + 1e-9
+    assert abs(xyz[0, 2]) < 1e-6  # ordered from the mouth on the equator to the tip
+    assert xyz[-1, 2] == pytest.approx(0.55, abs=0.02)
+
+
+@pytest.fixture(scope="module")
+def octant_with_dart():
+    s = load_example("octant")
+    plain = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"]))
+    cut = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"], darts=(OCTANT_DART,)))
+    return s, plain, cut
+
+
+def test_dart_lowers_energy_and_errors(octant_with_dart):
+    _, plain, cut = octant_with_dart
+    assert cut.metrics["energy"] < 0.5 * plain.metrics["energy"]
+    assert cut.metrics["boundary_error_pct"] < 0.6 * plain.metrics["boundary_error_pct"]
+    assert cut.metrics["area_error_pct"] < plain.metrics["area_error_pct"]
+
+
+def test_dart_opens_into_a_v(octant_with_dart):
+    s, _, cut = octant_with_dart
+    (o,) = cut.pattern.darts
+    assert o.mouth
+    la, lb = o.leg_lengths
+    assert abs(la - lb) < 0.02 * la  # the two legs, to be sewn together, match
+    assert la == pytest.approx(np.linalg.norm(np.diff(o.curve3d, axis=0), axis=1).sum(), rel=0.03)
+    assert 10 < o.opening_deg < 40
+    # the tip closes: both sides map the tip to nearly one point; the mouths are apart
+    assert np.linalg.norm(o.leg_a[-1] - o.leg_b[-1]) < 0.02
+    assert np.linalg.norm(o.leg_a[0] - o.leg_b[0]) > 0.1
+    # the outline walks round the dart: the legs appear in it
+    out = cut.pattern.outline
+    for leg in (o.leg_a, o.leg_b):
+        d = np.linalg.norm(out[:, None, :] - leg[None, ::5, :], axis=2).min(axis=0)
+        assert d.max() < 1e-12
+
+
+def test_no_spring_crosses_the_dart_and_nodes_keep_their_side():
+    s = load_example("octant")
+    settings = FlattenSettings(0.05, darts=(OCTANT_DART,))
+    darts = DartSet(s, settings.darts)
+    gen = flatten_iter(s, settings)
+    first_side = None
+    while True:
+        try:
+            snap = next(gen)
+        except StopIteration as done:
+            result = done.value
+            break
+        e = snap.mesh.ends
+        # away from the tip (where a spring round the tip may slip into the box) no spring crosses
+        low = (snap.xyz[e[:, 0], 2] < 0.5) & (snap.xyz[e[:, 1], 2] < 0.5)
+        assert not darts.crossing(snap.uv[e[low, 0]], snap.uv[e[low, 1]]).any()
+        F = OCTANT_DART.F(snap.xyz)
+        side = dict(zip(map(tuple, snap.mesh.ij.tolist()), np.sign(F).tolist()))
+        if first_side is None:  # nodes off the plane (the seed's row lies on it), near the cut
+            first_side = {k: v for k, v, f, z in zip(side, side.values(), F, snap.xyz[:, 2])
+                          if abs(f) > 1e-6 and z <= 0.55}
+        for key, value in side.items():
+            if key in first_side:
+                assert value == first_side[key] or value == 0
+    assert result.solve.success
+    # the dart nodes are the two rows along the cut
+    (entry,) = [d for d in __import__("core.pipeline", fromlist=["x"]).result_to_dict(result)["darts"]]
+    assert len(entry["positive_nodes"]) > 5 and len(entry["negative_nodes"]) > 5
