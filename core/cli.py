@@ -85,6 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="plane A x + B y + C z + D = 0 for the matching --yarn")
     f.add_argument("--yarn-k", action="append", type=float, default=[], metavar="K",
                    help="weight of the matching --yarn (default 1000)")
+    f.add_argument("--plane-dart", action="append", default=[], metavar="A,B,C,D[:XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX]",
+                   help="cut a plane dart: the plane A x + B y + C z + D = 0 inside the box (repeatable)")
+    f.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json",
+                   help="cut a curve dart: a 3D polyline and a view direction (see README; repeatable)")
     f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
                    help="refuse meshes estimated larger than N nodes (default 2,000,000)")
     f.add_argument("--out", required=True, metavar="RESULT.json", help="result file to write")
@@ -107,6 +111,21 @@ def _yarns(args) -> tuple:
     return tuple(parse_yarn(y, pl, k) for y, pl, k in zip(args.yarn, args.yarn_plane, ks))
 
 
+def _darts(args, surface) -> tuple:
+    from core.darts import PlaneDart
+
+    darts = []
+    for k, spec in enumerate(args.plane_dart):
+        plane, _, box = spec.partition(":")
+        darts.append(PlaneDart(_floats(plane, 4, "plane dart"),
+                               _floats(box, 6, "plane dart box") if box else None, name=f"plane dart {k + 1}"))
+    for k, path in enumerate(args.curve_dart):
+        from core.curves import curve_dart_from_file
+
+        darts.append(curve_dart_from_file(surface, path, name=f"curve dart {k + 1}"))
+    return tuple(darts)
+
+
 def _cmd_flatten(args) -> int:
     from core.fileio import write_json
     from core.mesh import parse_material
@@ -122,7 +141,7 @@ def _cmd_flatten(args) -> int:
         seed=_floats(args.seed, 2, "seed"), angle_deg=args.angle, paths=args.paths, solver=args.solver,
         tol=args.tol, max_iter=args.max_iter,
         max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"),
-        yarns=_yarns(args), max_nodes=args.max_nodes)
+        yarns=_yarns(args), darts=_darts(args, surface), max_nodes=args.max_nodes)
     initial = None
     if args.warm_start:
         initial = state_from_dict(_read_json(args.warm_start), surface, settings)
