@@ -81,6 +81,8 @@ class Pattern:
     outline_uv : (k, 2) their parameters
     on_boundary : (k,) bool, outline points that lie on the region's boundary
     darts : the darts' openings; holes : closed 2D polygons of darts inside the piece
+    pieces : every piece (darts may cut the mesh apart); the fields above are
+        the largest piece's
     """
 
     xy: np.ndarray
@@ -90,10 +92,14 @@ class Pattern:
     on_boundary: np.ndarray | None = None
     darts: tuple = ()
     holes: tuple = ()
+    pieces: tuple = ()
 
     @property
     def perimeter(self) -> float:
-        """Length of the outline along the region's boundary (dart legs excluded)."""
+        """Length of the outline along the region's boundary (dart legs excluded),
+        over all pieces."""
+        if len(self.pieces) > 1:
+            return sum(p.perimeter for p in self.pieces)
         seg = np.linalg.norm(np.roll(self.outline, -1, axis=0) - self.outline, axis=1)
         if self.on_boundary is None:
             return float(seg.sum())
@@ -101,7 +107,9 @@ class Pattern:
 
     @property
     def area(self) -> float:
-        """Area inside the outline, less the holes."""
+        """Area inside the outline, less the holes, over all pieces."""
+        if len(self.pieces) > 1:
+            return sum(p.area for p in self.pieces)
         return abs(polygon_area(self.outline)) - sum(abs(polygon_area(h)) for h in self.holes)
 
 
@@ -154,7 +162,7 @@ def node_frames(mesh: SpringMesh, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
                usable: np.ndarray | None = None, k: int = BLEND_K, valid=None,
-               frames=None) -> np.ndarray:
+               frames=None, nearest: bool = False):
     """Map 3D points Q (q, 3) near the mesh into the 2D pattern (q, 2).
 
     Each point is expressed in the lattice frames of its k nearest usable
@@ -205,7 +213,10 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
     a = (g22 * r1 - g12 * r2) / det
     b = (g11 * r2 - g12 * r1) / det
     cand = xy[nn] + np.stack([a * mesh.r_weft, b * mesh.r_warp], axis=-1)
-    return np.einsum("qk,qkc->qc", np.where(sel, w, 0.0), cand) + np.where(total > 0, 0.0, np.nan)
+    out = np.einsum("qk,qkc->qc", np.where(sel, w, 0.0), cand) + np.where(total > 0, 0.0, np.nan)
+    if nearest:
+        return out, np.where(sel.any(axis=1), nn[np.arange(len(Q)), first], -1)
+    return out
 
 
 def boundary_samples(surface: NurbsSurface, spacing: float, per_spacing: int = 4,
@@ -217,6 +228,32 @@ def boundary_samples(surface: NurbsSurface, spacing: float, per_spacing: int = 4
     return boundary_polyline(surface, n_edge)
 
 
+@dataclass(frozen=True)
+class Piece:
+    """One connected piece of a pattern (darts may cut a mesh in several).
+
+    outline (k, 2), outline3d (k, 3), outline_uv (k, 2), on_boundary (k,) :
+    as in :class:`Pattern`; nodes : indices of the mesh nodes of the piece;
+    holes : closed polygons of darts lying inside the piece.
+    """
+
+    outline: np.ndarray
+    outline3d: np.ndarray
+    outline_uv: np.ndarray
+    on_boundary: np.ndarray
+    nodes: np.ndarray
+    holes: tuple = ()
+
+    @property
+    def perimeter(self) -> float:
+        seg = np.linalg.norm(np.roll(self.outline, -1, axis=0) - self.outline, axis=1)
+        return float(seg[self.on_boundary & np.roll(self.on_boundary, -1)].sum())
+
+    @property
+    def area(self) -> float:
+        return abs(polygon_area(self.outline)) - sum(abs(polygon_area(h)) for h in self.holes)
+
+
 def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
                  samples: tuple[np.ndarray, np.ndarray] | None = None, darts=None,
                  uv: np.ndarray | None = None) -> Pattern:
@@ -225,7 +262,11 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
     With ``darts`` (a :class:`core.darts.DartSet`, and the nodes' ``uv``),
     boundary points are mapped only through nodes on their own side of every
     dart, and each dart's curve is mapped twice, from its positive and from
-    its negative side, so on a doubly curved surface it opens into a V.
+    its negative side, so on a doubly curved surface it opens into a V. The
+    outline walks round every dart that opens on the boundary (up one leg,
+    to the tip, down the other); a dart with both ends on the boundary is a
+    cut, and the outline of each piece follows it from one end to the other.
+    Darts inside the region become holes.
     """
     xy = mesh.lattice_xy()
     spacing = min(mesh.r_weft, mesh.r_warp)
@@ -233,62 +274,139 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
         samples = boundary_samples(surface, spacing)
     buv, Q = samples
     frames = node_frames(mesh, xyz)
-    have_darts = darts is not None and len(darts) > 0
-    valid = None
-    if have_darts:
-        def valid(rows, nn):  # the node is on the point's side of every dart
-            return ~darts.crossing(qv[rows.ravel()], uv[nn.ravel()]).reshape(rows.shape)
-        qv = buv
-    outline = map_points(Q, mesh, xyz, xy, valid=valid, frames=frames)
-    out_uv, out3d, on_b = list(buv), list(Q), [True] * len(Q)
-    out2d = list(outline)
-    openings, holes = [], []
-    if have_darts:
-        inserts = []
-        for dart in darts.darts:
-            cuv = _resample_uv(surface, dart.curve_uv(surface), spacing / 4)
-            if len(cuv) < 2:
+    if darts is None or len(darts) == 0:
+        outline = map_points(Q, mesh, xyz, xy, frames=frames)
+        piece = _oriented(Piece(outline, Q, buv, np.ones(len(Q), dtype=bool), np.arange(mesh.n_nodes)))
+        return Pattern(xy, piece.outline, piece.outline3d, piece.outline_uv, piece.on_boundary, (), (),
+                       (piece,))
+    uv = np.asarray(uv, dtype=float)
+    # the darts: curves and both sides' legs
+    openings, ends = [], []
+    for dart in darts.darts:
+        cuv = _resample_uv(surface, dart.curve_uv(surface), spacing / 4)
+        if len(cuv) < 2:
+            continue
+        c3 = surface.points(cuv)
+        legs = {}
+        others = DartSetView(darts, exclude=dart)
+        for sgn in (1, -1):
+            def valid_side(rows, nn, sgn=sgn, dart=dart, others=others, cuv=cuv):
+                nodes = nn.ravel()
+                ok = dart.side(uv[nodes], xyz[nodes]) == sgn
+                ok &= ~others.crossing(cuv[rows.ravel()], uv[nodes])
+                return ok.reshape(rows.shape)
+            legs[sgn] = map_points(c3, mesh, xyz, xy, valid=valid_side, frames=frames)
+        on_edge = _boundary_distance(surface, cuv[[0, -1]]) < 1e-6
+        openings.append(DartOpening(dart.name, dart.kind, cuv, c3, legs[1], legs[-1], bool(on_edge[0])))
+        ends.append((dart, cuv, c3, legs, on_edge))
+    # boundary samples at a dart's end are replaced by the legs' ends
+    keep = np.ones(len(Q), dtype=bool)
+    for _, cuv, c3, _, on_edge in ends:
+        for e in np.flatnonzero(on_edge):
+            keep &= np.linalg.norm(Q - c3[-e], axis=1) >= spacing / 8
+    buv, Q = buv[keep], Q[keep]
+
+    def visible(rows, nn):  # the node is on the point's side of every dart
+        return ~darts.crossing(buv[rows.ravel()], uv[nn.ravel()]).reshape(rows.shape)
+
+    B2, near = map_points(Q, mesh, xyz, xy, valid=visible, frames=frames, nearest=True)
+    comp = _components(mesh)
+    bcomp = np.where(near >= 0, comp[np.maximum(near, 0)], -1)
+    # dart ends on the boundary, as events on the boundary polygon's segments
+    nb = len(Q)
+    events = {}  # segment index -> list of (t, dart k, end 0 or -1)
+    for k, (dart, cuv, c3, legs, on_edge) in enumerate(ends):
+        for e in (0, -1):
+            if on_edge[e]:
+                i, t = _nearest_segment_t(buv, cuv[e])
+                events.setdefault(i, []).append((t, k, e))
+    for lst in events.values():
+        lst.sort()
+    pieces, visited = [], np.zeros(nb, dtype=bool)
+    for start in range(nb):
+        if visited[start] or bcomp[start] < 0:
+            continue
+        pts2, pts3, ptsuv, flags = [], [], [], []
+        i, after = start, -1.0  # walk from boundary sample i; events past t = after
+        for _ in range(4 * nb + 4 * len(ends) + 8):
+            if after < 0:
+                if visited[i] and i == start and pts2:
+                    break
+                visited[i] = True
+                pts2.append(B2[i]), pts3.append(Q[i]), ptsuv.append(buv[i]), flags.append(True)
+            ev = [x for x in events.get(i, []) if x[0] > after]
+            if not ev:
+                i, after = (i + 1) % nb, -1.0
+                if i == start:
+                    break
                 continue
-            c3 = surface.points(cuv)
-            legs = {}
-            for sgn in (1, -1):
-                def valid_side(rows, nn, sgn=sgn, dart=dart):
-                    nodes = nn.ravel()
-                    ok = dart.side(uv[nodes], xyz[nodes]) == sgn
-                    others = DartSetView(darts, exclude=dart)
-                    ok &= ~others.crossing(cuv[rows.ravel()], uv[nodes])
-                    return ok.reshape(rows.shape)
-                legs[sgn] = map_points(c3, mesh, xyz, xy, valid=valid_side, frames=frames)
-            mouth = _boundary_distance(surface, cuv[:1])[0] < 1e-6
-            openings.append(DartOpening(dart.name, dart.kind, cuv, c3, legs[1], legs[-1], bool(mouth)))
-            if mouth:
-                inserts.append((cuv, c3, legs, dart))
+            t, k, e = ev[0]
+            dart, cuv, c3, legs, on_edge = ends[k]
+            side = int(dart.side(buv[i:i + 1], Q[i:i + 1])[0])
+            here = legs[side] if e == 0 else legs[side][::-1]
+            path_uv = cuv if e == 0 else cuv[::-1]
+            path3 = c3 if e == 0 else c3[::-1]
+            if on_edge[0] and on_edge[-1]:
+                # a cut: follow it to its other end and go on along the boundary there
+                pts2 += list(here)
+                pts3 += list(path3)
+                ptsuv += list(path_uv)
+                flags += [True] + [False] * (len(here) - 2) + [True]
+                j, tj = _nearest_segment_t(buv, path_uv[-1])
+                i, after = j, tj
             else:
-                holes.append(np.vstack([legs[1], legs[-1][::-1]]))
-        # walk round each dart that opens on the boundary
-        for cuv, c3, legs, dart in inserts:
-            # boundary samples at the mouth itself are replaced by the legs' ends
-            near = [k for k in range(len(out3d))
-                    if on_b[k] and np.linalg.norm(out3d[k] - c3[0]) < spacing / 8]
-            for k in reversed(near):
-                del out2d[k], out_uv[k], out3d[k], on_b[k]
-            bu = np.array(out_uv)
-            i = _nearest_segment(bu, cuv[0], np.array(on_b))
-            first = int(dart.side(bu[i:i + 1], np.array(out3d)[i:i + 1])[0])
-            a, b = legs[first], legs[-first]
-            pts2 = list(a) + list(b[::-1])
-            pts_uv = list(cuv) + list(cuv[::-1])
-            pts3 = list(c3) + list(c3[::-1])
-            flags = [True] + [False] * (2 * len(cuv) - 2) + [True]
-            out2d[i + 1:i + 1] = pts2
-            out_uv[i + 1:i + 1] = pts_uv
-            out3d[i + 1:i + 1] = pts3
-            on_b[i + 1:i + 1] = flags
-    outline, Q, buv, on_b = np.array(out2d), np.array(out3d), np.array(out_uv), np.array(on_b)
-    if polygon_area(outline) < 0:  # report counter-clockwise
-        outline, Q, buv, on_b = outline[::-1], Q[::-1], buv[::-1], on_b[::-1]
-    return Pattern(xy=xy, outline=outline, outline3d=Q, outline_uv=buv, on_boundary=on_b,
-                   darts=tuple(openings), holes=tuple(holes))
+                # up one leg to the tip and down the other
+                other = legs[-side]
+                pts2 += list(here) + list(other[::-1])
+                pts3 += list(path3) + list(path3[::-1])
+                ptsuv += list(path_uv) + list(path_uv[::-1])
+                flags += [True] + [False] * (2 * len(here) - 2) + [True]
+                after = t
+        nodes = np.flatnonzero(comp == bcomp[start])
+        pieces.append(Piece(np.array(pts2), np.array(pts3), np.array(ptsuv), np.array(flags), nodes))
+    # darts inside the region: holes of the piece they lie in
+    holes_all = []
+    for dart, cuv, c3, legs, on_edge in ends:
+        if not on_edge.any():
+            hole = np.vstack([legs[1], legs[-1][::-1]])
+            holes_all.append(hole)
+            _, nn = cKDTree(xyz).query(c3[len(c3) // 2])
+            for n_, p in enumerate(pieces):
+                if comp[nn] == comp[p.nodes[0]] if len(p.nodes) else False:
+                    pieces[n_] = Piece(p.outline, p.outline3d, p.outline_uv, p.on_boundary, p.nodes,
+                                       p.holes + (hole,))
+                    break
+    pieces = sorted((_oriented(p) for p in pieces), key=lambda p: -abs(polygon_area(p.outline)))
+    main = pieces[0]
+    return Pattern(xy, main.outline, main.outline3d, main.outline_uv, main.on_boundary,
+                   tuple(openings), main.holes, tuple(pieces))
+
+
+def _oriented(p: Piece) -> Piece:
+    """The piece with its outline counter-clockwise."""
+    if polygon_area(p.outline) >= 0:
+        return p
+    return Piece(p.outline[::-1], p.outline3d[::-1], p.outline_uv[::-1], p.on_boundary[::-1], p.nodes, p.holes)
+
+
+def _components(mesh: SpringMesh) -> np.ndarray:
+    """(n,) connected-component label of every node of the spring graph."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = mesh.n_nodes
+    g = coo_matrix((np.ones(mesh.n_springs), (mesh.ends[:, 0], mesh.ends[:, 1])), shape=(n, n))
+    return connected_components(g, directed=False)[1]
+
+
+def _nearest_segment_t(poly: np.ndarray, p: np.ndarray) -> tuple[int, float]:
+    """(i, t): the closed polygon's segment (i, i+1) nearest to p and where along it."""
+    a, b = poly, np.roll(poly, -1, axis=0)
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+    d = np.linalg.norm(a + t[:, None] * ab - p, axis=1)
+    i = int(np.argmin(d))
+    return i, float(t[i])
 
 
 class DartSetView:
@@ -314,16 +432,6 @@ def _boundary_distance(surface: NurbsSurface, uv: np.ndarray) -> np.ndarray:
     dom = surface.domain
     t = (uv - dom[:, 0]) / np.ptp(dom, axis=1)
     return np.min(np.column_stack([t, 1 - t]), axis=1)
-
-
-def _nearest_segment(poly: np.ndarray, p: np.ndarray, on_boundary: np.ndarray) -> int:
-    """Index i of the closed polygon's boundary segment (i, i+1) nearest to p."""
-    a, b = poly, np.roll(poly, -1, axis=0)
-    ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
-    d = np.linalg.norm(a + t[:, None] * ab - p, axis=1)
-    d[~(on_boundary & np.roll(on_boundary, -1))] = np.inf
-    return int(np.argmin(d))
 
 
 def _resample_uv(surface: NurbsSurface, uv: np.ndarray, step: float) -> np.ndarray:

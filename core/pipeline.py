@@ -176,7 +176,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "drape_seconds": stats.get("seconds", 0.0),
         "solve_seconds": solve.seconds if solve else 0.0,
         "seconds": time.perf_counter() - t0,
-        "pieces": _components(state.mesh),
+        "pieces": len(pattern.pieces),
     })
     return FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve)
 
@@ -195,16 +195,6 @@ def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | N
         if callback is not None and callback(snap):
             gen.close()
             return flatten(surface, replace(settings, solver="none"), State(snap.mesh, snap.uv), area)
-
-
-def _components(mesh: SpringMesh) -> int:
-    """Number of connected pieces of the spring mesh."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    n = mesh.n_nodes
-    g = coo_matrix((np.ones(mesh.n_springs), (mesh.ends[:, 0], mesh.ends[:, 1])), shape=(n, n))
-    return int(connected_components(g, directed=False)[0])
 
 
 def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:
@@ -266,8 +256,10 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
             "outline3d": pattern.outline3d.tolist(),
             "outline_uv": pattern.outline_uv.tolist(),
             "on_boundary": pattern.on_boundary.tolist() if pattern.on_boundary is not None else None,
-            "pieces": [{"outline": pattern.outline.tolist(), "holes": [h.tolist() for h in pattern.holes],
-                        "nodes": list(range(mesh.n_nodes))}],
+            "pieces": [{"outline": pc.outline.tolist(), "outline3d": pc.outline3d.tolist(),
+                        "on_boundary": pc.on_boundary.tolist(), "holes": [h.tolist() for h in pc.holes],
+                        "nodes": pc.nodes.tolist(), "area": pc.area, "perimeter": pc.perimeter}
+                       for pc in pattern.pieces],
         },
         "darts": _darts_dict(result),
     }

@@ -139,3 +139,20 @@ def test_no_spring_crosses_the_dart_and_nodes_keep_their_side():
     # the dart nodes are the two rows along the cut
     (entry,) = [d for d in __import__("core.pipeline", fromlist=["x"]).result_to_dict(result)["darts"]]
     assert len(entry["positive_nodes"]) > 5 and len(entry["negative_nodes"]) > 5
+
+
+def test_darts_that_cut_the_mesh_apart_give_separate_pieces(tmp_path):
+    # the half cylinder cut along its crest: two quarter cylinders, each a pi/4 x 1.5 rectangle
+    s = load_example("half_cylinder")
+    r = flatten(s, FlattenSettings(0.05, darts=(PlaneDart((1.0, 0.0, 0.0, 0.0)),)))
+    assert r.metrics["pieces"] == len(r.pattern.pieces) == 2
+    nodes = np.concatenate([p.nodes for p in r.pattern.pieces])
+    assert len(nodes) == r.mesh.n_nodes == len(np.unique(nodes))
+    for p in r.pattern.pieces:
+        assert p.area == pytest.approx(np.pi / 4 * 1.5, rel=0.005)
+        assert p.perimeter == pytest.approx(1.5 + np.pi / 2, rel=0.005)  # the cut is not boundary
+        assert np.all(s.points(p.outline_uv) - p.outline3d == 0)
+    assert r.metrics["area_error_pct"] < 0.2 and r.metrics["boundary_error_pct"] < 0.2
+    d = __import__("core.pipeline", fromlist=["x"]).result_to_dict(r)
+    assert len(d["pattern"]["pieces"]) == 2
+    assert d["pattern"]["outline"] == d["pattern"]["pieces"][0]["outline"]
