@@ -120,7 +120,7 @@ def _darts(args, surface) -> tuple:
         darts.append(PlaneDart(_floats(plane, 4, "plane dart"),
                                _floats(box, 6, "plane dart box") if box else None, name=f"plane dart {k + 1}"))
     for k, path in enumerate(args.curve_dart):
-        from core.curves import curve_dart_from_file
+        from core.darts import curve_dart_from_file
 
         darts.append(curve_dart_from_file(surface, path, name=f"curve dart {k + 1}"))
     return tuple(darts)

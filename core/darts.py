@@ -28,7 +28,7 @@ import numpy as np
 from core.errors import SettingsError
 from core.nurbs import NurbsSurface
 
-__all__ = ["PlaneDart", "CurveDart", "segments_cross", "DartSet"]
+__all__ = ["PlaneDart", "CurveDart", "segments_cross", "DartSet", "curve_dart", "curve_dart_from_file"]
 
 
 def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -280,3 +280,58 @@ class DartSet:
             side = d.side(uv[near], xyz[near]) if len(near) else np.zeros(0, np.int8)
             out.append({"positive": near[side > 0], "negative": near[side < 0]})
         return out
+
+
+def curve_dart(surface: NurbsSurface, points, view_dir, tol: float | None = None,
+               name: str = "curve dart") -> CurveDart:
+    """A curve dart from a polyline drawn in a view (paper 3.4 B).
+
+    points (k, 3) are projected onto the surface along view_dir (from the
+    camera into the scene), the (u, v) curve is approximated by biarcs within
+    ``tol`` (parameter units; default 1/1000 of the domain), and the biarcs
+    are sampled densely. An end within 1 % of the domain's size from its edge
+    (a drawing that starts beyond the rim ends there, and a grazing view
+    locates the rim only roughly) is extended onto the edge; the curve is
+    oriented from the end nearer the boundary (the mouth).
+    """
+    from core.curves import fit_biarcs, project_polyline
+
+    dom = surface.domain
+    size = float(np.max(np.ptp(dom, axis=1)))
+    proj = project_polyline(surface, points, view_dir)
+    biarcs = fit_biarcs(proj.uv, 1e-3 * size if tol is None else tol)
+    uv = biarcs.sample(size / 500)
+    uv = np.clip(uv, dom[:, 0], dom[:, 1])
+    for e in (0, -1):  # ends at the rim go onto it exactly
+        t = (uv[e] - dom[:, 0]) / np.ptp(dom, axis=1)
+        gap = np.array([t[0], 1 - t[0], t[1], 1 - t[1]])
+        k = int(np.argmin(gap))
+        if gap[k] < 0.01:
+            ax, bound = k // 2, dom[k // 2, k % 2]
+            end = uv[e].copy()
+            end[ax] = bound
+            uv = np.vstack([end, uv]) if e == 0 else np.vstack([uv, end])
+    if _boundary_distance(surface, uv[-1:])[0] < _boundary_distance(surface, uv[:1])[0]:
+        uv = uv[::-1]
+    return CurveDart(uv, name)
+
+
+def curve_dart_from_file(surface: NurbsSurface, path, name: str = "curve dart") -> CurveDart:
+    """Read a curve dart file: JSON ``{"points": [[x, y, z], ...], "view_direction":
+    [dx, dy, dz], "tolerance": T (optional, parameter units)}``."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            d = json.load(fh)
+        points = np.asarray(d["points"], dtype=float)
+        view = np.asarray(d["view_direction"], dtype=float)
+        tol = d.get("tolerance")
+    except OSError as exc:
+        raise SettingsError(f"cannot read curve dart {path}: {exc.strerror or exc}") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise SettingsError(f"curve dart {path} must be JSON with 'points' (a list of [x, y, z]) and "
+                            f"'view_direction' ([dx, dy, dz]): {exc}") from None
+    if points.ndim != 2 or points.shape[1] != 3 or view.shape != (3,):
+        raise SettingsError(f"curve dart {path}: 'points' must be [[x, y, z], ...] and 'view_direction' [dx, dy, dz]")
+    return curve_dart(surface, points, view, tol=None if tol is None else float(tol), name=name)
