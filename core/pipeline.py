@@ -219,6 +219,9 @@ def _settings_dict(s: FlattenSettings) -> dict:
     out["seed"] = list(s.seed)
     out["max_seconds"] = s.max_seconds if math.isfinite(s.max_seconds) else None
     out["yarns"] = [{"kind": y.kind, "index": y.index, "plane": list(y.plane), "k": y.k} for y in s.yarns]
+    out["darts"] = [{"kind": d.kind, "name": d.name, "plane": list(d.plane),
+                     "box": list(d.box) if d.box is not None else None} if d.kind == "plane"
+                    else {"kind": d.kind, "name": d.name, "uv": np.asarray(d.uv).tolist()} for d in s.darts]
     return out
 
 

@@ -156,3 +156,73 @@ def test_darts_that_cut_the_mesh_apart_give_separate_pieces(tmp_path):
     d = __import__("core.pipeline", fromlist=["x"]).result_to_dict(r)
     assert len(d["pattern"]["pieces"]) == 2
     assert d["pattern"]["outline"] == d["pattern"]["pieces"][0]["outline"]
+
+
+def octant_curve_dart():
+    from core.darts import curve_dart
+
+    t = np.linspace(0, 1, 12)
+    drawn = np.column_stack([0.8 - 0.55 * t, 0.8 - 0.55 * t + 0.06 * np.sin(np.pi * t), np.full_like(t, 2.0)])
+    return curve_dart(load_example("octant"), drawn, (0.0, 0.0, -1.0))
+
+
+def test_curve_dart_from_a_drawing_lies_on_the_surface_where_drawn():
+    s = load_example("octant")
+    d = octant_curve_dart()
+    xyz = s.points(d.uv)
+    assert np.allclose(np.linalg.norm(xyz, axis=1), 1.0)
+    assert abs(xyz[0, 2]) < 1e-9  # the mouth is on the equator: the drawing started beyond the rim
+    # seen from above, the curve follows the drawn polyline's x and y (to the biarc tolerance,
+    # 1/1000 of the domain in (u, v), about 2e-3 on the unit sphere)
+    t = np.linspace(0, 1, 12)
+    drawn = np.column_stack([0.8 - 0.55 * t, 0.8 - 0.55 * t + 0.06 * np.sin(np.pi * t)])
+    f = np.linspace(0, 1, 50)[:, None, None]
+    line = (drawn[:-1] * (1 - f) + drawn[1:] * f).reshape(-1, 2)
+    gap = np.linalg.norm(xyz[:, None, :2] - line[None], axis=2).min(axis=1)
+    assert gap[1:].max() < 3e-3
+
+
+def test_curve_and_plane_darts_together():
+    s = load_example("octant")
+    from core.darts import curve_dart
+
+    # a second dart, drawn seen from +y, from beyond the x-z meridian's rim inwards
+    drawn = np.array([[0.97, 2.0, 0.3], [0.86, 2.0, 0.31], [0.75, 2.0, 0.32]])
+    other = curve_dart(s, drawn, (0.0, -1.0, 0.0))
+    plain = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"]))
+    both = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"], darts=(OCTANT_DART, other)))
+    assert len(both.pattern.darts) == 2 and all(o.mouth for o in both.pattern.darts)
+    assert both.metrics["pieces"] == 1
+    assert both.metrics["energy"] < 0.5 * plain.metrics["energy"]
+    for o in both.pattern.darts:
+        la, lb = o.leg_lengths
+        assert abs(la - lb) < 0.03 * la and o.opening_deg > 3
+        for leg in (o.leg_a, o.leg_b):  # both walked round in the one outline
+            d = np.linalg.norm(both.pattern.outline[:, None, :] - leg[None, ::5, :], axis=2).min(axis=0)
+            assert d.max() < 1e-12
+
+
+def test_cli_curve_dart_file(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    dart = tmp_path / "dart.json"
+    t = np.linspace(0, 1, 8)
+    dart.write_text(json.dumps({"points": np.column_stack([0.8 - 0.5 * t, 0.8 - 0.5 * t, np.full_like(t, 2.0)]).tolist(),
+                                "view_direction": [0, 0, -1]}))
+    out = tmp_path / "r.json"
+    p = subprocess.run([sys.executable, "-m", "core", "flatten", "octant", "--spacing", "0.1", "--material",
+                        "isotropic", "--curve-dart", str(dart), "--plane-dart", "1,0,0,-0.3:-2,2,-2,2,-2,0.4",
+                        "--quiet", "--out", str(out)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    r = json.loads(out.read_text())
+    kinds = [d["kind"] for d in r["darts"]]
+    assert kinds == ["plane", "curve"]
+    for d in r["darts"]:
+        assert len(d["leg_lengths"]) == 2 and d["opening_deg"] >= 0 and d["curve"]
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"points": [[0, 0, 0]]}')
+    p = subprocess.run([sys.executable, "-m", "core", "flatten", "octant", "--spacing", "0.1", "--curve-dart",
+                        str(bad), "--out", str(out)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "curve dart" in p.stderr
