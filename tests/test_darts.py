@@ -226,3 +226,20 @@ def test_cli_curve_dart_file(tmp_path):
     p = subprocess.run([sys.executable, "-m", "core", "flatten", "octant", "--spacing", "0.1", "--curve-dart",
                         str(bad), "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and "curve dart" in p.stderr
+
+
+def test_a_dart_inside_the_region_opens_into_a_hole():
+    from core.darts import curve_dart
+
+    s = load_example("octant")
+    d = curve_dart(s, np.array([[0.55, 0.25, 2.0], [0.4, 0.4, 2.0], [0.25, 0.55, 2.0]]), (0.0, 0.0, -1.0))
+    plain = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"]))
+    r = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"], darts=(d,)))
+    (o,) = r.pattern.darts
+    assert not o.mouth and len(r.pattern.holes) == 1 and r.metrics["pieces"] == 1
+    hole = r.pattern.holes[0]
+    from core.pattern import polygon_area
+
+    assert abs(polygon_area(hole)) > 1e-3
+    assert r.pattern.area == pytest.approx(abs(polygon_area(r.pattern.outline)) - abs(polygon_area(hole)))
+    assert r.metrics["energy"] < plain.metrics["energy"]
