@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from core.darts import _boundary_distance
 from core.mesh import WARP, WEFT, SpringMesh
 from core.nurbs import NurbsSurface
 from core.quadrature import boundary_polyline, edge_lengths
@@ -426,12 +427,6 @@ class DartSetView:
                 xa, xb = self.inner.surface.points(uva), self.inner.surface.points(uvb)
             out |= d.crosses(uva, uvb, xa, xb)
         return out
-
-
-def _boundary_distance(surface: NurbsSurface, uv: np.ndarray) -> np.ndarray:
-    dom = surface.domain
-    t = (uv - dom[:, 0]) / np.ptp(dom, axis=1)
-    return np.min(np.column_stack([t, 1 - t]), axis=1)
 
 
 def _resample_uv(surface: NurbsSurface, uv: np.ndarray, step: float) -> np.ndarray:
