@@ -271,15 +271,25 @@ class NurbsSurface:
         A = self._homogeneous(uv, 0)[(0, 0)]
         return A[:, :3] / A[:, 3:4]
 
-    def derivatives(self, uv) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(S, S_u, S_v), each (n, 3), at uv : (n, 2), without normals (the cheap path)."""
-        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
-        H = self._homogeneous(uv, 1)
+    def _rational(self, uv: np.ndarray, second: bool) -> tuple:
+        """(S, S_u, S_v, S_uu, S_uv, S_vv) by the quotient rule on the homogeneous
+        derivatives; the second derivatives are None unless asked for."""
+        H = self._homogeneous(uv, 2 if second else 1)
         w = H[(0, 0)][:, 3:4]
         S = H[(0, 0)][:, :3] / w
-        Su = (H[(1, 0)][:, :3] - H[(1, 0)][:, 3:4] * S) / w
-        Sv = (H[(0, 1)][:, :3] - H[(0, 1)][:, 3:4] * S) / w
-        return S, Su, Sv
+        wu, wv = H[(1, 0)][:, 3:4], H[(0, 1)][:, 3:4]
+        Su = (H[(1, 0)][:, :3] - wu * S) / w
+        Sv = (H[(0, 1)][:, :3] - wv * S) / w
+        if not second:
+            return S, Su, Sv, None, None, None
+        Suu = (H[(2, 0)][:, :3] - 2 * wu * Su - H[(2, 0)][:, 3:4] * S) / w
+        Svv = (H[(0, 2)][:, :3] - 2 * wv * Sv - H[(0, 2)][:, 3:4] * S) / w
+        Suv = (H[(1, 1)][:, :3] - wu * Sv - wv * Su - H[(1, 1)][:, 3:4] * S) / w
+        return S, Su, Sv, Suu, Suv, Svv
+
+    def derivatives(self, uv) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(S, S_u, S_v), each (n, 3), at uv : (n, 2), without normals (the cheap path)."""
+        return self._rational(np.asarray(uv, dtype=float).reshape(-1, 2), False)[:3]
 
     def evaluate(self, uv, second: bool = False) -> SurfaceEval:
         """Points, partial derivatives and unit normals at uv : (n, 2).
@@ -289,19 +299,8 @@ class NurbsSurface:
         is the limit normal from the interior.
         """
         uv = np.asarray(uv, dtype=float).reshape(-1, 2)
-        H = self._homogeneous(uv, 2 if second else 1)
-        w = H[(0, 0)][:, 3:4]
-        S = H[(0, 0)][:, :3] / w
-        wu, wv = H[(1, 0)][:, 3:4], H[(0, 1)][:, 3:4]
-        Su = (H[(1, 0)][:, :3] - wu * S) / w
-        Sv = (H[(0, 1)][:, :3] - wv * S) / w
-        Suu = Suv = Svv = None
-        if second:
-            Suu = (H[(2, 0)][:, :3] - 2 * wu * Su - H[(2, 0)][:, 3:4] * S) / w
-            Svv = (H[(0, 2)][:, :3] - 2 * wv * Sv - H[(0, 2)][:, 3:4] * S) / w
-            Suv = (H[(1, 1)][:, :3] - wu * Sv - wv * Su - H[(1, 1)][:, 3:4] * S) / w
-        normal = self._normals(uv, Su, Sv)
-        return SurfaceEval(S, Su, Sv, normal, Suu, Suv, Svv)
+        S, Su, Sv, Suu, Suv, Svv = self._rational(uv, second)
+        return SurfaceEval(S, Su, Sv, self._normals(uv, Su, Sv), Suu, Suv, Svv)
 
     def _normals(self, uv: np.ndarray, Su: np.ndarray, Sv: np.ndarray) -> np.ndarray:
         n = np.cross(Su, Sv)
@@ -322,8 +321,7 @@ class NurbsSurface:
         lies on); likewise for the other edges. Points where that limit is
         degenerate too take the normal of a point moved a hair inward.
         """
-        ev = self.evaluate_raw2(uv)
-        Su, Sv, Suv = ev
+        _, Su, Sv, _, Suv, _ = self._rational(uv, True)
         d = self.domain
         centre = d.mean(axis=1)
         n = np.zeros_like(Su)
@@ -341,24 +339,9 @@ class NurbsSurface:
         if np.any(still):
             h = 1e-7 * (d[:, 1] - d[:, 0])
             moved = uv[still] + h * np.sign(centre - uv[still])
-            H = self._homogeneous(moved, 1)
-            w = H[(0, 0)][:, 3:4]
-            S = H[(0, 0)][:, :3] / w
-            su = (H[(1, 0)][:, :3] - H[(1, 0)][:, 3:4] * S) / w
-            sv = (H[(0, 1)][:, :3] - H[(0, 1)][:, 3:4] * S) / w
+            _, su, sv = self.derivatives(moved)
             n[still] = np.cross(su, sv)
         return n
-
-    def evaluate_raw2(self, uv: np.ndarray):
-        """(S_u, S_v, S_uv) at uv without normals (used for limit normals)."""
-        H = self._homogeneous(uv, 2)
-        w = H[(0, 0)][:, 3:4]
-        S = H[(0, 0)][:, :3] / w
-        wu, wv = H[(1, 0)][:, 3:4], H[(0, 1)][:, 3:4]
-        Su = (H[(1, 0)][:, :3] - wu * S) / w
-        Sv = (H[(0, 1)][:, :3] - wv * S) / w
-        Suv = (H[(1, 1)][:, :3] - wu * Sv - wv * Su - H[(1, 1)][:, 3:4] * S) / w
-        return Su, Sv, Suv
 
     def __repr__(self) -> str:
         nu, nv = self.shape
