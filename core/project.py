@@ -47,13 +47,14 @@ from core.mesh import MATERIALS, Material
 from core.nurbs import NurbsSurface
 from core.pipeline import (SOLVERS, FlattenResult, FlattenSettings, _settings_dict, flatten_iter,
                            result_to_dict, state_from_dict)
+from core.quadrature import region_area
 from core.solver import State
 from core.surface_io import surface_from_json_dict, surface_to_json_dict
 
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
            "DRAPE_KEYS", "settings_to_dict", "settings_from_dict", "settings_equal", "validate_settings",
            "needs_new_drape", "warm_start", "project_to_dict", "project_from_dict", "save_project",
-           "load_project", "result_from_dict", "project_problems"]
+           "load_project", "result_from_dict", "project_problems", "new_project"]
 
 PROJECT_FORMAT = "flatweave-project"
 PROJECT_VERSION = 1
@@ -532,3 +533,14 @@ def project_problems(project: Project) -> list[str]:
     if "nodes" in r.metrics and r.metrics["nodes"] != n:
         problems.append(f"metrics say {r.metrics['nodes']} nodes, mesh has {n}")
     return problems
+
+
+def new_project(surface: NurbsSurface, name: str = "untitled", source: str | None = None,
+                spacing: float | None = None, units: str = "m") -> Project:
+    """A project with default settings for ``surface``: the woven material and,
+    unless given, a spacing of about a 25th of the square root of its area
+    (rounded to two significant digits), which makes about 600 nodes."""
+    if spacing is None:
+        raw = math.sqrt(float(region_area(surface))) / 25.0
+        spacing = float(f"{raw:.2g}") if raw > 0 and math.isfinite(raw) else 1.0
+    return Project(surface, FlattenSettings(spacing=float(spacing)), name=name, source=source, units=units)

@@ -1,7 +1,8 @@
-"""GUI tests: real windows on the Xvfb display that pytest-xvfb starts.
+"""GUI tests: the window, its surface, menus and errors, and the command.
 
-Asserts are on data (the mesh the view holds, the window's state, exit codes
-and the pixels of a written PNG), not on golden images.
+Real windows on the Xvfb display that pytest-xvfb starts. Asserts are on data
+(the mesh the view holds, the window's state, exit codes and the pixels of a
+written PNG), not on golden images. Solves in the window: tests/test_app_run.py.
 """
 
 from __future__ import annotations
@@ -25,28 +26,10 @@ from core.surface_io import load_surface
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _open_plotters() -> set[str]:
-    # pyvista registers every live plotter here (the check pyvistaqt's own tests make)
-    from pyvista.plotting.plotter import _ALL_PLOTTERS
-    return set(_ALL_PLOTTERS)
-
-
 @pytest.fixture
-def window(qtbot):
-    """The main window on the octant example, shown and ready to render.
-
-    Fails if the window's plotter outlives it.
-    """
-    before = _open_plotters()
-    win = MainWindow()
-    qtbot.addWidget(win)
-    assert win.open_example("octant")
-    win.show()
-    qtbot.waitExposed(win)
-    qtbot.waitUntil(win.view.is_ready, timeout=10000)
-    yield win
-    win.close()
-    assert _open_plotters() <= before, "the window's plotter was not closed"
+def window(make_window):
+    """The main window on the octant example, shown and ready to render."""
+    return make_window(example="octant")
 
 
 def expected_grid(surface, n=GRID_POINTS):
