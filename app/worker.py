@@ -13,7 +13,8 @@ snapshots (the generator yields every iteration):
 * :meth:`pause` / :meth:`resume`: the thread waits between iterations.
 
 Any exception ends the run with :attr:`failed` (a one-line message); the
-traceback goes to stderr for a bug report.
+traceback of one that is not a :class:`~core.errors.FlatweaveError` (a bug,
+not a user error) also goes to stderr for a bug report.
 
 superqt's ``GeneratorWorker`` was the first choice; it is not used because it
 hands back a ``RuntimeError`` (and subclasses) raised by the work as a warning
@@ -165,7 +166,8 @@ class SolveThread(QThread):
             outcome = self._solve()
         except Exception as exc:  # everything reaches the GUI as one line
             if not self._abandon.is_set():
-                traceback.print_exc(file=sys.stderr)
+                if not isinstance(exc, FlatweaveError):  # a bug, not a user error: keep its traceback
+                    traceback.print_exc(file=sys.stderr)
                 self.failed.emit(one_line(exc))
             return
         if outcome is not None and not self._abandon.is_set():

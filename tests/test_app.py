@@ -168,3 +168,46 @@ def test_missing_surface_file_exits_2(tmp_path):
     proc = run_app(tmp_path / "nope.json", "--quit", timeout=60)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_scripted_run_writes_a_screenshot_of_the_solved_piece(tmp_path):
+    out = tmp_path / "run.png"
+    proc = run_app("resources/surfaces/octant.json", "--spacing", "0.1", "--run", "--screenshot", out,
+                   "--quit", "--size", "1200x800")
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    pixels = image_array(out).astype(int)
+    h, w, _ = pixels.shape
+    assert (w, h) == (1200, 800)
+    r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+    # the strain colours are on screen: pure-ish red, green and blue springs
+    assert ((r > 200) & (g < 60) & (b < 60)).sum() > 20, "no tensile (red) springs drawn"
+    assert ((b > 200) & (r < 60) & (g < 60)).sum() > 20, "no compressive (blue) springs drawn"
+    assert ((g > 200) & (r < 80) & (b < 80)).sum() > 200, "no zero-strain (green) springs drawn"
+
+
+def test_scripted_run_that_fails_exits_1_with_one_line(tmp_path):
+    out = tmp_path / "never.png"
+    proc = run_app("resources/surfaces/octant.json", "--spacing", "0.0001", "--run", "--screenshot", out,
+                   "--quit")
+    assert proc.returncode == 1, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "nodes" in lines[0] and lines[0].startswith("flatweave: error:"), proc.stderr
+    assert not out.exists()
+
+
+def test_opening_a_project_from_the_command_line(tmp_path):
+    from core.pipeline import FlattenSettings, flatten
+    from core.project import Project, save_project
+
+    surface = load_surface(example_path("octant"))
+    s = FlattenSettings(spacing=0.1)
+    save_project(Project(surface, s, name="o", result=flatten(surface, s)), tmp_path / "o.flatweave")
+    proc = run_app(tmp_path / "o.flatweave", "--screenshot", tmp_path / "o.png", "--quit", "--size", "1000x700")
+    assert proc.returncode == 0, proc.stderr
+    pixels = image_array(tmp_path / "o.png").astype(int)
+    assert ((pixels[..., 1] > 200) & (pixels[..., 0] < 80) & (pixels[..., 2] < 80)).sum() > 200
+    bad = tmp_path / "bad.flatweave"
+    bad.write_text("{")
+    proc = run_app(bad, "--quit", timeout=60)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "bad.flatweave" in proc.stderr
