@@ -148,6 +148,7 @@ def test_the_event_loop_runs_during_a_solve(make_window, qtbot):
     """Ticks of a 10 ms timer during a run: the longest gap stays under 250 ms,
     frames arrive, and the camera moves when dragged mid-run."""
     win = make_window(small_project(0.05))  # ~650 nodes: a run of a second or two
+    qtbot.wait(500)  # let the new window finish its first paints (GL shader compilation) before timing
     ticks = []
     timer = QTimer()
     timer.setInterval(10)
@@ -190,6 +191,7 @@ def test_the_event_loop_runs_during_a_solve(make_window, qtbot):
     gaps = np.diff(np.concatenate([[t0], inside, [t1]]))
     print(f"\nrun {t1 - t0:.2f} s, {len(inside)} ticks, longest event-loop gap {1000 * gaps.max():.0f} ms, "
           f"{win.runner.frames_shown} frames")
+
     assert gaps.max() < 0.25, f"the event loop stalled for {1000 * gaps.max():.0f} ms"
     assert win.runner.frames_shown >= 3
     assert moved.get("busy") and moved["by"] > 1e-3, "the camera did not move during the run"
