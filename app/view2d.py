@@ -40,6 +40,8 @@ def _text(size: int, bold: bool = False) -> vtkTextActor:
     prop.SetColor(0.1, 0.1, 0.1)
     prop.SetFontSize(size)
     prop.SetBold(bold)
+    prop.SetBackgroundColor(1.0, 1.0, 1.0)
+    prop.SetBackgroundOpacity(0.75)
     prop.SetJustificationToCentered()
     prop.SetVerticalJustificationToTop()
     t.GetPositionCoordinate().SetCoordinateSystemToWorld()
@@ -145,7 +147,7 @@ class PatternView(ViewBase):
         cam.SetFocalPoint(centre[0], centre[1], 0.0)
         cam.SetPosition(centre[0], centre[1], depth)
         cam.SetViewUp(0.0, 1.0, 0.0)
-        cam.SetParallelScale(1.08 * max(half[1], half[0] / aspect))
+        cam.SetParallelScale(1.12 * max(half[1], half[0] / aspect))
         self._plotter.renderer.ResetCameraClippingRange()
         if render:
             self.render()

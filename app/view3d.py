@@ -48,8 +48,8 @@ def _scalar_bar() -> vtkScalarBarActor:
     bar.SetOrientationToVertical()
     coord = bar.GetPositionCoordinate()
     coord.SetCoordinateSystemToNormalizedViewport()
-    coord.SetValue(0.885, 0.1)
-    bar.SetWidth(0.105)
+    coord.SetValue(0.87, 0.1)
+    bar.SetWidth(0.125)
     bar.SetHeight(0.55)
     bar.SetBarRatio(0.28)
     bar.DrawBackgroundOn()
@@ -171,10 +171,8 @@ class SurfaceView(ViewBase):
         cam.SetPosition(*d)
         cam.SetViewUp(*up)
         p.reset_camera(render=False)
-        w, h = p.window_size
-        if 0 < w < h:  # VTK fits the height; in a tall view fit the width too
-            cam.Zoom(w / h)
-        cam.Zoom(0.92)  # room for the colour bar
+        cam.SetWindowCenter(0.1, 0.0)  # the piece a little left of the middle: the colour bar is on the right
+        cam.Zoom(1.02)
         self.render()
 
     def clear_frame(self) -> None:
