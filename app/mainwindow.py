@@ -463,6 +463,9 @@ class MainWindow(QMainWindow):
 
     def _on_document_changed(self, project: Project, change: Change) -> None:
         aspects = change.aspects
+        if (self.runner.active and change.cause in ("undo", "redo", "reset")
+                and aspects & {"surface", "settings"}):
+            self.runner.cancel()  # it solves a project the document has left: its result would be refused
         if "surface" in aspects:
             _, xyz, normals = surface_grid(project.surface)
             self.view.set_surface(xyz, normals)
@@ -477,7 +480,8 @@ class MainWindow(QMainWindow):
         if "display" in aspects:
             self.set_view_options(units=project.units, shear_warning_deg=project.shear_warning_deg,
                                   shear_limit_deg=project.shear_limit_deg)
-        if change.cause != "result" and ("result" in aspects or "surface" in aspects) and not self.runner.busy:
+        if change.cause != "result" and (aspects & {"result", "surface"} or change.cause in ("undo", "redo")) \
+                and not self.runner.active:
             self.show_result(project)
         elif self.frame is not None:
             self.metrics.show_frame(self.frame, project, stale=not project.result_is_current)

@@ -57,6 +57,11 @@ class Runner(QObject):
         return self.thread is not None
 
     @property
+    def active(self) -> bool:
+        """A run is in flight that will deliver frames and an outcome (not abandoned)."""
+        return self.thread is not None and not self.thread.abandoned
+
+    @property
     def paused(self) -> bool:
         """Paused, or asked to pause (the solve waits after its current iteration)."""
         return self.thread is not None and self.thread.pause_requested
@@ -152,7 +157,7 @@ class Runner(QObject):
     def pump(self) -> None:
         """Hand the newest frame (if there is a new one) to ``frame``'s slots."""
         t = self.thread
-        if t is None:
+        if t is None or t.abandoned:  # an abandoned run's frames belong to nobody
             return
         seq, frame = t.take_frame(self._seen)
         if frame is None:

@@ -103,7 +103,8 @@ def test_stop_mid_run_leaves_a_consistent_state(make_window, qtbot):
         t0 = time.perf_counter()
         win.stop()
     latency = time.perf_counter() - t0
-    assert latency < 1.5, f"stop took {latency:.2f} s"
+    print(f"\nstop took {1000 * latency:.0f} ms")
+    assert latency < 1.0, f"stop took {latency:.2f} s"
     outcome = blocker.args[0]
     assert outcome.stopped
     project = win.project
@@ -400,3 +401,36 @@ def test_opening_a_damaged_project_keeps_the_document(make_window, qtbot, tmp_pa
     assert not win.open_file(bad)
     assert win.project is before
     assert "newer" in win.last_error and "bad.flatweave" in win.last_error and "\n" not in win.last_error
+
+
+def test_opening_another_surface_mid_run_abandons_it(make_window, qtbot):
+    win = make_window(small_project(0.08, solver="paper", max_iter=100000))
+    finished = []
+    win.run_finished.connect(finished.append)
+    win.run()
+    qtbot.waitUntil(lambda: len(win.runner.history) >= 3, timeout=RUN_TIMEOUT_MS)
+    assert win.open_example("saddle")
+    assert win.surface_name == "saddle" and win.project.result is None
+    drawn = []
+    win.runner.frame.connect(drawn.append)
+    qtbot.waitUntil(lambda: win.runner.state == "idle", timeout=10000)
+    qtbot.wait(100)
+    assert drawn == [] and finished == []  # nothing of the old run reached the new document
+    assert win.frame is None and len(shown_rgb(win.view)[0]) == 0
+    assert win.actions["run"].isEnabled() and not win.document.can_undo
+
+
+def test_undo_mid_run_cancels_it_and_shows_the_earlier_result(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    first = run_to_end(qtbot, win).result
+    win.settings_panel.auto_rerun.setChecked(True)
+    # a new drape solved by the paper's CG: thousands of iterations
+    win.document.edit_settings("Solver", spacing=0.08, solver="paper", max_iter=100000)
+    qtbot.waitUntil(lambda: win.runner.busy and len(win.runner.history) >= 3, timeout=RUN_TIMEOUT_MS)
+    win.actions["undo"].trigger()
+    assert win.project.result is first and not win.runner.active
+    idx, rgb = shown_rgb(win.view)
+    assert len(idx) == first.mesh.n_springs
+    assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(first.xyz, first.mesh))).max() <= 1
+    qtbot.waitUntil(lambda: win.runner.state == "idle", timeout=10000)
+    assert win.project.result is first and win.document.redo_label == "Solver"
