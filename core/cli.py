@@ -91,7 +91,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cut a curve dart: a 3D polyline and a view direction (see README; repeatable)")
     f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
                    help="refuse meshes estimated larger than N nodes (default 2,000,000)")
-    f.add_argument("--out", required=True, metavar="RESULT.json", help="result file to write")
+    f.add_argument("--out", metavar="RESULT.json", help="result file to write")
+    f.add_argument("--export", action="append", default=[], metavar="PATH",
+                   help="write the pattern to PATH, the suffix picks the format: .dxf (AAMA layers, mm), "
+                        ".svg (true size), .pdf (tiled 1:1), .vtp (3D mesh with strain), .obj (mesh with the "
+                        "pattern as texture coordinates); repeatable")
+    f.add_argument("--seam-allowance", type=float, default=10.0, metavar="MM",
+                   help="seam allowance of exported patterns in mm (default 10; 0 for none)")
+    f.add_argument("--units", choices=("mm", "cm", "m", "in"), default="m",
+                   help="units of the surface model, for exports (default m)")
+    f.add_argument("--paper", choices=("a4", "letter"), default="a4", help="paper of the tiled PDF (default a4)")
+    f.add_argument("--name", default=None, metavar="TEXT",
+                   help="piece name in exported labels (default: the surface's name)")
 
     i = sub.add_parser("info", help="domain, area and boundary length of a surface")
     i.add_argument("surface", metavar="SURFACE")
@@ -132,9 +143,17 @@ def _cmd_flatten(args) -> int:
     from core.pipeline import FlattenSettings, flatten, result_to_dict, state_from_dict
     from core.quadrature import region_area
 
-    out = Path(args.out)
-    if out.parent and not out.parent.exists():
+    from core.export import ExportOptions, check_target, export_all
+
+    if not args.out and not args.export:
+        raise SettingsError("nothing to write: give --out RESULT.json and/or --export PATH")
+    out = Path(args.out) if args.out else None
+    if out is not None and out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    # refuse bad export targets and options before the solve, not after it
+    targets = [check_target(p) for p in args.export]
+    options = ExportOptions(seam_allowance_mm=args.seam_allowance, units=args.units, paper=args.paper,
+                            name=args.name or Path(args.surface).stem)
     surface, source = resolve_surface(args.surface)
     settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
@@ -147,14 +166,16 @@ def _cmd_flatten(args) -> int:
         initial = state_from_dict(_read_json(args.warm_start), surface, settings)
     result = flatten(surface, settings, initial=initial, area=region_area(surface),
                      callback=None if args.quiet else _Progress())
-    write_json(out, result_to_dict(result, source))
+    if out is not None:
+        write_json(out, result_to_dict(result, source))
+    written = export_all(result, targets, options) if targets else []
     m = result.metrics
     if not args.quiet:
         print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
               f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
-              f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s -> {out}",
-              file=sys.stderr)
+              f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
+              + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
     return 0
 
 
