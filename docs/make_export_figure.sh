@@ -9,6 +9,4 @@ out=$(mktemp -d)
     --export "$out/octant.dxf" --export "$out/octant.svg" --export "$out/octant.pdf" \
     --export "$out/octant.vtp" --export "$out/octant.obj" --out "$out/octant.json"
 pdftoppm -png -r 72 -f 1 -l 1 -singlefile "$out/octant.pdf" docs/images/export_overview
-pdftoppm -png -r 72 -f 2 -l 2 -singlefile "$out/octant.pdf" docs/images/export_assembly
 ls -la "$out"
-echo "pages: $(python3 -c "import sys; print(open(sys.argv[1],'rb').read().count(b'/Type /Page\n'))" "$out/octant.pdf" 2>/dev/null || true)"

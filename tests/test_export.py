@@ -90,6 +90,9 @@ def test_dxf_header_layers_and_one_block_per_piece(tmp_path, octant_cut):
     assert doc.dxfversion in ("AC1009", "AC1015")  # R12 or R2000
     assert doc.header["$INSUNITS"] == 4  # millimetres
     assert doc.header["$MEASUREMENT"] == 1
+    auditor = doc.audit()
+    assert not auditor.has_errors, [str(e) for e in auditor.errors]
+    assert doc.layers.get("14").description == "sew line"
     assert {"1", "14", "8", "4", "7", "15"} <= {layer.dxf.name for layer in doc.layers}
     inserts = [e for e in doc.modelspace() if e.dxftype() == "INSERT"]
     assert len(octant_cut.pattern.pieces) == 2

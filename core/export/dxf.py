@@ -50,11 +50,7 @@ def dxf_bytes(sheet: Sheet) -> bytes:
     doc.header["$MEASUREMENT"] = 1  # metric
     doc.header["$LUNITS"] = 2  # decimal
     for name, (desc, colour) in LAYERS.items():
-        layer = doc.layers.add(name, color=colour)
-        try:
-            layer.description = desc
-        except Exception:  # descriptions need XDATA support of the release; names carry the meaning
-            pass
+        doc.layers.add(name, color=colour).description = desc
     msp = doc.modelspace()
     taken: set = set()
     for k, piece in enumerate(sheet.pieces):
