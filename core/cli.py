@@ -58,6 +58,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     f = sub.add_parser("flatten", help="drape a spring mesh on a surface, minimise it, write the result")
     f.add_argument("surface", metavar="SURFACE", help="geomdl JSON surface file or bundled example name")
+    f.add_argument("--method", choices=("spring", "planar"), default="spring",
+                   help="spring (the paper's method, default) or planar (the planar energy method of Wang, "
+                        "Smith and Yuen 2002 the paper compares against: triangles laid flat and relaxed in the "
+                        "plane; uses --spacing as edge length, darts, --solver fast|none, --tol, --max-iter, "
+                        "--max-seconds, --max-nodes)")
     f.add_argument("--spacing", type=float, required=True, metavar="R",
                    help="rest length of the weft springs (and of the warp springs unless --spacing-warp)")
     f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
@@ -150,6 +155,12 @@ def _cmd_flatten(args) -> int:
     out = Path(args.out) if args.out else None
     if out is not None and out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    if args.method == "planar":
+        if args.export:
+            raise SettingsError("--export writes spring-method patterns; drop it or use --method spring")
+        if out is None:
+            raise SettingsError("--method planar writes its result with --out RESULT.json")
+        return _cmd_flatten_planar(args, out)
     # refuse bad export targets and options before the solve, not after it
     targets = [check_target(p) for p in args.export]
     options = ExportOptions(seam_allowance_mm=args.seam_allowance, units=args.units, paper=args.paper,
@@ -176,6 +187,36 @@ def _cmd_flatten(args) -> int:
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
               f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
+    return 0
+
+
+def _cmd_flatten_planar(args, out: Path) -> int:
+    """``flatten --method planar``: the comparison method of core.planar."""
+    from core.fileio import write_json
+    from core.planar import PlanarSettings, flatten_planar, planar_result_to_dict
+
+    unused = [name for name, value, default in (
+        ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
+        ("--seed", args.seed, "0.5,0.5"), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
+        ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None)) if value != default]
+    if unused:
+        raise SettingsError(f"--method planar does not use {', '.join(unused)}")
+    if args.solver == "paper":
+        raise SettingsError("--method planar has solvers fast (Levenberg-Marquardt) and none (the unfolding only)")
+    surface, source = resolve_surface(args.surface)
+    settings = PlanarSettings(
+        spacing=args.spacing, darts=_darts(args, surface), solver="none" if args.solver == "none" else "lm",
+        tol=args.tol, max_iter=args.max_iter,
+        max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"), max_nodes=args.max_nodes)
+    result = flatten_planar(surface, settings)
+    write_json(out, planar_result_to_dict(result, source))
+    m = result.metrics
+    if not args.quiet:
+        print(f"planar: {m['nodes']} nodes, {m['triangles']} triangles, energy {m['energy']:.6g}, "
+              f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
+              f"max edge strain {m['max_edge_strain_pct']:.3g} %, {m['flipped_triangles']} flipped, "
+              f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s -> {out}",
+              file=sys.stderr)
     return 0
 
 
