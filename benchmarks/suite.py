@@ -19,7 +19,9 @@ the case's own):
 4. the re-solve after a dart is added to a converged 2,500-node octant
    (warm start), against a cold solve with the dart;
 5. the GUI's live-update frame rate, from ``benchmarks/gui_fps.py`` when it
-   has been run (it needs a display).
+   has been run (it needs a display);
+6. the planar energy method the paper compares against (its Table 3), by
+   ``benchmarks/planar_compare.py``.
 
 Prints markdown tables and writes them to ``benchmarks/results/suite.md``;
 ``--readme`` also replaces the headline table in README.md.
@@ -180,7 +182,8 @@ def _machine() -> str:
     return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
 
 
-def report(results: list[dict], dart: dict, budget: float, gui: str | None) -> tuple[str, str]:
+def report(results: list[dict], dart: dict, budget: float, gui: str | None,
+           planar: str | None = None) -> tuple[str, str]:
     """(full markdown report, headline table for the README)."""
     rows = []
     for r in results:
@@ -268,6 +271,11 @@ def report(results: list[dict], dart: dict, budget: float, gui: str | None) -> t
     stamp = f"{_dt.date.today()}, {_machine()}"
     headline = (f"Measured {stamp} by `python benchmarks/suite.py --readme`:\n\n"
                 + table(["measure", "flatweave", "target", "met"], hl))
+    if planar:
+        verdicts = [line for line in planar.splitlines() if line.startswith("- garment") and "against" in line]
+        headline += ("\n\nAgainst the planar energy method (the paper's Table 3; full table in "
+                     "`benchmarks/results/planar_compare.md`):\n\n" + "\n".join(verdicts))
+        parts.append(planar.replace("# flatweave against", "## flatweave against", 1))
     text = (f"# flatweave benchmarks\n\n{stamp}\n\n## Headline\n\n" + table(["measure", "flatweave", "target", "met"], hl)
             + "\n\n" + "\n\n".join(parts) + "\n")
     return text, headline
@@ -321,7 +329,11 @@ def main(argv=None) -> int:
     dart = _run_child(["--dart"])
     gui_file = ROOT / "benchmarks" / "results" / "gui_fps.md"
     gui = gui_file.read_text() if gui_file.exists() else None
-    text, headline = report(results, dart, budget, gui)
+    planar_file = ROOT / "benchmarks" / "results" / "planar_compare.md"
+    p2 = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "planar_compare.py"), "--out", str(planar_file)]
+                        + (["--quick"] if args.quick else []), capture_output=True, text=True)
+    planar = planar_file.read_text() if p2.returncode == 0 else None
+    text, headline = report(results, dart, budget, gui, planar)
     print(text)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
