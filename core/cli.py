@@ -58,6 +58,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     f = sub.add_parser("flatten", help="drape a spring mesh on a surface, minimise it, write the result")
     f.add_argument("surface", metavar="SURFACE", help="geomdl JSON surface file or bundled example name")
+    f.add_argument("--method", choices=("spring", "planar"), default="spring",
+                   help="spring (the paper's method, default) or planar (the planar energy method of Wang, "
+                        "Smith and Yuen 2002 the paper compares against: triangles laid flat and relaxed in the "
+                        "plane; uses --spacing as edge length, darts, --solver fast|none, --tol, --max-iter, "
+                        "--max-seconds, --max-nodes)")
     f.add_argument("--spacing", type=float, required=True, metavar="R",
                    help="rest length of the weft springs (and of the warp springs unless --spacing-warp)")
     f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
@@ -91,7 +96,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cut a curve dart: a 3D polyline and a view direction (see README; repeatable)")
     f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
                    help="refuse meshes estimated larger than N nodes (default 2,000,000)")
-    f.add_argument("--out", required=True, metavar="RESULT.json", help="result file to write")
+    f.add_argument("--out", metavar="RESULT.json", help="result file to write")
+    f.add_argument("--export", action="append", default=[], metavar="PATH",
+                   help="write the pattern to PATH, the suffix picks the format: .dxf (AAMA layers, mm), "
+                        ".svg (true size), .pdf (tiled 1:1), .vtp (3D mesh with strain), .obj (mesh with the "
+                        "pattern as texture coordinates); repeatable")
+    f.add_argument("--seam-allowance", type=float, default=10.0, metavar="MM",
+                   help="seam allowance of exported patterns in mm (default 10; 0 for none)")
+    f.add_argument("--units", choices=("mm", "cm", "m", "in"), default="m",
+                   help="units of the surface model, for exports (default m)")
+    f.add_argument("--paper", choices=("a4", "letter"), default="a4", help="paper of the tiled PDF (default a4)")
+    f.add_argument("--name", default=None, metavar="TEXT",
+                   help="piece name in exported labels (default: the surface's name)")
 
     i = sub.add_parser("info", help="domain, area and boundary length of a surface")
     i.add_argument("surface", metavar="SURFACE")
@@ -132,9 +148,23 @@ def _cmd_flatten(args) -> int:
     from core.pipeline import FlattenSettings, flatten, result_to_dict, state_from_dict
     from core.quadrature import region_area
 
-    out = Path(args.out)
-    if out.parent and not out.parent.exists():
+    from core.export import ExportOptions, check_target, export_all
+
+    if not args.out and not args.export:
+        raise SettingsError("nothing to write: give --out RESULT.json and/or --export PATH")
+    out = Path(args.out) if args.out else None
+    if out is not None and out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    if args.method == "planar":
+        if args.export:
+            raise SettingsError("--export writes spring-method patterns; drop it or use --method spring")
+        if out is None:
+            raise SettingsError("--method planar writes its result with --out RESULT.json")
+        return _cmd_flatten_planar(args, out)
+    # refuse bad export targets and options before the solve, not after it
+    targets = [check_target(p) for p in args.export]
+    options = ExportOptions(seam_allowance_mm=args.seam_allowance, units=args.units, paper=args.paper,
+                            name=args.name or Path(args.surface).stem)
     surface, source = resolve_surface(args.surface)
     settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
@@ -147,12 +177,44 @@ def _cmd_flatten(args) -> int:
         initial = state_from_dict(_read_json(args.warm_start), surface, settings)
     result = flatten(surface, settings, initial=initial, area=region_area(surface),
                      callback=None if args.quiet else _Progress())
-    write_json(out, result_to_dict(result, source))
+    if out is not None:
+        write_json(out, result_to_dict(result, source))
+    written = export_all(result, targets, options) if targets else []
     m = result.metrics
     if not args.quiet:
         print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
               f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
+              f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
+              + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
+    return 0
+
+
+def _cmd_flatten_planar(args, out: Path) -> int:
+    """``flatten --method planar``: the comparison method of core.planar."""
+    from core.fileio import write_json
+    from core.planar import PlanarSettings, flatten_planar, planar_result_to_dict
+
+    unused = [name for name, value, default in (
+        ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
+        ("--seed", args.seed, "0.5,0.5"), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
+        ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None)) if value != default]
+    if unused:
+        raise SettingsError(f"--method planar does not use {', '.join(unused)}")
+    if args.solver == "paper":
+        raise SettingsError("--method planar has solvers fast (Levenberg-Marquardt) and none (the unfolding only)")
+    surface, source = resolve_surface(args.surface)
+    settings = PlanarSettings(
+        spacing=args.spacing, darts=_darts(args, surface), solver="none" if args.solver == "none" else "lm",
+        tol=args.tol, max_iter=args.max_iter,
+        max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"), max_nodes=args.max_nodes)
+    result = flatten_planar(surface, settings)
+    write_json(out, planar_result_to_dict(result, source))
+    m = result.metrics
+    if not args.quiet:
+        print(f"planar: {m['nodes']} nodes, {m['triangles']} triangles, energy {m['energy']:.6g}, "
+              f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
+              f"max edge strain {m['max_edge_strain_pct']:.3g} %, {m['flipped_triangles']} flipped, "
               f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s -> {out}",
               file=sys.stderr)
     return 0

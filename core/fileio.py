@@ -26,6 +26,7 @@ def atomic_write_bytes(path, data: bytes) -> None:
     except OSError as exc:
         raise FlatweaveError(f"cannot write {path}: {exc.strerror or exc}") from None
     try:
+        os.chmod(tmp, _file_mode(path))
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
@@ -37,6 +38,18 @@ def atomic_write_bytes(path, data: bytes) -> None:
         except OSError:
             pass
         raise FlatweaveError(f"cannot write {path}: {exc.strerror or exc}") from None
+
+
+def _file_mode(path: Path) -> int:
+    """Permission bits for the new file: the old file's, else 0o666 less the umask
+    (mkstemp's own 0o600 would hide exported patterns from other users)."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
 
 
 def atomic_write_text(path, text: str) -> None:

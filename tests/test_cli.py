@@ -109,3 +109,35 @@ def test_info_and_examples():
     assert code == 0 and "area 1.570796327" in out and "boundary length 4.71238898" in out
     code, out, _ = run_cli("examples")
     assert code == 0 and all(name in out for name in ("octant", "cone", "garment", "saddle", "dome"))
+
+
+def test_export_every_format_from_the_cli(tmp_path):
+    """The octant with a dart, to every format in one run (as in the README)."""
+    import ezdxf
+
+    paths = [tmp_path / f"octant{s}" for s in (".dxf", ".svg", ".pdf", ".vtp", ".obj")]
+    args = ["flatten", "octant", "--spacing", "0.1", "--plane-dart", "1,-1,0,0:-2,2,-2,2,-2,0.55",
+            "--seam-allowance", "15", "--units", "cm", "--paper", "letter", "--quiet"]
+    for p in paths:
+        args += ["--export", str(p)]
+    assert main(args) == 0
+    assert all(p.stat().st_size > 0 for p in paths)
+    doc = ezdxf.readfile(paths[0])
+    texts = " ".join(e.dxf.text for b in doc.blocks for e in b if e.dxftype() == "TEXT")
+    assert "seam allowance 15 mm" in texts and "model in cm" in texts and "octant" in texts
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--export", "{tmp}/p.xyz"], ["unknown format", ".xyz"]),
+    (["--export", "{tmp}/missing/p.dxf"], ["does not exist"]),
+    (["--export", "{tmp}/p.dxf", "--seam-allowance", "-3"], ["seam allowance"]),
+    ([], ["nothing to write"]),
+])
+def test_bad_exports_fail_before_the_solve(tmp_path, args, words):
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    code, out, err = run_cli("flatten", "octant", "--spacing", "0.01", *args)  # a long solve if it ran
+    assert code == 2
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("flatweave: error:"), err
+    assert all(w in lines[0] for w in words)
+    assert list(tmp_path.iterdir()) == []

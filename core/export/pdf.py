@@ -1,0 +1,366 @@
+"""PDF for printing at 1:1 on A4 or US Letter, written with reportlab.
+
+Pages, in order:
+
+1. overview: every piece scaled to fit one page, with a scale bar and the labels;
+2. assembly map: the same drawing with the grid of tiles, each named by
+   row letter and column number (A1 is the top-left tile);
+3. the tiles, row by row, at 1:1. Neighbouring tiles overlap by
+   ``OVERLAP_MM``; a dashed trim line marks where to cut a page so it lies on
+   its neighbour, and registration marks (circle and cross) at the trim
+   corners line the pages up.
+
+Every page carries a 100 mm test square, drawn in the page's own units, so a
+printer that scaled the page is caught before anything is cut.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+
+import numpy as np
+
+from core.errors import SettingsError
+from core.export.sheet import Sheet
+
+__all__ = ["PAPERS", "MM", "TEST_SQUARE_MM", "OVERLAP_MM", "PAGE_MARGIN_MM", "tile_grid", "pdf_bytes"]
+
+MM = 72.0 / 25.4  # PDF points per millimetre
+PAPERS = {"a4": (210.0, 297.0), "letter": (215.9, 279.4)}
+PAGE_MARGIN_MM = 12.0  # unprinted edge plus room for the page label
+OVERLAP_MM = 10.0
+TEST_SQUARE_MM = 100.0
+SHEET_MARGIN_MM = 10.0  # blank border round the pieces
+
+# stroke colours (r, g, b) and widths (mm) of the drawn lines
+STYLE = {
+    "cut": ((0.0, 0.0, 0.0), 0.35),
+    "sew": ((0.10, 0.50, 0.22), 0.25),
+    "internal": ((0.12, 0.31, 0.82), 0.25),
+    "notch": ((0.78, 0.16, 0.16), 0.35),
+    "grain": ((0.56, 0.14, 0.67), 0.30),
+    "cutout": ((0.0, 0.51, 0.56), 0.30),
+}
+
+
+def paper_size(paper: str) -> tuple[float, float]:
+    """(width, height) of a portrait sheet of paper, mm."""
+    try:
+        return PAPERS[paper.lower()]
+    except KeyError:
+        raise SettingsError(f"unknown paper {paper!r}: use one of {', '.join(PAPERS)}") from None
+
+
+def tile_grid(sheet_size_mm: tuple[float, float], paper: str = "a4") -> tuple[int, int, float, float]:
+    """(rows, cols, tile width, tile height) of the 1:1 tiles for a sheet of this size (mm),
+    margins included (the drawing is the sheet plus ``SHEET_MARGIN_MM`` all round)."""
+    pw, ph = paper_size(paper)
+    cw, ch = pw - 2 * PAGE_MARGIN_MM, ph - 2 * PAGE_MARGIN_MM
+    W = sheet_size_mm[0] + 2 * SHEET_MARGIN_MM
+    H = sheet_size_mm[1] + 2 * SHEET_MARGIN_MM
+    cols = max(1, math.ceil((W - OVERLAP_MM) / (cw - OVERLAP_MM)))
+    rows = max(1, math.ceil((H - OVERLAP_MM) / (ch - OVERLAP_MM)))
+    return rows, cols, cw, ch
+
+
+def tiles(sheet: Sheet, paper: str = "a4") -> list[tuple[int, int, bool]]:
+    """Every tile of the 1:1 grid as (row, column, printed); a tile is printed
+    when some piece lies in it (blank tiles are left out of the PDF)."""
+    from shapely.geometry import Polygon, box
+    from shapely.ops import unary_union
+
+    rows, cols, cw, ch = tile_grid(sheet.size, paper)
+    H = sheet.size[1] + 2 * SHEET_MARGIN_MM
+    region = unary_union([Polygon(p.outer).buffer(0) for p in sheet.pieces])
+    out = []
+    for r in range(rows):
+        for col in range(cols):
+            x0 = col * (cw - OVERLAP_MM) - SHEET_MARGIN_MM  # the window in sheet coordinates
+            y1 = H - r * (ch - OVERLAP_MM) - SHEET_MARGIN_MM
+            out.append((r, col, bool(region.intersects(box(x0, y1 - ch, x0 + cw, y1)))))
+    return out
+
+
+def _tile_name(r: int, c: int) -> str:
+    letters = ""
+    r += 1
+    while r:
+        r, rem = divmod(r - 1, 26)
+        letters = chr(65 + rem) + letters
+    return f"{letters}{c + 1}"
+
+
+def _polyline(c, pts, closed):
+    p = c.beginPath()
+    p.moveTo(float(pts[0][0]), float(pts[0][1]))
+    for x, y in pts[1:]:
+        p.lineTo(float(x), float(y))
+    if closed:
+        p.close()
+    c.drawPath(p, stroke=1, fill=0)
+
+
+def _region(c, p):
+    """Fill a piece (outline less its internal cut-outs)."""
+    path = c.beginPath()
+    for ring in (p.outer,) + tuple(p.hole_cuts if p.cut is not None else p.holes):
+        path.moveTo(float(ring[0][0]), float(ring[0][1]))
+        for x, y in ring[1:]:
+            path.lineTo(float(x), float(y))
+        path.close()
+    c.drawPath(path, stroke=0, fill=1)
+
+
+def _draw_sheet(c, sheet: Sheet, unit_width: float, labels: bool = True, fill: bool = False):
+    """Draw the pieces in the current user space (1 unit = 1 sheet mm); line
+    widths are given in mm and divided by ``unit_width`` (mm per unit drawn)."""
+
+    def style(name):
+        rgb, w = STYLE[name]
+        c.setStrokeColorRGB(*rgb)
+        c.setLineWidth(w / unit_width)
+
+    c.setLineJoin(1)
+    if fill:
+        c.setFillColorRGB(0.95, 0.95, 0.93)
+        for p in sheet.pieces:
+            _region(c, p)
+    for p in sheet.pieces:
+        style("cut")
+        _polyline(c, p.outer, True)
+        if p.cut is not None:
+            style("sew")
+            c.setDash([2.0 / unit_width, 1.0 / unit_width])
+            _polyline(c, p.sew, True)
+            c.setDash([])
+        style("sew")
+        for h in p.holes:
+            _polyline(c, h, True)
+        style("cutout")
+        for h in (p.hole_cuts if p.cut is not None else ()):
+            _polyline(c, h, True)
+        style("internal")
+        for leg in p.internal:
+            _polyline(c, leg, False)
+        style("notch")
+        for n in p.notches:
+            _polyline(c, n, False)
+        style("grain")
+        _polyline(c, p.grain, False)
+        for hd in p.grain_heads:
+            _polyline(c, hd, False)
+        for d in p.drills:
+            c.circle(float(d[0]), float(d[1]), 1.0, stroke=1, fill=0)
+        if labels:  # full labels at their size on the sheet (1:1 tiles)
+            c.setFillColorRGB(0.3, 0.3, 0.3)
+            c.setFont("Helvetica", p.label_height)
+            x, y = p.label_at
+            for i, line in enumerate(p.label):
+                c.drawString(float(x), float(y - 1.6 * p.label_height * i), line)
+        else:  # scaled pages: the name only, 3 mm high as printed
+            c.setFillColorRGB(0.3, 0.3, 0.3)
+            c.setFont("Helvetica-Bold", 3.0 / unit_width)
+            x, y = p.label_at
+            c.drawString(float(x), float(y), p.name)
+
+
+def _test_square(c, x_mm: float, y_mm: float):
+    """The 100 mm test square, in page units (points), bottom-left at (x, y) mm."""
+    c.saveState()
+    c.setStrokeColorRGB(0.25, 0.25, 0.25)
+    c.setLineWidth(0.5)
+    s = TEST_SQUARE_MM * MM
+    c.rect(x_mm * MM, y_mm * MM, s, s, stroke=1, fill=0)
+    c.setFillColorRGB(0.25, 0.25, 0.25)
+    c.setFont("Helvetica", 8)
+    c.drawCentredString(x_mm * MM + s / 2, y_mm * MM + s / 2 + 4, "100 mm test square")
+    c.drawCentredString(x_mm * MM + s / 2, y_mm * MM + s / 2 - 8, "measure before cutting")
+    c.restoreState()
+
+
+def _registration(c, x: float, y: float, r: float = 3.0):
+    """A registration mark at (x, y) mm in page space."""
+    c.saveState()
+    c.setStrokeColorRGB(0, 0, 0)
+    c.setLineWidth(0.4)
+    c.circle(x * MM, y * MM, r * MM, stroke=1, fill=0)
+    c.line((x - 1.6 * r) * MM, y * MM, (x + 1.6 * r) * MM, y * MM)
+    c.line(x * MM, (y - 1.6 * r) * MM, x * MM, (y + 1.6 * r) * MM)
+    c.restoreState()
+
+
+def _nice_length(limit: float) -> float:
+    """The largest 1, 2, 5 x 10^k not above ``limit``."""
+    k = 10 ** math.floor(math.log10(limit))
+    for m in (5, 2, 1):
+        if m * k <= limit:
+            return m * k
+    return k
+
+
+def _scaled_page(c, sheet: Sheet, pw: float, ph: float, title: str, grid=None):
+    """Draw the whole sheet scaled to fit; returns (scale, origin) used."""
+    W, H = (s + 2 * SHEET_MARGIN_MM for s in sheet.size)
+    top, bottom = 22.0, PAGE_MARGIN_MM + TEST_SQUARE_MM + 6.0  # title above; scale bar, test square below
+    aw, ah = pw - 2 * PAGE_MARGIN_MM, ph - top - bottom
+    scale = min(aw / W, ah / H)
+    ox = PAGE_MARGIN_MM + 0.5 * (aw - scale * W)
+    oy = bottom + 0.5 * (ah - scale * H)
+    c.setFont("Helvetica-Bold", 12)
+    c.setFillColorRGB(0, 0, 0)
+    c.drawString(PAGE_MARGIN_MM * MM, (ph - 14) * MM, title)
+    c.saveState()
+    c.translate(ox * MM, oy * MM)
+    c.scale(scale * MM, scale * MM)
+    c.translate(SHEET_MARGIN_MM, SHEET_MARGIN_MM)
+    _draw_sheet(c, sheet, unit_width=scale, labels=False)
+    c.restoreState()
+    if grid is None:  # the pieces' labels in full, below the scale bar
+        c.setFillColorRGB(0.2, 0.2, 0.2)
+        y = bottom - 22.0
+        for p in sheet.pieces[:4]:
+            for line in p.label:
+                if y < PAGE_MARGIN_MM:
+                    break
+                c.setFont("Helvetica", 7)
+                c.drawString(PAGE_MARGIN_MM * MM, y * MM, line)
+                y -= 3.6
+            y -= 2.0
+    if grid is not None:  # the tiles, named as on their pages; blank ones are not printed
+        rows, cols, cw, ch, printed = grid
+        c.saveState()
+        c.setStrokeColorRGB(0.85, 0.2, 0.2)
+        c.setFillColorRGB(0.85, 0.2, 0.2)
+        c.setLineWidth(0.6)
+        for r in range(rows):
+            for col in range(cols):
+                x0 = col * (cw - OVERLAP_MM)
+                y1 = H - r * (ch - OVERLAP_MM)
+                shade = 0.0 if printed[r * cols + col] else 0.75
+                c.setStrokeColorRGB(0.85, 0.2 + shade * 0.6, 0.2 + shade * 0.6)
+                c.setFillColorRGB(0.85, 0.2 + shade * 0.6, 0.2 + shade * 0.6)
+                c.rect((ox + scale * x0) * MM, (oy + scale * (y1 - ch)) * MM, scale * cw * MM,
+                       scale * ch * MM, stroke=1, fill=0)
+                c.setFont("Helvetica-Bold", max(6, min(16, 0.25 * scale * cw * MM)))
+                c.drawCentredString((ox + scale * (x0 + cw / 2)) * MM, (oy + scale * (y1 - ch / 2)) * MM,
+                                    _tile_name(r, col))
+        c.restoreState()
+    # scale bar: a round length about a quarter of the drawing's width
+    L = _nice_length(0.25 * W)
+    x0, y0 = PAGE_MARGIN_MM, bottom - 12.0
+    c.saveState()
+    c.setStrokeColorRGB(0, 0, 0)
+    c.setFillColorRGB(0, 0, 0)
+    c.setLineWidth(0.8)
+    c.line(x0 * MM, y0 * MM, (x0 + L * scale) * MM, y0 * MM)
+    for t in np.linspace(0, L, 6):
+        h = 2.5 if t in (0, L) else 1.5
+        c.line((x0 + t * scale) * MM, y0 * MM, (x0 + t * scale) * MM, (y0 + h) * MM)
+    c.setFont("Helvetica", 8)
+    c.drawString((x0 + L * scale + 3) * MM, (y0 - 1) * MM,
+                 f"{L:g} mm    scale 1:{1 / scale:.3g}")
+    c.restoreState()
+    return scale, (ox, oy)
+
+
+def pdf_bytes(sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern") -> bytes:
+    """The sheet as a tiled 1:1 PDF (overview, assembly map, tiles)."""
+    from reportlab.pdfgen import canvas
+
+    pw, ph = paper_size(paper)
+    rows, cols, cw, ch = tile_grid(sheet.size, paper)
+    W, H = (s + 2 * SHEET_MARGIN_MM for s in sheet.size)
+    buf = io.BytesIO()
+    c = canvas.Canvas(buf, pagesize=(pw * MM, ph * MM), pageCompression=1)
+    c.setTitle(title)
+    c.setCreator("flatweave")
+
+    scale, _ = _scaled_page(c, sheet, pw, ph, f"{title}: overview (not to scale)")
+    _footer(c, pw, f"overview, {len(sheet.pieces)} piece(s), {W:.0f} x {H:.0f} mm; "
+                   f"print the tiles at 100 % (no fit-to-page)")
+    _test_square_corner(c, pw, ph)
+    c.showPage()
+
+    grid = tiles(sheet, paper)
+    printed = [t[2] for t in grid]
+    n_printed = sum(printed)
+    _scaled_page(c, sheet, pw, ph, f"{title}: assembly map, {n_printed} pages of a {rows} x {cols} grid",
+                 grid=(rows, cols, cw, ch, printed))
+    _footer(c, pw, f"tiles overlap by {OVERLAP_MM:g} mm; cut each page on its dashed trim lines "
+                   f"and lay it over its neighbours, matching the registration marks; pale tiles are blank "
+                   f"and not printed")
+    _test_square_corner(c, pw, ph)
+    c.showPage()
+
+    page = 0
+    for r, col, show in grid:
+        if show:
+            page += 1
+            x0 = col * (cw - OVERLAP_MM)  # the tile's window on the sheet, mm
+            y1 = H - r * (ch - OVERLAP_MM)
+            c.saveState()
+            p = c.beginPath()
+            p.rect(PAGE_MARGIN_MM * MM, PAGE_MARGIN_MM * MM, cw * MM, ch * MM)
+            c.clipPath(p, stroke=0, fill=0)
+            c.translate(PAGE_MARGIN_MM * MM, PAGE_MARGIN_MM * MM)
+            c.scale(MM, MM)  # from here on 1 unit = 1 mm: true size
+            c.translate(SHEET_MARGIN_MM - x0, SHEET_MARGIN_MM - (y1 - ch))
+            _draw_sheet(c, sheet, unit_width=1.0, fill=True)
+            c.restoreState()
+            _tile_marks(c, r, col, rows, cols, cw, ch)
+            _test_square(c, PAGE_MARGIN_MM + (OVERLAP_MM if col > 0 else 0.0) + 3.0, PAGE_MARGIN_MM + 3.0)
+            name = _tile_name(r, col)
+            c.setFont("Helvetica-Bold", 11)
+            c.setFillColorRGB(0, 0, 0)
+            c.drawString(PAGE_MARGIN_MM * MM, (ph - PAGE_MARGIN_MM + 3) * MM,
+                         f"{name}   row {_tile_name(r, 0)[:-1]}, column {col + 1}   "
+                         f"(tile {page} of {n_printed})")
+            _footer(c, pw, f"{title}; 1:1; overlap {OVERLAP_MM:g} mm")
+            c.showPage()
+    c.save()
+    return buf.getvalue()
+
+
+def _test_square_corner(c, pw, ph):
+    _test_square(c, pw - PAGE_MARGIN_MM - TEST_SQUARE_MM, PAGE_MARGIN_MM + 2.0)
+
+
+def _footer(c, pw, text):
+    c.setFont("Helvetica", 7)
+    c.setFillColorRGB(0.3, 0.3, 0.3)
+    c.drawString(PAGE_MARGIN_MM * MM, (PAGE_MARGIN_MM - 7) * MM, text)
+
+
+def _tile_marks(c, r, col, rows, cols, cw, ch):
+    """Content border, trim lines where a neighbour overlaps, registration marks."""
+    x0, y0 = PAGE_MARGIN_MM, PAGE_MARGIN_MM
+    c.saveState()
+    c.setStrokeColorRGB(0.6, 0.6, 0.6)
+    c.setLineWidth(0.3)
+    c.rect(x0 * MM, y0 * MM, cw * MM, ch * MM, stroke=1, fill=0)
+    # the trim box: cut off the overlap on the sides that lie under a neighbour
+    left = x0 + (OVERLAP_MM if col > 0 else 0.0)
+    top = y0 + ch - (OVERLAP_MM if r > 0 else 0.0)
+    right, bottom = x0 + cw, y0
+    c.setStrokeColorRGB(0, 0, 0)
+    c.setDash([3, 2])
+    if col > 0:
+        c.line(left * MM, y0 * MM, left * MM, (y0 + ch) * MM)
+    if r > 0:
+        c.line(x0 * MM, top * MM, (x0 + cw) * MM, top * MM)
+    c.setDash([])
+    c.restoreState()
+    for x, y in ((left, top), (right, top), (left, bottom), (right, bottom)):
+        _registration(c, x, y)
+    # the neighbours' names at the edges
+    c.setFont("Helvetica", 7)
+    c.setFillColorRGB(0.3, 0.3, 0.3)
+    if col > 0:
+        c.drawString((x0 + 1) * MM, (y0 + ch / 2) * MM, f"< {_tile_name(r, col - 1)}")
+    if col < cols - 1:
+        c.drawRightString((x0 + cw - 1) * MM, (y0 + ch / 2) * MM, f"{_tile_name(r, col + 1)} >")
+    if r > 0:
+        c.drawCentredString((x0 + cw / 2) * MM, (y0 + ch - 4) * MM, f"^ {_tile_name(r - 1, col)}")
+    if r < rows - 1:
+        c.drawCentredString((x0 + cw / 2) * MM, (y0 + 2) * MM, f"v {_tile_name(r + 1, col)}")

@@ -1,0 +1,296 @@
+"""Pattern pieces ready to draw: the geometry every 2D exporter shares.
+
+A :class:`Sheet` holds the pieces of a result in millimetres, laid out side
+by side on one sheet, each with the lines a pattern maker expects:
+
+* ``sew`` : the sew line, the pattern's outline (counter-clockwise, open
+  polygon: first point not repeated), darts that open on the boundary walked
+  round (the legs are stitching lines);
+* ``cut`` : the cut line, the sew line offset outwards by the seam allowance
+  (``None`` without one); mitred corners, bevelled beyond twice the width, so
+  the allowance folds back onto the piece;
+* ``holes`` / ``hole_cuts`` : darts inside the piece (sew lines, and the
+  allowance taken off inside them where anything is left);
+* ``internal`` : dart legs and the tip, as drawn (not cut) lines;
+* ``notches`` : short slits cut from the cut line towards the piece where a
+  dart leg meets the outline, so the legs can be matched when sewing;
+* ``drills`` : drill holes a little inside each dart tip;
+* ``grain`` : the grain line, along the warp direction of the lattice, and
+  its two arrow heads;
+* ``label`` : lines of text (piece, material, spacing, date, units, metrics).
+
+Offsetting is done by shapely (GEOS), the well-kept geometry library.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from core.errors import SettingsError
+from core.mesh import WARP
+
+__all__ = ["UNITS", "Sheet", "SheetPiece", "build_sheet", "mm_per_unit", "warp_direction"]
+
+UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+PIECE_GAP_MM = 30.0
+NOTCH_MM = 6.0
+DRILL_INSET_MM = 10.0
+MITRE_LIMIT = 2.0
+
+
+def mm_per_unit(units: str) -> float:
+    """Millimetres in one model unit (mm, cm, m or in)."""
+    try:
+        return UNITS[units]
+    except KeyError:
+        raise SettingsError(f"unknown units {units!r}: use one of {', '.join(UNITS)}") from None
+
+
+@dataclass(frozen=True)
+class SheetPiece:
+    """One pattern piece in millimetres, in sheet coordinates (y up)."""
+
+    name: str
+    sew: np.ndarray
+    cut: np.ndarray | None
+    holes: tuple = ()
+    hole_cuts: tuple = ()
+    internal: tuple = ()
+    notches: tuple = ()
+    drills: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    grain: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
+    grain_heads: tuple = ()
+    label: tuple = ()
+    label_at: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    label_height: float = 5.0
+
+    @property
+    def outer(self) -> np.ndarray:
+        """The outermost line: the cut line, or the sew line without an allowance."""
+        return self.sew if self.cut is None else self.cut
+
+    def bounds(self) -> np.ndarray:
+        """[[xmin, ymin], [xmax, ymax]] of the outermost line."""
+        o = self.outer
+        return np.array([o.min(axis=0), o.max(axis=0)])
+
+    def moved(self, d) -> "SheetPiece":
+        """The piece translated by d (mm)."""
+        d = np.asarray(d, dtype=float)
+
+        def mv(a):
+            return None if a is None else np.asarray(a) + d
+
+        return SheetPiece(self.name, mv(self.sew), mv(self.cut), tuple(mv(h) for h in self.holes),
+                          tuple(mv(h) for h in self.hole_cuts), tuple(mv(p) for p in self.internal),
+                          tuple(mv(p) for p in self.notches), mv(self.drills), mv(self.grain),
+                          tuple(mv(p) for p in self.grain_heads), self.label, mv(self.label_at),
+                          self.label_height)
+
+
+@dataclass(frozen=True)
+class Sheet:
+    """Every piece of a result, in mm, laid out left to right from (0, 0)."""
+
+    pieces: tuple
+    seam_allowance_mm: float
+    units: str
+
+    @property
+    def size(self) -> tuple[float, float]:
+        """(width, height) in mm of the pieces' bounding box (which starts at 0, 0)."""
+        b = np.array([p.bounds() for p in self.pieces])
+        return float(b[:, 1, 0].max()), float(b[:, 1, 1].max())
+
+
+def warp_direction(mesh, xy: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
+    """Unit 2D direction of the warp threads (mean over the warp springs, oriented along +i)."""
+    sel = mesh.kind == WARP
+    a, b = mesh.ends[sel, 0], mesh.ends[sel, 1]
+    if nodes is not None:
+        inside = np.zeros(mesh.n_nodes, dtype=bool)
+        inside[nodes] = True
+        keep = inside[a] & inside[b]
+        a, b = a[keep], b[keep]
+    if len(a) == 0:
+        return np.array([0.0, 1.0])
+    flip = mesh.ij[b, 0] < mesh.ij[a, 0]
+    a, b = np.where(flip, b, a), np.where(flip, a, b)
+    d = (xy[b] - xy[a]).sum(axis=0)
+    return d / np.linalg.norm(d)
+
+
+def _polygon(sew, holes=()):
+    from shapely.geometry import Polygon
+
+    poly = Polygon(sew, [h for h in holes if len(h) >= 3])
+    if not poly.is_valid:
+        poly = poly.buffer(0)
+    return poly
+
+
+def _offset(sew: np.ndarray, holes, width: float):
+    """Cut line and hole cut lines: the sew polygon grown by ``width`` mm."""
+    from shapely.geometry import Polygon
+
+    if width <= 0:
+        return None, ()
+    grown = _polygon(sew, holes).buffer(width, join_style="mitre", mitre_limit=MITRE_LIMIT)
+    if grown.geom_type != "Polygon":  # keep the part holding the piece
+        grown = max(grown.geoms, key=lambda g: g.area)
+    assert isinstance(grown, Polygon)
+    cut = np.asarray(grown.exterior.coords)[:-1]
+    if _signed_area(cut) < 0:
+        cut = cut[::-1]
+    hole_cuts = tuple(np.asarray(r.coords)[:-1] for r in grown.interiors)
+    return cut, hole_cuts
+
+
+def _signed_area(p: np.ndarray) -> float:
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def _chord(poly, through: np.ndarray, direction: np.ndarray, length_frac: float = 0.7) -> np.ndarray:
+    """The chord of ``poly`` along ``direction`` through a point, shortened to a fraction
+    about its middle; a zero-length segment at the point if the line misses the piece."""
+    from shapely.geometry import LineString
+
+    b = np.asarray(poly.bounds, dtype=float)
+    big = 4.0 * float(max(b[2] - b[0], b[3] - b[1]) + 1.0)
+    chord = poly.intersection(LineString([through - big * direction, through + big * direction]))
+    parts = [chord] if chord.geom_type == "LineString" else [g for g in getattr(chord, "geoms", [])
+                                                             if g.geom_type == "LineString"]
+    parts = [g for g in parts if not g.is_empty]
+    if not parts:
+        return np.array([through, through])
+    line = max(parts, key=lambda g: g.length)
+    p = np.asarray(line.coords)[[0, -1]]
+    mid, half = p.mean(axis=0), 0.5 * length_frac * np.linalg.norm(p[1] - p[0])
+    return np.array([mid - half * direction, mid + half * direction])
+
+
+def _place_grain_and_label(sew: np.ndarray, holes, direction: np.ndarray, label: tuple, height: float):
+    """Grain line and label position: the label centred on the point of the piece
+    farthest from its outline, the grain line beside it on the side with the
+    longer chord. Returns (grain (2, 2), label_at (2,) = baseline of the first line)."""
+    from shapely.ops import polylabel
+
+    poly = _polygon(sew, holes)
+    extent = float(np.ptp(sew, axis=0).max())
+    centre = np.asarray(polylabel(poly, tolerance=max(extent / 200.0, 1e-9)).coords[0])
+    width = 0.55 * height * max((len(t) for t in label), default=0)
+    tall = 1.6 * height * len(label)
+    normal = np.array([direction[1], -direction[0]])
+    shift = 0.5 * width + 3.0 * height
+    grain = max((_chord(poly, centre + sgn * shift * normal, direction) for sgn in (1.0, -1.0)),
+                key=lambda g: np.linalg.norm(g[1] - g[0]))
+    if np.linalg.norm(grain[1] - grain[0]) < 0.2 * extent:  # too little room beside the label
+        grain = _chord(poly, centre, direction)
+    label_at = centre + np.array([-0.5 * width, 0.5 * tall - height])
+    return grain, label_at
+
+
+def _arrow_heads(grain: np.ndarray, size: float) -> tuple:
+    d = grain[1] - grain[0]
+    L = np.linalg.norm(d)
+    if L == 0:
+        return ()
+    d = d / L
+    n = np.array([-d[1], d[0]])
+    heads = []
+    for tip, back in ((grain[1], -d), (grain[0], d)):
+        heads.append(np.array([tip + size * (back + 0.5 * n), tip, tip + size * (back - 0.5 * n)]))
+    return tuple(heads)
+
+
+def _outward_normal(poly: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Outward unit normal of a CCW polygon at its point nearest to p."""
+    a, b = poly, np.roll(poly, -1, axis=0)
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+    d = np.linalg.norm(a + t[:, None] * ab - p, axis=1)
+    k = int(np.argmin(d))
+    e = ab[k] / max(np.linalg.norm(ab[k]), 1e-300)
+    return np.array([e[1], -e[0]])
+
+
+def _label_lines(name: str, result, units: str, seam_mm: float, metrics: dict) -> tuple:
+    s = result.settings
+    mat = s.material
+    spacing = f"{s.spacing:g}" if s.spacing_warp in (None, s.spacing) else f"{s.spacing:g} x {s.spacing_warp:g}"
+    lines = [
+        f"{name}",
+        f"material {mat.name or 'custom'} {mat.ratio}",
+        f"spacing {spacing} {units}, weft angle {s.angle_deg:g} deg",
+        f"units: mm (model in {units}), seam allowance {seam_mm:g} mm",
+        f"boundary error {metrics.get('boundary_error_pct', float('nan')):.2f} %, "
+        f"area error {metrics.get('area_error_pct', float('nan')):.2f} %",
+        f"max shear {metrics.get('max_shear_deg', float('nan')):.1f} deg, "
+        f"max thread strain {metrics.get('max_thread_strain_pct', float('nan')):.2f} %",
+        f"flatweave {_dt.date.today().isoformat()}",
+    ]
+    return tuple(lines)
+
+
+def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name: str = "piece") -> Sheet:
+    """The pieces of a :class:`core.pipeline.FlattenResult` in mm, with all their lines."""
+    if not np.isfinite(seam_allowance_mm) or seam_allowance_mm < 0:
+        raise SettingsError(f"seam allowance {seam_allowance_mm!r} mm must be zero or a positive number")
+    scale = mm_per_unit(units)
+    pat = result.pattern
+    xy_mm = pat.xy * scale
+    pieces_src = pat.pieces if pat.pieces else ()
+    if not pieces_src:
+        raise SettingsError("the result has no pattern piece to export")
+    many = len(pieces_src) > 1
+    pieces = []
+    for k, src in enumerate(pieces_src):
+        pname = f"{name} {k + 1}" if many else name
+        sew = np.asarray(src.outline, dtype=float) * scale
+        if _signed_area(sew) < 0:
+            sew = sew[::-1]
+        holes = tuple(np.asarray(h, dtype=float) * scale for h in src.holes)
+        cut, hole_cuts = _offset(sew, holes, seam_allowance_mm)
+        outer = sew if cut is None else cut
+        # darts of this piece: legs that lie on its sew line or inside it
+        internal, notches, drills = [], [], []
+        from shapely.geometry import Point
+
+        region = _polygon(outer)
+        for dart in pat.darts:
+            for leg in (dart.leg_a, dart.leg_b):
+                leg = np.asarray(leg) * scale
+                if not region.buffer(1.0).contains(Point(leg[len(leg) // 2])):
+                    continue
+                internal.append(leg)
+                if dart.mouth:
+                    n = _outward_normal(sew, leg[0])
+                    start = leg[0] + seam_allowance_mm * n
+                    notches.append(np.array([start, start - NOTCH_MM * n]))
+            tip = 0.5 * (dart.leg_a[-1] + dart.leg_b[-1]) * scale
+            if region.contains(Point(tip)):
+                # a drill hole on the dart's centre line, inside the tip
+                mouth = 0.5 * (dart.leg_a[0] + dart.leg_b[0]) * scale
+                axis = mouth - tip
+                L = np.linalg.norm(axis)
+                inset = min(DRILL_INSET_MM, 0.25 * L) if dart.mouth else 0.0
+                drills.append(tip + (axis / L * inset if L > 0 else 0.0))
+        direction = warp_direction(result.mesh, xy_mm, src.nodes if len(src.nodes) else None)
+        extent = float(np.ptp(sew, axis=0).max())
+        label_h = float(np.clip(0.012 * extent, 2.5, 8.0))
+        label = _label_lines(pname, result, units, seam_allowance_mm, result.metrics)
+        grain, label_at = _place_grain_and_label(sew, holes, direction, label, label_h)
+        heads = _arrow_heads(grain, size=min(15.0, 0.04 * extent + 2.0))
+        pieces.append(SheetPiece(pname, sew, cut, holes, hole_cuts, tuple(internal), tuple(notches),
+                                 np.array(drills).reshape(-1, 2), grain, heads, label, label_at, label_h))
+    # lay the pieces out left to right, bottoms on y = 0
+    placed, x = [], 0.0
+    for p in pieces:
+        lo, hi = p.bounds()
+        placed.append(p.moved([x - lo[0], -lo[1]]))
+        x += (hi[0] - lo[0]) + PIECE_GAP_MM
+    return Sheet(tuple(placed), float(seam_allowance_mm), units)

@@ -1,0 +1,405 @@
+"""Exports read back by other programs' readers: ezdxf for DXF, an XML parser
+for SVG, pypdf for PDF, pyvista for VTP, a plain parser for OBJ."""
+
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from core.darts import PlaneDart
+from core.errors import FlatweaveError, SettingsError
+from core.examples import load_example
+from core.export import FORMATS, ExportOptions, build_sheet, check_target, export, export_all
+from core.export.pdf import OVERLAP_MM, PAGE_MARGIN_MM, SHEET_MARGIN_MM
+from core.export.svg import MARGIN_MM as SVG_MARGIN
+from core.mesh import WARP
+from core.metrics import cell_shear_deg, spring_strain
+from core.pattern import polygon_area, polygon_perimeter
+from core.pipeline import FlattenSettings, flatten
+
+MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+POINTS_PER_MM = 72 / 25.4
+PAPER_MM = {"a4": (210.0, 297.0), "letter": (8.5 * 25.4, 11 * 25.4)}  # ISO 216 and ANSI
+
+
+@pytest.fixture(scope="module")
+def octant_dart():
+    """The octant with a dart from the equator edge towards the pole (one piece)."""
+    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
+    return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))
+
+
+@pytest.fixture(scope="module")
+def octant_cut():
+    """The octant cut in two by the plane x = y (two pieces)."""
+    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), None, name="cut")
+    return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))
+
+
+@pytest.fixture(scope="module")
+def cylinder():
+    """The half cylinder: its pattern is a 1.5 x (pi/2) rectangle (developable)."""
+    return flatten(load_example("half_cylinder"), FlattenSettings(spacing=0.1))
+
+
+def seg_distance(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of every point p (k, 2) to the closed polygon's edges."""
+    a, b = poly, np.roll(poly, -1, axis=0)
+    ab = b - a
+    ap = p[:, None, :] - a[None]
+    t = np.clip(np.einsum("kij,ij->ki", ap, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+    return np.linalg.norm(ap - t[..., None] * ab[None], axis=2).min(axis=1)
+
+
+def densify(poly: np.ndarray, step: float) -> np.ndarray:
+    """Points every ``step`` along a closed polygon, vertices included."""
+    out = []
+    for a, b in zip(poly, np.roll(poly, -1, axis=0)):
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        out.append(a + np.linspace(0, 1, n, endpoint=False)[:, None] * (b - a))
+    return np.vstack(out)
+
+
+def warp_angle(result) -> float:
+    """Direction of the warp threads in the pattern, from the result's nodes and springs."""
+    m, xy = result.mesh, result.pattern.xy
+    e = m.ends[m.kind == WARP]
+    d = xy[e[:, 1]] - xy[e[:, 0]]
+    d *= np.sign(m.ij[e[:, 1], 0] - m.ij[e[:, 0], 0])[:, None]
+    d = d.sum(axis=0)
+    return math.atan2(d[1], d[0])
+
+
+# ---------------------------------------------------------------- DXF
+
+
+def read_dxf(path):
+    import ezdxf
+
+    return ezdxf.readfile(path)
+
+
+def block_polylines(doc, block, layer):
+    return [e for e in doc.blocks[block] if e.dxftype() == "LWPOLYLINE" and e.dxf.layer == layer]
+
+
+def test_dxf_header_layers_and_one_block_per_piece(tmp_path, octant_cut):
+    path = export(octant_cut, tmp_path / "p.dxf", ExportOptions(units="m", name="octant"))
+    doc = read_dxf(path)
+    assert doc.dxfversion in ("AC1009", "AC1015")  # R12 or R2000
+    assert doc.header["$INSUNITS"] == 4  # millimetres
+    assert doc.header["$MEASUREMENT"] == 1
+    auditor = doc.audit()
+    assert not auditor.has_errors, [str(e) for e in auditor.errors]
+    assert doc.layers.get("14").description == "sew line"
+    assert {"1", "14", "8", "4", "7", "15"} <= {layer.dxf.name for layer in doc.layers}
+    inserts = [e for e in doc.modelspace() if e.dxftype() == "INSERT"]
+    assert len(octant_cut.pattern.pieces) == 2
+    assert len(inserts) == 2 and len({i.dxf.name for i in inserts}) == 2
+    for ins in inserts:
+        assert len(block_polylines(doc, ins.dxf.name, "1")) == 1
+        assert len(block_polylines(doc, ins.dxf.name, "14")) == 1
+        texts = [e.dxf.text for e in doc.blocks[ins.dxf.name] if e.dxftype() == "TEXT"]
+        assert all(e.dxf.layer == "15" for e in doc.blocks[ins.dxf.name] if e.dxftype() == "TEXT")
+        joined = " ".join(texts)
+        assert "octant" in joined and "woven" in joined and "mm" in joined and "spacing" in joined
+
+
+@pytest.mark.parametrize("units", ["m", "cm", "in"])
+def test_dxf_sew_and_cut_lines_match_the_pattern_in_mm(tmp_path, octant_dart, units):
+    """Without an allowance cut = sew = the pattern's outline, scaled to mm."""
+    path = export(octant_dart, tmp_path / "p.dxf", ExportOptions(seam_allowance_mm=0, units=units))
+    doc = read_dxf(path)
+    (ins,) = [e for e in doc.modelspace() if e.dxftype() == "INSERT"]
+    piece = octant_dart.pattern.pieces[0]
+    s = MM[units]
+    for layer in ("1", "14"):
+        (pl,) = block_polylines(doc, ins.dxf.name, layer)
+        assert pl.closed
+        pts = np.array([p[:2] for p in pl.get_points("xy")])
+        assert abs(polygon_area(pts)) == pytest.approx(abs(polygon_area(piece.outline)) * s * s, rel=1e-3)
+        assert polygon_perimeter(pts) == pytest.approx(polygon_perimeter(piece.outline) * s, rel=1e-3)
+
+
+def test_dxf_seam_allowance_and_notches(tmp_path, octant_dart):
+    sa = 12.0
+    doc = read_dxf(export(octant_dart, tmp_path / "p.dxf", ExportOptions(seam_allowance_mm=sa, units="m")))
+    (ins,) = [e for e in doc.modelspace() if e.dxftype() == "INSERT"]
+    (cut,) = block_polylines(doc, ins.dxf.name, "1")
+    (sew,) = block_polylines(doc, ins.dxf.name, "14")
+    cut = np.array([p[:2] for p in cut.get_points("xy")])
+    sew = np.array([p[:2] for p in sew.get_points("xy")])
+    assert abs(polygon_area(cut)) > abs(polygon_area(sew))
+    # notches: where the dart's legs meet the outline, from the cut line inwards
+    notches = [e for e in doc.blocks[ins.dxf.name] if e.dxftype() == "LINE" and e.dxf.layer == "4"]
+    assert len(notches) == 2
+    for n in notches:
+        start, end = np.array(n.dxf.start)[:2], np.array(n.dxf.end)[:2]
+        assert seg_distance(start[None], cut)[0] < 1e-6
+        assert seg_distance(end[None], sew)[0] == pytest.approx(sa - 6.0, abs=1e-6)
+    legs = [e for e in doc.blocks[ins.dxf.name] if e.dxftype() == "LWPOLYLINE" and e.dxf.layer == "8"]
+    assert len(legs) == 2
+    assert [e for e in doc.blocks[ins.dxf.name] if e.dxftype() == "POINT" and e.dxf.layer == "13"]
+
+
+@pytest.mark.parametrize("fixture", ["octant_dart", "cylinder"])
+def test_dxf_grain_line_follows_the_warp(tmp_path, fixture, request):
+    result = request.getfixturevalue(fixture)
+    doc = read_dxf(export(result, tmp_path / "p.dxf"))
+    (ins,) = [e for e in doc.modelspace() if e.dxftype() == "INSERT"]
+    (line,) = [e for e in doc.blocks[ins.dxf.name] if e.dxftype() == "LINE" and e.dxf.layer == "7"]
+    d = np.array(line.dxf.end)[:2] - np.array(line.dxf.start)[:2]
+    assert np.linalg.norm(d) > 50.0  # mm: a grain line a user can align
+    diff = (math.atan2(d[1], d[0]) - warp_angle(result) + math.pi / 2) % math.pi - math.pi / 2
+    assert abs(math.degrees(diff)) < 0.01
+    # the grain line lies inside the piece
+    (sew,) = block_polylines(doc, ins.dxf.name, "14")
+    from shapely.geometry import LineString, Polygon
+
+    assert Polygon([p[:2] for p in sew.get_points("xy")]).contains(
+        LineString([tuple(line.dxf.start)[:2], tuple(line.dxf.end)[:2]]))
+
+
+# ---------------------------------------------------------------- seam allowance
+
+
+@pytest.mark.parametrize("sa", [5.0, 10.0, 15.875])
+def test_seam_allowance_lies_outside_at_the_set_distance(octant_dart, sa):
+    sheet = build_sheet(octant_dart, "m", sa)
+    (p,) = sheet.pieces
+    from shapely.geometry import Point, Polygon
+
+    cut_poly = Polygon(p.cut)
+    assert cut_poly.is_valid and cut_poly.contains(Polygon(p.sew))
+    # every point of the cut line is at least sa from the sew line, and no more
+    # than the mitre limit (2 sa) at sharp corners
+    d = seg_distance(densify(p.cut, 1.0), p.sew)
+    assert d.min() >= sa * (1 - 1e-6)
+    assert d.max() <= 2 * sa * (1 + 1e-6)
+    assert np.median(d) == pytest.approx(sa, rel=1e-6)  # along the edges: exactly sa
+    # every point of the sew line is at least sa from the cut line
+    e = seg_distance(densify(p.sew, 1.0), p.cut)
+    assert e.min() >= sa * (1 - 1e-6)
+    assert not any(cut_poly.exterior.distance(Point(q)) < sa * (1 - 1e-6) for q in p.sew[::7])
+
+
+def test_bad_export_options_are_one_line_errors():
+    with pytest.raises(SettingsError, match="seam allowance"):
+        ExportOptions(seam_allowance_mm=-1)
+    with pytest.raises(SettingsError, match="units"):
+        ExportOptions(units="furlong")
+    with pytest.raises(SettingsError, match="paper"):
+        ExportOptions(paper="a3")
+
+
+# ---------------------------------------------------------------- SVG
+
+
+def test_svg_size_in_mm_is_the_pattern_plus_margins(tmp_path, octant_dart):
+    sa = 10.0
+    path = export(octant_dart, tmp_path / "p.svg", ExportOptions(seam_allowance_mm=sa, units="m"))
+    root = ET.parse(path).getroot()
+    w, h = root.get("width"), root.get("height")
+    assert w.endswith("mm") and h.endswith("mm")
+    w, h = float(w[:-2]), float(h[:-2])
+    vb = [float(x) for x in root.get("viewBox").split()]
+    assert vb == pytest.approx([0, 0, w, h])
+    # the pattern's bounding box, from the sew line grown by the allowance
+    sheet = build_sheet(octant_dart, "m", sa)
+    cut = sheet.pieces[0].cut
+    assert w == pytest.approx(np.ptp(cut[:, 0]) + 2 * SVG_MARGIN, abs=1e-3)
+    assert h == pytest.approx(np.ptp(cut[:, 1]) + 2 * SVG_MARGIN, abs=1e-3)
+    ns = {"s": "http://www.w3.org/2000/svg"}
+    groups = {g.get("id"): g for g in root.findall("s:g", ns)}
+    assert {"layer-1-cut", "layer-14-sew", "layer-8-internal", "layer-4-notch", "layer-7-grain",
+            "layer-15-annotation"} <= set(groups)
+    (sew,) = groups["layer-14-sew"].findall("s:polygon", ns)
+    pts = np.array([[float(v) for v in xy.split(",")] for xy in sew.get("points").split()])
+    piece = octant_dart.pattern.pieces[0]
+    assert abs(polygon_area(pts)) == pytest.approx(abs(polygon_area(piece.outline)) * 1e6, rel=1e-3)
+    assert polygon_perimeter(pts) == pytest.approx(polygon_perimeter(piece.outline) * 1e3, rel=1e-3)
+    assert pts.min() >= 0 and pts[:, 0].max() <= w and pts[:, 1].max() <= h
+
+
+# ---------------------------------------------------------------- PDF
+
+
+def page_rects(page):
+    """Every rectangle drawn on a page, in the page's own units (points):
+    (x, y, w, h) after the current transformation matrix."""
+    from pypdf.generic import ContentStream
+
+    ops = ContentStream(page.get_contents(), page.pdf).operations
+    ctm, stack, out = np.eye(3), [], []
+    for operands, op in ops:
+        if op == b"q":
+            stack.append(ctm.copy())
+        elif op == b"Q":
+            ctm = stack.pop()
+        elif op == b"cm":
+            a, b, c, d, e, f = (float(x) for x in operands)
+            ctm = np.array([[a, b, 0], [c, d, 0], [e, f, 1]]) @ ctm
+        elif op == b"re":
+            x, y, w, h = (float(v) for v in operands)
+            p0 = np.array([x, y, 1]) @ ctm
+            p1 = np.array([x + w, y + h, 1]) @ ctm
+            out.append((p0[0], p0[1], p1[0] - p0[0], p1[1] - p0[1]))
+    return out
+
+
+@pytest.mark.parametrize("paper", ["a4", "letter"])
+def test_pdf_pages_tiles_and_test_square(tmp_path, cylinder, paper):
+    """The half cylinder's 1.5 m x 1.57 m rectangle covers every tile of the grid."""
+    from pypdf import PdfReader
+
+    sa = 10.0
+    path = export(cylinder, tmp_path / "p.pdf", ExportOptions(seam_allowance_mm=sa, units="m", paper=paper))
+    reader = PdfReader(path)
+    pw, ph = PAPER_MM[paper]
+    sheet = build_sheet(cylinder, "m", sa)
+    W, H = (s + 2 * SHEET_MARGIN_MM for s in sheet.size)
+    cw, ch = pw - 2 * PAGE_MARGIN_MM, ph - 2 * PAGE_MARGIN_MM
+    cols = math.ceil((W - OVERLAP_MM) / (cw - OVERLAP_MM))
+    rows = math.ceil((H - OVERLAP_MM) / (ch - OVERLAP_MM))
+    assert rows * cols > 1
+    assert len(reader.pages) == 2 + rows * cols  # overview, assembly map, tiles
+    side = 100 * POINTS_PER_MM
+    for page in reader.pages:
+        box = page.mediabox
+        assert float(box.width) == pytest.approx(pw * POINTS_PER_MM, abs=0.5)
+        assert float(box.height) == pytest.approx(ph * POINTS_PER_MM, abs=0.5)
+        squares = [r for r in page_rects(page) if abs(r[2]) == pytest.approx(side, abs=0.01)
+                   and abs(r[3]) == pytest.approx(side, abs=0.01)]
+        assert squares, "every page has a 100 mm test square"
+        x, y, w, h = squares[0]
+        assert 0 <= x and x + w <= float(box.width) and 0 <= y and y + h <= float(box.height)
+    texts = [p.extract_text() for p in reader.pages]
+    assert "overview" in texts[0] and "scale 1:" in texts[0]
+    assert "assembly map" in texts[1]
+    assert "A1" in texts[2] and "row A, column 1" in texts[2]
+    last = f"{chr(64 + rows)}{cols}"
+    assert f"{last}   row {chr(64 + rows)}, column {cols}" in texts[-1]
+
+
+def test_pdf_leaves_out_blank_tiles(tmp_path, octant_dart):
+    """The octant is a curved triangle: corner tiles of its grid are blank and not printed."""
+    from pypdf import PdfReader
+
+    from core.export.pdf import tile_grid, tiles
+
+    sheet = build_sheet(octant_dart, "m", 10.0)
+    rows, cols, _, _ = tile_grid(sheet.size, "a4")
+    grid = tiles(sheet, "a4")
+    printed = sum(t[2] for t in grid)
+    assert 1 < printed < rows * cols
+    reader = PdfReader(export(octant_dart, tmp_path / "p.pdf"))
+    assert len(reader.pages) == 2 + printed
+
+
+def test_pdf_small_pattern_fits_one_tile(tmp_path, cylinder):
+    """In mm the half cylinder is 1.5 x 1.6 mm: one tile."""
+    from pypdf import PdfReader
+
+    reader = PdfReader(export(cylinder, tmp_path / "p.pdf", ExportOptions(units="mm", seam_allowance_mm=2)))
+    assert len(reader.pages) == 3
+
+
+# ---------------------------------------------------------------- OBJ, VTP
+
+
+def test_obj_texture_coordinates_are_the_pattern(tmp_path, octant_dart):
+    from core.pipeline import result_to_dict
+
+    path = export(octant_dart, tmp_path / "p.obj")
+    v, vt, vn, faces = [], [], [], []
+    for line in path.read_text().splitlines():
+        key, *vals = line.split() or [""]
+        if key == "v":
+            v.append([float(x) for x in vals])
+        elif key == "vt":
+            vt.append([float(x) for x in vals])
+        elif key == "vn":
+            vn.append([float(x) for x in vals])
+        elif key == "f":
+            faces.append([[int(i) for i in x.split("/")] for x in vals])
+    d = result_to_dict(octant_dart)
+    np.testing.assert_allclose(np.array(vt), np.array(d["nodes"]["xy"]), atol=1e-10)
+    np.testing.assert_allclose(np.array(v), np.array(d["nodes"]["xyz"]), atol=1e-10)
+    np.testing.assert_allclose(np.linalg.norm(vn, axis=1), 1.0, atol=1e-6)
+    f = np.array(faces)
+    assert f.shape == (len(octant_dart.mesh.cells), 4, 3)
+    np.testing.assert_array_equal(f[:, :, 0] - 1, octant_dart.mesh.cells)
+    assert (f[:, :, 0] == f[:, :, 1]).all() and (f[:, :, 0] == f[:, :, 2]).all()
+
+
+def test_vtp_reads_back_with_strain_and_shear(tmp_path, octant_dart):
+    import pyvista as pv
+
+    path = export(octant_dart, tmp_path / "p.vtp")
+    mesh = pv.read(path)
+    r = octant_dart
+    m, c = r.mesh.n_springs, len(r.mesh.cells)
+    assert mesh.n_points == r.mesh.n_nodes and mesh.n_cells == m + c
+    np.testing.assert_allclose(mesh.points, r.xyz, atol=1e-12)
+    np.testing.assert_allclose(mesh.cell_data["strain_pct"][:m], 100 * spring_strain(r.xyz, r.mesh), atol=1e-12)
+    assert np.isnan(mesh.cell_data["strain_pct"][m:]).all()
+    np.testing.assert_allclose(mesh.cell_data["shear_deg"][m:], cell_shear_deg(r.xyz, r.mesh), atol=1e-12)
+    np.testing.assert_array_equal(mesh.cell_data["spring_kind"][:m], r.mesh.kind)
+    np.testing.assert_allclose(mesh.point_data["pattern_xy"], r.pattern.xy, atol=1e-12)
+    np.testing.assert_array_equal(mesh.lines.reshape(-1, 3)[:, 1:], r.mesh.ends)
+
+
+# ---------------------------------------------------------------- targets and failures
+
+
+def test_unknown_suffix_and_bad_folder_are_refused(tmp_path):
+    with pytest.raises(SettingsError, match="unknown format '.xyz'"):
+        check_target(tmp_path / "p.xyz")
+    with pytest.raises(SettingsError, match="does not exist"):
+        check_target(tmp_path / "nowhere" / "p.dxf")
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(SettingsError, match="is not a folder"):
+        check_target(tmp_path / "file" / "p.dxf")
+    assert set(FORMATS) == {".dxf", ".svg", ".pdf", ".vtp", ".obj"}
+
+
+def test_a_failed_write_leaves_no_partial_file_and_the_old_one_intact(tmp_path, octant_dart, monkeypatch):
+    import errno
+    import os
+
+    old = tmp_path / "p.dxf"
+    old.write_bytes(b"previous export")
+    new = tmp_path / "q.svg"
+    real_fdopen = os.fdopen
+
+    class FullDisk:
+        def __init__(self, fh):
+            self.fh = fh
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.fh.close()
+
+        def write(self, data):
+            self.fh.write(data[: len(data) // 2])
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "fdopen", lambda fd, mode: FullDisk(real_fdopen(fd, mode)))
+    for target in (old, new):
+        with pytest.raises(FlatweaveError, match="No space left on device") as info:
+            export(octant_dart, target)
+        assert "\n" not in str(info.value)
+    monkeypatch.undo()
+    assert old.read_bytes() == b"previous export"
+    assert not new.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.dxf"]  # no temporary files left
+
+
+def test_export_all_writes_every_format(tmp_path, octant_dart):
+    paths = export_all(octant_dart, [tmp_path / f"p{s}" for s in FORMATS], ExportOptions(units="cm"))
+    assert [p.suffix for p in paths] == list(FORMATS)
+    assert all(p.stat().st_size > 0 for p in paths)
+    assert all(p.stat().st_mode & 0o044 for p in paths)  # readable by others, as the umask allows
