@@ -30,11 +30,13 @@ from PySide6.QtWidgets import (QDockWidget, QFileDialog, QHBoxLayout, QLabel, QM
 
 from core.document import Change, Document
 from core.errors import FlatweaveError
+from core.export import ExportOptions
 from core.examples import example_info, example_path, list_examples
 from core.nurbs import NurbsSurface
 from core.project import PROJECT_SUFFIX, Project, load_project, new_project, save_project, warm_start
 from core.surface_io import load_surface
 
+from app.exporting import ExportDialog, ExportThread
 from app.frames import FrameMaker
 from app.panels import MetricsPanel, SettingsPanel
 from app.plot import EnergyPlot
@@ -89,11 +91,14 @@ class MainWindow(QMainWindow):
 
     Signals for scripts and tests: ``run_finished(RunOutcome)`` after a run's
     result has been handed to the document, ``run_failed(str)`` after a
-    failed run's error has been shown.
+    failed run's error has been shown; ``export_finished(paths)`` and
+    ``export_failed(str)`` likewise for File > Export.
     """
 
     run_finished = Signal(object)
     run_failed = Signal(str)
+    export_finished = Signal(object)  # list of the paths written
+    export_failed = Signal(str)
 
     def __init__(self, parent: QWidget | None = None):
         super().__init__(parent)
@@ -106,6 +111,11 @@ class MainWindow(QMainWindow):
         self._first_nodes: int | None = None
         self._unsubscribe = None
         self._shown = False
+        self.export_thread: ExportThread | None = None
+        self.export_box: ExportDialog | None = None
+        self.last_export: list[Path] = []
+        self.export_options = ExportOptions()  # the last choices (units come from the project)
+        self._export_every_format = False
         self._turn = 0
         self.alternate_live_views = True  # see _draw_frame (the GUI benchmark compares both ways)
         self._catch_up = None
@@ -205,6 +215,8 @@ class MainWindow(QMainWindow):
             "save": act("&Save", self.save, QKeySequence.StandardKey.Save, "Save the project"),
             "save_as": act("Save &As...", self.save_as, QKeySequence.StandardKey.SaveAs,
                            "Save the project under a new name"),
+            "export": act("&Export pattern...", self.export_dialog, "Ctrl+E",
+                          "Write the pattern as DXF, SVG, tiled PDF, VTP or OBJ"),
             "quit": act("&Quit", self.close, QKeySequence.StandardKey.Quit),
             "undo": act("&Undo", self.undo, QKeySequence.StandardKey.Undo),
             "redo": act("&Redo", self.redo, QKeySequence.StandardKey.Redo),
@@ -244,6 +256,8 @@ class MainWindow(QMainWindow):
         file_menu = bar.addMenu("&File")
         for key in ("open", "save", "save_as"):
             file_menu.addAction(self.actions[key])
+        file_menu.addSeparator()
+        file_menu.addAction(self.actions["export"])
         file_menu.addSeparator()
         file_menu.addAction(self.actions["quit"])
         edit_menu = bar.addMenu("&Edit")
@@ -317,6 +331,7 @@ class MainWindow(QMainWindow):
         for key in ("save", "save_as", "reset_view", "fit_pattern"):
             a[key].setEnabled(has_doc)
         doc = self.document
+        a["export"].setEnabled(bool(doc and doc.project.result is not None) and self.export_thread is None)
         a["undo"].setEnabled(bool(doc and doc.can_undo))
         a["redo"].setEnabled(bool(doc and doc.can_redo))
         a["undo"].setText(f"&Undo {doc.undo_label}" if doc and doc.can_undo else "&Undo")
@@ -427,6 +442,68 @@ class MainWindow(QMainWindow):
         self.document.mark_saved(path)
         self.statusBar().showMessage(f"Saved {path}", 5000)
         return True
+
+    # ------------------------------------------------------------------ export
+    def _export_start_path(self) -> Path:
+        if self.last_export:
+            return self.last_export[0]
+        doc = self.document
+        folder = doc.path.parent if doc.path is not None else Path.cwd()
+        return folder / f"{self.surface_name or 'pattern'}.dxf"
+
+    def export_dialog(self) -> None:
+        """Ask where and how to export the document's pattern, then export it."""
+        project = self.project
+        if project is None or project.result is None:
+            return
+        o = self.export_options
+        dialog = ExportDialog(self._export_start_path(), project.units, project.name, o.seam_allowance_mm, o.paper,
+                              self._export_every_format, stale=not project.result_is_current, parent=self)
+        dialog.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
+        self.export_box = dialog
+
+        def accepted():
+            self._export_every_format = dialog.every_format.isChecked()
+            self.export_to(dialog.paths(), dialog.options())
+        dialog.accepted.connect(accepted)
+        dialog.open()
+
+    def export_to(self, paths, options: ExportOptions) -> bool:
+        """Write the document's result to ``paths`` (formats from their suffixes) in a
+        background thread; ``export_finished`` or ``export_failed`` follows."""
+        project = self.project
+        if project is None or project.result is None or self.export_thread is not None:
+            return False
+        self.export_options = options
+        t = ExportThread(project.result, [Path(p) for p in paths], options)
+        t.succeeded.connect(self._export_succeeded)
+        t.failed.connect(self._export_failed)
+        t.finished.connect(self._export_thread_finished)
+        self.export_thread = t
+        self.statusBar().showMessage(f"Exporting {', '.join(Path(p).name for p in paths)}...")
+        self._update_actions()
+        t.start()
+        return True
+
+    def _export_succeeded(self, written) -> None:
+        self.last_export = list(written)
+        folder = written[0].parent if written else Path(".")
+        names = ", ".join(p.name for p in written)
+        text = f"Exported {names} to {folder}"
+        self.statusBar().showMessage(text, 15000)
+        self.progress.setText(text)
+        self.export_finished.emit(list(written))
+
+    def _export_failed(self, message: str) -> None:
+        self.show_error(f"Export failed: {message}")
+        self.export_failed.emit(message)
+
+    def _export_thread_finished(self) -> None:
+        t, self.export_thread = self.export_thread, None
+        if t is not None:
+            t.wait()
+            t.deleteLater()
+        self._update_actions()
 
     # ------------------------------------------------------------------ edits
     def edit_settings(self, label: str, changes: dict) -> bool:
@@ -658,6 +735,8 @@ class MainWindow(QMainWindow):
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt name)
         self._rerun_timer.stop()
         self.runner.shutdown()
+        if self.export_thread is not None:
+            self.export_thread.wait()  # atomic writes: a few seconds at most
         if self.error_box is not None:
             self.error_box.close()
         # the render windows must go before the widgets holding them are destroyed

@@ -434,3 +434,63 @@ def test_undo_mid_run_cancels_it_and_shows_the_earlier_result(make_window, qtbot
     assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(first.xyz, first.mesh))).max() <= 1
     qtbot.waitUntil(lambda: win.runner.state == "idle", timeout=10000)
     assert win.project.result is first and win.document.redo_label == "Solver"
+
+
+# ---------------------------------------------------------------------- export
+def test_export_needs_a_result(make_window):
+    win = make_window(small_project(0.1))
+    assert not win.actions["export"].isEnabled()
+
+
+def test_export_dialog_writes_every_format(make_window, qtbot, tmp_path):
+    from core.export import FORMATS, ExportOptions, export_bytes
+
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    win.edit_display("Units", {"units": "cm"})
+    assert win.actions["export"].isEnabled()
+    win.actions["export"].trigger()
+    dialog = win.export_box
+    qtbot.waitUntil(dialog.isVisible)
+    assert dialog.units.currentData() == "cm"  # the model's units by default
+    # the format follows the suffix, and choosing a format changes the suffix
+    dialog.path.setText(str(tmp_path / "piece.svg"))
+    dialog.path.textEdited.emit(dialog.path.text())
+    assert dialog.format.currentData() == ".svg"
+    dialog.format.setCurrentIndex(dialog.format.findData(".pdf"))
+    dialog.format.activated.emit(dialog.format.currentIndex())
+    assert dialog.path.text() == str(tmp_path / "piece.pdf")
+    dialog.every_format.setChecked(True)
+    dialog.seam.setValue(15.0)
+    dialog.paper.setCurrentIndex(dialog.paper.findData("letter"))
+    with qtbot.waitSignal(win.export_finished, timeout=60000) as blocker:
+        dialog.export_button.click()
+    written = blocker.args[0]
+    assert sorted(p.name for p in written) == sorted(f"piece{s}" for s in FORMATS)
+    assert all(p.stat().st_size > 0 for p in written)
+    assert str(tmp_path) in win.statusBar().currentMessage() and "piece.dxf" in win.progress.text()
+    # the same bytes as the core writes for these options (formats without timestamps)
+    options = ExportOptions(seam_allowance_mm=15.0, units="cm", paper="letter", name="octant")
+    assert win.export_options == options
+    r = win.project.result
+    for suffix in (".svg", ".vtp", ".obj"):
+        assert (tmp_path / f"piece{suffix}").read_bytes() == export_bytes(r, suffix, options), suffix
+    assert (tmp_path / "piece.pdf").read_bytes().startswith(b"%PDF")
+    assert b"SECTION" in (tmp_path / "piece.dxf").read_bytes()[:200]
+    qtbot.waitUntil(lambda: win.export_thread is None, timeout=5000)  # the thread ends after its signal
+    assert win.actions["export"].isEnabled()
+
+
+def test_export_failure_is_a_one_line_error(make_window, qtbot, tmp_path):
+    from core.export import ExportOptions
+
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    target = tmp_path / "missing" / "p.dxf"
+    with qtbot.waitSignal(win.export_failed, timeout=30000) as blocker:
+        assert win.export_to([target], ExportOptions())
+    msg = blocker.args[0]
+    assert "\n" not in msg and "p.dxf" in msg and "does not exist" in msg
+    assert win.last_error == f"Export failed: {msg}" and not target.exists()
+    qtbot.waitUntil(lambda: win.export_thread is None, timeout=5000)
+    assert win.actions["export"].isEnabled()
