@@ -1,10 +1,18 @@
 """``flatweave``: the desktop app's command.
 
-    flatweave [SURFACE.json] [--screenshot OUT.png] [--quit]
+    flatweave [FILE] [--spacing R] [--solver fast|paper] [--run]
+              [--screenshot OUT.png] [--quit] [--size WxH] [--timeout S]
 
-With no surface it opens the sphere-octant example. ``--screenshot`` saves an
-image of the window once the 3D view has rendered; ``--quit`` exits right
-after start-up (and after the screenshot), which makes a smoke test.
+FILE is a project (``.flatweave``) or a surface (geomdl JSON); with none the
+app opens the sphere-octant example. ``--run`` starts a solve once the window
+is up; ``--screenshot`` saves an image of the window once it has rendered
+(after the solve, with ``--run``); ``--quit`` exits after that. Together they
+make the scripted mode used for documentation and smoke tests::
+
+    flatweave SURFACE.json --run --screenshot OUT.png --quit
+
+which exits 0, or 1 with a one-line message when the solve fails or takes
+longer than ``--timeout``; a file that cannot be read exits 2.
 """
 
 from __future__ import annotations
@@ -18,30 +26,73 @@ READY_POLL_MS = 50
 READY_TIMEOUT_MS = 10000
 
 
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size {text!r} must be WIDTHxHEIGHT, e.g. 1600x1000") from None
+    if not (200 <= w <= 10000 and 200 <= h <= 10000):
+        raise argparse.ArgumentTypeError(f"size {text!r} must be between 200x200 and 10000x10000")
+    return w, h
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="flatweave",
         description="Flat cutting patterns for fabric covering NURBS surfaces (desktop app).")
-    parser.add_argument("surface", nargs="?", type=Path,
-                        help="surface file (geomdl JSON); default: the sphere-octant example")
+    parser.add_argument("file", nargs="?", type=Path, metavar="FILE",
+                        help="project (.flatweave) or surface (geomdl JSON); default: the sphere-octant example")
+    parser.add_argument("--spacing", type=float, default=None, metavar="R",
+                        help="mesh spacing for a surface (default: the example's, or about sqrt(area)/25)")
+    parser.add_argument("--solver", choices=("fast", "paper"), default=None, help="solver to use")
+    parser.add_argument("--run", action="store_true", help="solve once the window is up")
     parser.add_argument("--screenshot", type=Path, metavar="OUT.png",
-                        help="save an image of the window once it has rendered")
+                        help="save an image of the window once it has rendered (after the solve with --run)")
     parser.add_argument("--quit", action="store_true",
-                        help="quit right after start-up (after the screenshot, if any)")
+                        help="quit after start-up (after the solve and the screenshot, if any)")
+    parser.add_argument("--size", type=_size, default=None, metavar="WxH", help="window size in pixels")
+    parser.add_argument("--timeout", type=float, default=600.0, metavar="S",
+                        help="with --run --quit: give up (status 1) after S seconds (default 600)")
     return parser
+
+
+def load_start_project(args):
+    """The project to open: a project file, or a surface with default settings
+    (a bundled example's recommended spacing and units when FILE is one)."""
+    from core.examples import example_path, list_examples
+    from core.project import PROJECT_SUFFIX, load_project, new_project
+    from core.surface_io import load_surface
+
+    if args.file is not None and args.file.suffix.lower() == PROJECT_SUFFIX:
+        project, path = load_project(args.file), args.file
+    else:
+        path = args.file if args.file is not None else Path(example_path(DEFAULT_EXAMPLE))
+        surface = load_surface(path)
+        spacing, units = None, "m"
+        try:
+            for entry in list_examples():
+                if Path(example_path(entry["name"])).resolve() == Path(path).resolve():
+                    spacing, units = entry.get("recommended_spacing"), entry.get("units", "m")
+        except (OSError, ValueError):
+            pass
+        project = new_project(surface, Path(path).stem, str(path), spacing,
+                              units if units in ("mm", "cm", "m", "in") else "m")
+        path = None
+    if args.spacing is not None:
+        project = project.with_settings(spacing=args.spacing)
+    if args.solver is not None:
+        project = project.with_settings(solver=args.solver)
+    return project, path
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
 
-    # Load the surface before any Qt work: a bad file is a one-line error, status 2.
+    # Load before any Qt work: a bad file is a one-line error, status 2.
     from core.errors import FlatweaveError
-    from core.examples import example_path
-    from core.surface_io import load_surface
 
     try:
-        path = args.surface if args.surface is not None else Path(example_path(DEFAULT_EXAMPLE))
-        surface = load_surface(path)
+        project, project_path = load_start_project(args)
     except (FlatweaveError, OSError) as exc:
         print(f"flatweave: error: {exc}", file=sys.stderr)
         return 2
@@ -54,32 +105,56 @@ def main(argv: list[str] | None = None) -> int:
     app = QApplication.instance() or QApplication([sys.argv[0] if sys.argv else "flatweave"])
     app.setApplicationName("flatweave")
     window = MainWindow()
-    window.set_surface(surface, path)
+    if args.size is not None:
+        window.resize(*args.size)
+    window.set_project(project, project_path)
     window.show()
 
     status = {"code": 0}
-    if args.screenshot is not None or args.quit:
+
+    def fail(message: str) -> None:
+        print(f"flatweave: error: {message}", file=sys.stderr)
+        status["code"] = 1
+        if args.quit:
+            window.close()
+            app.quit()
+
+    def finish() -> None:
+        if args.screenshot is not None:
+            window.view.render()
+            window.pattern_view.render()
+            app.processEvents()
+            if not window.grab().save(str(args.screenshot)):
+                fail(f"cannot write {args.screenshot}")
+                return
+        if args.quit:
+            window.close()
+            app.quit()
+
+    if args.run or args.screenshot is not None or args.quit:
         waited = {"ms": 0}
 
-        def finish_start_up() -> None:
-            if not window.view.is_ready() and waited["ms"] < READY_TIMEOUT_MS:
+        def start_up() -> None:
+            ready = window.view.is_ready() and window.pattern_view.is_ready()
+            if not ready and waited["ms"] < READY_TIMEOUT_MS:
                 waited["ms"] += READY_POLL_MS
-                QTimer.singleShot(READY_POLL_MS, finish_start_up)
+                QTimer.singleShot(READY_POLL_MS, start_up)
                 return
-            if args.screenshot is not None:
-                window.view.render()
-                app.processEvents()
-                if not window.grab().save(str(args.screenshot)):
-                    print(f"flatweave: error: cannot write {args.screenshot}", file=sys.stderr)
-                    status["code"] = 1
-            if args.quit:
-                window.close()
-                app.quit()
+            window.view.reset_camera()  # now that the window has its size
+            if args.run:
+                window.run_finished.connect(lambda _outcome: finish())
+                window.run_failed.connect(fail)
+                if args.quit:
+                    QTimer.singleShot(int(args.timeout * 1000),
+                                      lambda: fail(f"the solve took longer than {args.timeout:g} s"))
+                window.run()
+            else:
+                finish()
 
-        QTimer.singleShot(0, finish_start_up)
+        QTimer.singleShot(0, start_up)
 
     code = app.exec()
-    window.close()  # closes the render window if the event loop ended otherwise
+    window.close()  # closes the render windows if the event loop ended otherwise
     return status["code"] or code
 
 

@@ -1,24 +1,76 @@
-"""The main window: a 3D view of the surface, File and Examples menus, a status bar."""
+"""The main window: the 3D view and the pattern view side by side, the
+settings and progress dock, the metrics, menus, a toolbar and a status bar.
+
+Structure (see docs/ARCHITECTURE.md):
+
+* the document is a :class:`core.document.Document` (the current
+  :class:`core.project.Project` with undo/redo); every user edit becomes one
+  ``Document.apply``; the window listens to it (:meth:`_on_document_changed`)
+  and redraws what changed. Nothing else changes the project.
+* solves run in a :class:`app.runner.Runner` (one worker thread at a time);
+  its frames are drawn as they come, its result is folded into the edit it
+  answers (``Document.attach_result``).
+* the views (:mod:`app.view3d`, :mod:`app.view2d`) own every VTK object and
+  get numpy arrays (frames) and :class:`app.viewbase.ViewOptions`.
+* every action is in ``self.actions``; :meth:`_update_actions` is the one place
+  that enables them.
+"""
 
 from __future__ import annotations
 
+import gc
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from PySide6.QtCore import Qt
-from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import (QFileDialog, QLabel, QMainWindow, QMessageBox, QVBoxLayout,
-                               QWidget)
+from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtGui import QAction, QActionGroup, QCursor, QKeySequence
+from PySide6.QtWidgets import (QDockWidget, QFileDialog, QHBoxLayout, QLabel, QMainWindow, QMessageBox,
+                               QScrollArea, QSplitter, QToolButton, QToolTip, QVBoxLayout, QWidget)
 
+from core.document import Change, Document
 from core.errors import FlatweaveError
-from core.examples import example_path, list_examples
+from core.export import ExportOptions
+from core.examples import example_info, example_path, list_examples
 from core.nurbs import NurbsSurface
+from core.project import PROJECT_SUFFIX, Project, load_project, new_project, save_project, warm_start
 from core.surface_io import load_surface
 
+from app.exporting import ExportDialog, ExportThread
+from app.frames import FrameMaker
+from app.panels import MetricsPanel, SettingsPanel
+from app.plot import EnergyPlot
+from app.runner import FRAME_INTERVAL_MS, Runner
+from app.view2d import PatternView
 from app.view3d import SurfaceView
+from app.viewbase import ViewOptions
+from app.worker import RunOutcome
 
 GRID_POINTS = 60
-SURFACE_FILTER = "Surfaces (*.json);;All files (*)"
+OPEN_FILTER = f"Projects and surfaces (*{PROJECT_SUFFIX} *.json);;Projects (*{PROJECT_SUFFIX});;" \
+              "Surfaces (*.json);;All files (*)"
+PROJECT_FILTER = f"flatweave projects (*{PROJECT_SUFFIX})"
+RERUN_DELAY_MS = 250  # settings edits closer together than this make one re-run
+
+
+_GC_FROZEN = False
+
+
+def freeze_long_lived_objects() -> None:
+    """Move every object alive now (modules, Qt and VTK wrappers, the window)
+    out of the cyclic garbage collector's reach, once per process.
+
+    Measured: with ~1 million objects from the imported libraries, a full
+    collection triggered by the solve worker held the GIL for about 120 ms and
+    stalled the event loop; after ``gc.freeze`` a full collection only walks
+    objects made since, and the longest stall came from painting instead.
+    Objects made later are collected as usual.
+    """
+    global _GC_FROZEN
+    if not _GC_FROZEN:
+        _GC_FROZEN = True
+        gc.collect()
+        gc.freeze()
 
 
 def surface_grid(surface: NurbsSurface, n: int = GRID_POINTS):
@@ -35,134 +87,659 @@ def surface_grid(surface: NurbsSurface, n: int = GRID_POINTS):
 
 
 class MainWindow(QMainWindow):
-    """flatweave's main window; one surface document at a time."""
+    """flatweave's main window; one document at a time.
+
+    Signals for scripts and tests: ``run_finished(RunOutcome)`` after a run's
+    result has been handed to the document, ``run_failed(str)`` after a
+    failed run's error has been shown; ``export_finished(paths)`` and
+    ``export_failed(str)`` likewise for File > Export.
+    """
+
+    run_finished = Signal(object)
+    run_failed = Signal(str)
+    export_finished = Signal(object)  # list of the paths written
+    export_failed = Signal(str)
 
     def __init__(self, parent: QWidget | None = None):
         super().__init__(parent)
-        self.surface: NurbsSurface | None = None
-        self.surface_path: Path | None = None
+        self.document: Document | None = None
         self.last_error: str | None = None  # the last error shown, one line
         self.error_box: QMessageBox | None = None
+        self.last_outcome: RunOutcome | None = None
+        self.view_options = ViewOptions()
+        self.frame = None  # the frame on screen
+        self._first_nodes: int | None = None
+        self._unsubscribe = None
+        self._shown = False
+        self.export_thread: ExportThread | None = None
+        self.export_box: ExportDialog | None = None
+        self.last_export: list[Path] = []
+        self.export_options = ExportOptions()  # the last choices (units come from the project)
+        self._export_every_format = False
+        self._turn = 0
+        self.alternate_live_views = True  # see _draw_frame (the GUI benchmark compares both ways)
+        self._catch_up = None
+        self._catch_up_timer = QTimer(self, singleShot=True, interval=FRAME_INTERVAL_MS)
+        self._catch_up_timer.timeout.connect(self._repaint_catch_up)
 
         self.view = SurfaceView(self)
-        central = QWidget(self)
-        layout = QVBoxLayout(central)
-        layout.setContentsMargins(0, 0, 0, 0)
-        layout.addWidget(self.view.widget)
-        self.setCentralWidget(central)
+        self.pattern_view = PatternView(self)
+        self.view.hover_callback = self._show_hover
+        self.pattern_view.hover_callback = self._show_hover
+        self.metrics = MetricsPanel(self)
+        self.settings_panel = SettingsPanel(self)
+        self.energy_plot = EnergyPlot(self)
+        self.progress = QLabel("Open a surface or pick an example, then Run.", self)
+        self.progress.setWordWrap(True)
+        self.runner = Runner(self)
+        self._rerun_timer = QTimer(self, singleShot=True, interval=RERUN_DELAY_MS)
+        self._rerun_timer.timeout.connect(self.rerun)
 
         self.actions = self._create_actions()
+        self._build_layout()
         self._create_menus()
+        self._create_toolbar()
+        self._hover_label = QLabel(self)
         self._name_label = QLabel(self)
         self._info_label = QLabel(self)
         self.statusBar().addWidget(self._name_label)
+        self.statusBar().addWidget(self._hover_label, 1)
         self.statusBar().addPermanentWidget(self._info_label)
-        self.resize(1100, 780)
+        self._connect()
+        self.resize(1500, 920)
         self._update_actions()
         self._update_title()
+        freeze_long_lived_objects()
 
-    # ------------------------------------------------------------------ actions
+    # ------------------------------------------------------------------ building
+    def _build_layout(self) -> None:
+        right = QSplitter(Qt.Orientation.Vertical, self)
+        right.addWidget(self.pattern_view.widget)
+        right.addWidget(self.metrics)
+        right.setStretchFactor(0, 4)
+        right.setStretchFactor(1, 0)
+        split = QSplitter(Qt.Orientation.Horizontal, self)
+        split.addWidget(self.view.widget)
+        split.addWidget(right)
+        split.setStretchFactor(0, 1)
+        split.setStretchFactor(1, 1)
+        split.setSizes([620, 560])
+        self.setCentralWidget(split)
+
+        side = QWidget(self)
+        col = QVBoxLayout(side)
+        col.setContentsMargins(4, 4, 4, 4)
+        col.addWidget(self.settings_panel)
+        buttons = QHBoxLayout()
+        for key in ("run", "pause", "stop"):
+            b = QToolButton(side)
+            b.setDefaultAction(self.actions[key])
+            b.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
+            b.setMinimumWidth(70)
+            buttons.addWidget(b)
+        buttons.addStretch(1)
+        col.addLayout(buttons)
+        col.addWidget(self.progress)
+        col.addWidget(self.energy_plot, 1)
+        scroll = QScrollArea(self)
+        scroll.setWidget(side)
+        scroll.setWidgetResizable(True)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        dock = QDockWidget("Settings", self)
+        dock.setObjectName("settings-dock")
+        dock.setWidget(scroll)
+        dock.setFeatures(QDockWidget.DockWidgetFeature.DockWidgetMovable)
+        dock.setMinimumWidth(330)
+        self.addDockWidget(Qt.DockWidgetArea.LeftDockWidgetArea, dock)
+
     def _create_actions(self) -> dict[str, QAction]:
+        def act(text, slot=None, shortcut=None, tip=None, checkable=False, checked=False):
+            a = QAction(text, self)
+            if shortcut is not None:
+                a.setShortcut(shortcut)
+            if tip:
+                a.setStatusTip(tip)
+                a.setToolTip(tip)
+            if checkable:
+                a.setCheckable(True)
+                a.setChecked(checked)
+                if slot is not None:
+                    a.toggled.connect(slot)
+            elif slot is not None:
+                a.triggered.connect(slot)
+            return a
+
         acts = {
-            "open": QAction("&Open surface...", self, shortcut=QKeySequence.StandardKey.Open,
-                            triggered=self.open_dialog),
-            "reset_view": QAction("&Reset view", self, shortcut="R",
-                                  triggered=self.view.reset_camera),
-            "quit": QAction("&Quit", self, shortcut=QKeySequence.StandardKey.Quit,
-                            triggered=self.close),
+            "open": act("&Open...", self.open_dialog, QKeySequence.StandardKey.Open,
+                        "Open a project (.flatweave) or a surface (geomdl JSON)"),
+            "save": act("&Save", self.save, QKeySequence.StandardKey.Save, "Save the project"),
+            "save_as": act("Save &As...", self.save_as, QKeySequence.StandardKey.SaveAs,
+                           "Save the project under a new name"),
+            "export": act("&Export pattern...", self.export_dialog, "Ctrl+E",
+                          "Write the pattern as DXF, SVG, tiled PDF, VTP or OBJ"),
+            "quit": act("&Quit", self.close, QKeySequence.StandardKey.Quit),
+            "undo": act("&Undo", self.undo, QKeySequence.StandardKey.Undo),
+            "redo": act("&Redo", self.redo, QKeySequence.StandardKey.Redo),
+            "run": act("&Run", self.run, "F5", "Drape the mesh and minimise its energy"),
+            "pause": act("&Pause", self.toggle_pause, "F6", "Pause or resume the solve"),
+            "stop": act("&Stop", self.stop, "Shift+F5", "Stop the solve; keep the last iterate"),
+            "reset_view": act("&Reset 3D view", self.view.reset_camera, "R"),
+            "fit_pattern": act("&Fit pattern", self.pattern_view.fit, "F"),
+            "mode_strain": act("&Strain", lambda on: on and self.set_view_options(mode="strain"), "1",
+                               "Colour springs by strain: red tensile, green zero, blue compressive",
+                               checkable=True, checked=True),
+            "mode_shear": act("S&hear", lambda on: on and self.set_view_options(mode="shear"), "2",
+                              "Colour cells by shear angle against the warning and limit angles",
+                              checkable=True),
+            "show_weft": act("&Weft", lambda on: self.set_view_options(weft=on), None, "Show weft springs",
+                             checkable=True, checked=True),
+            "show_warp": act("W&arp", lambda on: self.set_view_options(warp=on), None, "Show warp springs",
+                             checkable=True, checked=True),
+            "show_diag": act("&Diagonal", lambda on: self.set_view_options(diag=on), None,
+                             "Show diagonal springs", checkable=True, checked=True),
+            "show_surface": act("S&urface", lambda on: self.set_view_options(surface=on), None,
+                                "Show the surface under the mesh", checkable=True, checked=True),
+            "show_nodes": act("&Nodes", lambda on: self.set_view_options(nodes=on), None,
+                              "Show boundary nodes (yellow) and dart nodes (red, blue)",
+                              checkable=True, checked=True),
         }
-        acts["reset_view"].setShortcutContext(Qt.ShortcutContext.WindowShortcut)
+        group = QActionGroup(self)
+        group.setExclusive(True)
+        group.addAction(acts["mode_strain"])
+        group.addAction(acts["mode_shear"])
+        for key in ("reset_view", "fit_pattern", "mode_strain", "mode_shear", "run", "pause", "stop"):
+            acts[key].setShortcutContext(Qt.ShortcutContext.WindowShortcut)
         return acts
 
     def _create_menus(self) -> None:
         bar = self.menuBar()
         file_menu = bar.addMenu("&File")
-        file_menu.addAction(self.actions["open"])
+        for key in ("open", "save", "save_as"):
+            file_menu.addAction(self.actions[key])
+        file_menu.addSeparator()
+        file_menu.addAction(self.actions["export"])
         file_menu.addSeparator()
         file_menu.addAction(self.actions["quit"])
-        self.examples_menu = bar.addMenu("&Examples")
+        edit_menu = bar.addMenu("&Edit")
+        edit_menu.addAction(self.actions["undo"])
+        edit_menu.addAction(self.actions["redo"])
+        self.examples_menu = bar.addMenu("E&xamples")
         try:
             examples = list_examples()
         except (FlatweaveError, OSError, ValueError):  # a broken install: no menu entries
             examples = []
         for entry in examples:
             name = entry["name"]
-            act = QAction(entry.get("title") or name, self)
-            act.setData(name)
+            a = QAction(entry.get("title") or name, self)
+            a.setData(name)
             if entry.get("description"):
-                act.setStatusTip(entry["description"])
-            act.triggered.connect(lambda checked=False, n=name: self.open_example(n))
-            self.examples_menu.addAction(act)
+                a.setStatusTip(entry["description"])
+            a.triggered.connect(lambda checked=False, n=name: self.open_example(n))
+            self.examples_menu.addAction(a)
         if not examples:
             self.examples_menu.addAction("(no examples found)").setEnabled(False)
+        solve_menu = bar.addMenu("&Solve")
+        for key in ("run", "pause", "stop"):
+            solve_menu.addAction(self.actions[key])
         view_menu = bar.addMenu("&View")
+        for key in ("mode_strain", "mode_shear"):
+            view_menu.addAction(self.actions[key])
+        view_menu.addSeparator()
+        for key in ("show_weft", "show_warp", "show_diag", "show_surface", "show_nodes"):
+            view_menu.addAction(self.actions[key])
+        view_menu.addSeparator()
         view_menu.addAction(self.actions["reset_view"])
+        view_menu.addAction(self.actions["fit_pattern"])
 
+    def _create_toolbar(self) -> None:
+        tb = self.addToolBar("Main")
+        tb.setObjectName("main-toolbar")
+        tb.setMovable(False)
+        for key in ("run", "pause", "stop"):
+            tb.addAction(self.actions[key])
+        tb.addSeparator()
+        for key in ("mode_strain", "mode_shear"):
+            tb.addAction(self.actions[key])
+        tb.addSeparator()
+        for key in ("show_weft", "show_warp", "show_diag", "show_surface", "show_nodes"):
+            tb.addAction(self.actions[key])
+        tb.addSeparator()
+        tb.addAction(self.actions["reset_view"])
+        tb.addAction(self.actions["fit_pattern"])
+
+    def _connect(self) -> None:
+        self.settings_panel.settings_edited.connect(self.edit_settings)
+        self.settings_panel.display_edited.connect(self.edit_display)
+        self.settings_panel.input_error.connect(self.show_error)
+        r = self.runner
+        r.frame.connect(self._draw_frame)
+        r.started.connect(self._run_started)
+        r.finished.connect(self._run_finished)
+        r.failed.connect(self._run_failed)
+        r.state_changed.connect(lambda _s: self._update_actions())
+
+    # ------------------------------------------------------------------ actions
     def _update_actions(self) -> None:
-        """Enable or disable actions for the current document (the one place that does)."""
-        self.actions["reset_view"].setEnabled(self.surface is not None)
+        """Enable, disable and name the actions for the current state (the one place that does)."""
+        a = self.actions
+        has_doc = self.document is not None
+        state = self.runner.state
+        a["run"].setEnabled(has_doc and state == "idle")
+        a["pause"].setEnabled(state in ("running", "paused"))
+        a["pause"].setText("&Resume" if state == "paused" else "&Pause")
+        a["stop"].setEnabled(state in ("running", "paused"))
+        for key in ("save", "save_as", "reset_view", "fit_pattern"):
+            a[key].setEnabled(has_doc)
+        doc = self.document
+        a["export"].setEnabled(bool(doc and doc.project.result is not None) and self.export_thread is None)
+        a["undo"].setEnabled(bool(doc and doc.can_undo))
+        a["redo"].setEnabled(bool(doc and doc.can_redo))
+        a["undo"].setText(f"&Undo {doc.undo_label}" if doc and doc.can_undo else "&Undo")
+        a["redo"].setText(f"&Redo {doc.redo_label}" if doc and doc.can_redo else "&Redo")
+        self.settings_panel.setEnabled(has_doc)
 
     def _update_title(self) -> None:
-        name = self.surface_name
-        self.setWindowTitle(f"flatweave - {name}" if name else "flatweave")
+        doc = self.document
+        if doc is None:
+            self.setWindowTitle("flatweave")
+            return
+        name = doc.path.name if doc.path is not None else self.surface_name
+        self.setWindowTitle(f"flatweave - {name}{' *' if doc.dirty else ''}")
 
-    # ------------------------------------------------------------------ document
+    # ------------------------------------------------------------------ document access
+    @property
+    def project(self) -> Project | None:
+        return None if self.document is None else self.document.project
+
+    @property
+    def surface(self) -> NurbsSurface | None:
+        return None if self.document is None else self.document.project.surface
+
     @property
     def surface_name(self) -> str | None:
-        return None if self.surface_path is None else self.surface_path.stem
+        return None if self.document is None else self.document.project.name
 
-    def set_surface(self, surface: NurbsSurface, path: str | Path | None = None) -> None:
-        """Show ``surface`` (loaded from ``path``, if given)."""
-        _, xyz, normals = surface_grid(surface)
-        self.surface = surface
-        self.surface_path = None if path is None else Path(path)
-        self.view.set_surface(xyz, normals)
-        self._name_label.setText(self.surface_name or "(unnamed surface)")
-        p, q = surface.degree_u, surface.degree_v
-        nu, nv = surface.shape
-        kind = "rational" if surface.rational else "polynomial"
-        self._info_label.setText(f"{kind}, degree {p}x{q}, {nu}x{nv} control points")
-        self._update_actions()
-        self._update_title()
+    def set_project(self, project: Project, path: str | Path | None = None) -> None:
+        """Make ``project`` the document (a new history); any run is abandoned."""
+        self.runner.cancel()
+        self._rerun_timer.stop()
+        if self.document is None:
+            self.document = Document(project, path)
+            self._unsubscribe = self.document.subscribe(self._on_document_changed)
+            self._on_document_changed(project, Change("reset", frozenset(
+                ("surface", "settings", "display", "result", "name"))))
+        else:
+            self.document.reset(project, path)
+
+    def set_surface(self, surface: NurbsSurface, path: str | Path | None = None, spacing: float | None = None,
+                    units: str = "m") -> None:
+        """A new document on ``surface`` (loaded from ``path``) with default settings."""
+        name = Path(path).stem if path is not None else "untitled"
+        self.set_project(new_project(surface, name, None if path is None else str(path), spacing, units))
 
     def open_file(self, path: str | Path) -> bool:
-        """Load a surface file and show it; on failure show the error and keep the old one."""
+        """Open a project (.flatweave) or a surface file; on failure show the error, keep the document."""
+        path = Path(path)
         try:
-            surface = load_surface(path)
+            if path.suffix.lower() == PROJECT_SUFFIX:
+                project = load_project(path)
+                self.set_project(project, path)
+            else:
+                surface = load_surface(path)
+                self.set_surface(surface, path)
         except (FlatweaveError, OSError) as exc:
-            self.show_error(f"Cannot open surface: {exc}")
+            what = "project" if path.suffix.lower() == PROJECT_SUFFIX else "surface"
+            self.show_error(f"Cannot open {what}: {exc}")
             return False
-        self.set_surface(surface, path)
         self.statusBar().showMessage(f"Opened {path}", 5000)
         return True
 
     def open_example(self, name: str) -> bool:
-        return self.open_file(example_path(name))
+        """Open a bundled example with its recommended spacing and units."""
+        try:
+            info = example_info(name)
+            path = example_path(name)
+            surface = load_surface(path)
+        except (FlatweaveError, OSError) as exc:
+            self.show_error(f"Cannot open example {name}: {exc}")
+            return False
+        self.set_surface(surface, path, spacing=info.get("recommended_spacing"), units=info.get("units", "m")
+                         if info.get("units") in ("mm", "cm", "m", "in") else "m")
+        self.statusBar().showMessage(f"Opened the example {info.get('title') or name}", 5000)
+        return True
 
     def open_dialog(self) -> None:
-        start = str(self.surface_path.parent) if self.surface_path else ""
-        path, _ = QFileDialog.getOpenFileName(self, "Open surface", start, SURFACE_FILTER)
+        start = str(self.document.path.parent) if self.document and self.document.path else ""
+        path, _ = QFileDialog.getOpenFileName(self, "Open project or surface", start, OPEN_FILTER)
         if path:
             self.open_file(path)
 
+    def save(self) -> bool:
+        if self.document is None:
+            return False
+        if self.document.path is None or self.document.path.suffix.lower() != PROJECT_SUFFIX:
+            return self.save_as()
+        return self.save_to(self.document.path)
+
+    def save_as(self) -> bool:
+        if self.document is None:
+            return False
+        doc = self.document
+        start = str(doc.path.with_suffix(PROJECT_SUFFIX)) if doc.path else f"{self.surface_name}{PROJECT_SUFFIX}"
+        path, _ = QFileDialog.getSaveFileName(self, "Save project", start, PROJECT_FILTER)
+        return bool(path) and self.save_to(path)
+
+    def save_to(self, path: str | Path) -> bool:
+        """Save the project to ``path`` (``.flatweave`` added if missing)."""
+        path = Path(path)
+        if path.suffix.lower() != PROJECT_SUFFIX:
+            path = path.with_name(path.name + PROJECT_SUFFIX)
+        try:
+            save_project(self.document.project, path)
+        except FlatweaveError as exc:
+            self.show_error(f"Cannot save: {exc}")
+            return False
+        self.document.mark_saved(path)
+        self.statusBar().showMessage(f"Saved {path}", 5000)
+        return True
+
+    # ------------------------------------------------------------------ export
+    def _export_start_path(self) -> Path:
+        if self.last_export:
+            return self.last_export[0]
+        doc = self.document
+        folder = doc.path.parent if doc.path is not None else Path.cwd()
+        return folder / f"{self.surface_name or 'pattern'}.dxf"
+
+    def export_dialog(self) -> None:
+        """Ask where and how to export the document's pattern, then export it."""
+        project = self.project
+        if project is None or project.result is None:
+            return
+        o = self.export_options
+        dialog = ExportDialog(self._export_start_path(), project.units, project.name, o.seam_allowance_mm, o.paper,
+                              self._export_every_format, stale=not project.result_is_current, parent=self)
+        dialog.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
+        self.export_box = dialog
+
+        def accepted():
+            self._export_every_format = dialog.every_format.isChecked()
+            self.export_to(dialog.paths(), dialog.options())
+        dialog.accepted.connect(accepted)
+        dialog.open()
+
+    def export_to(self, paths, options: ExportOptions) -> bool:
+        """Write the document's result to ``paths`` (formats from their suffixes) in a
+        background thread; ``export_finished`` or ``export_failed`` follows."""
+        project = self.project
+        if project is None or project.result is None or self.export_thread is not None:
+            return False
+        self.export_options = options
+        t = ExportThread(project.result, [Path(p) for p in paths], options)
+        t.succeeded.connect(self._export_succeeded)
+        t.failed.connect(self._export_failed)
+        t.finished.connect(self._export_thread_finished)
+        self.export_thread = t
+        self.statusBar().showMessage(f"Exporting {', '.join(Path(p).name for p in paths)}...")
+        self._update_actions()
+        t.start()
+        return True
+
+    def _export_succeeded(self, written) -> None:
+        self.last_export = list(written)
+        folder = written[0].parent if written else Path(".")
+        names = ", ".join(p.name for p in written)
+        text = f"Exported {names} to {folder}"
+        self.statusBar().showMessage(text, 15000)
+        self.progress.setText(text)
+        self.export_finished.emit(list(written))
+
+    def _export_failed(self, message: str) -> None:
+        self.show_error(f"Export failed: {message}")
+        self.export_failed.emit(message)
+
+    def _export_thread_finished(self) -> None:
+        t, self.export_thread = self.export_thread, None
+        if t is not None:
+            t.wait()
+            t.deleteLater()
+        self._update_actions()
+
+    # ------------------------------------------------------------------ edits
+    def edit_settings(self, label: str, changes: dict) -> bool:
+        """One undoable edit of FlattenSettings fields; refused values show an error."""
+        if self.document is None:
+            return False
+        try:
+            self.document.edit_settings(label, **changes)
+        except (FlatweaveError, TypeError, ValueError) as exc:
+            self.show_error(f"{label}: {exc}")
+            self.settings_panel.set_project(self.document.project)
+            return False
+        return True
+
+    def edit_display(self, label: str, changes: dict) -> bool:
+        """One undoable edit of units or shear angles."""
+        if self.document is None:
+            return False
+        try:
+            self.document.edit_display(label, **changes)
+        except (FlatweaveError, TypeError, ValueError) as exc:
+            self.show_error(f"{label}: {exc}")
+            self.settings_panel.set_project(self.document.project)
+            return False
+        return True
+
+    def undo(self) -> None:
+        if self.document is not None:
+            self.document.undo()
+
+    def redo(self) -> None:
+        if self.document is not None:
+            self.document.redo()
+
+    def _on_document_changed(self, project: Project, change: Change) -> None:
+        aspects = change.aspects
+        if (self.runner.active and change.cause in ("undo", "redo", "reset")
+                and aspects & {"surface", "settings"}):
+            self.runner.cancel()  # it solves a project the document has left: its result would be refused
+        if "surface" in aspects:
+            _, xyz, normals = surface_grid(project.surface)
+            self.view.set_surface(xyz, normals)
+            self.pattern_view.clear_frame()
+            self.frame = None
+            p, q = project.surface.degree_u, project.surface.degree_v
+            nu, nv = project.surface.shape
+            kind = "rational" if project.surface.rational else "polynomial"
+            self._info_label.setText(f"{kind}, degree {p}x{q}, {nu}x{nv} control points")
+        if aspects & {"settings", "display", "name"} or change.cause in ("reset", "undo", "redo"):
+            self.settings_panel.set_project(project)
+        if "display" in aspects:
+            self.set_view_options(units=project.units, shear_warning_deg=project.shear_warning_deg,
+                                  shear_limit_deg=project.shear_limit_deg)
+        if change.cause != "result" and (aspects & {"result", "surface"} or change.cause in ("undo", "redo")) \
+                and not self.runner.active:
+            self.show_result(project)
+        elif self.frame is not None:
+            self.metrics.show_frame(self.frame, project, stale=not project.result_is_current)
+        self._name_label.setText(project.name)
+        if (change.cause == "edit" and "settings" in aspects and self.settings_panel.auto_rerun.isChecked()
+                and (project.result is not None or self.runner.busy)):
+            self._rerun_timer.start()
+        self._update_actions()
+        self._update_title()
+
+    # ------------------------------------------------------------------ showing
+    def set_view_options(self, **changes) -> None:
+        self.view_options = replace(self.view_options, **changes)
+        self.view.restyle(self.view_options)
+        self.pattern_view.restyle(self.view_options)
+
+    def show_result(self, project: Project) -> None:
+        """Draw the project's result (or nothing, if it has none)."""
+        r = project.result
+        if r is None or r.surface is not project.surface:
+            self.frame = None
+            self.view.clear_frame()
+            self.pattern_view.clear_frame()
+            self.view.render()
+            self.pattern_view.render()
+            self.metrics.clear()
+            self.energy_plot.clear()
+            return
+        frame = FrameMaker(project.surface, r.settings, r.metrics.get("boundary_length_3d"),
+                           r.metrics.get("area_3d")).from_result(r)
+        self.pattern_view.request_fit()
+        self._draw_frame(frame)
+        history = r.solve.history if r.solve is not None else []
+        self.energy_plot.set_history([(k + 1, e, False) for k, e in enumerate(history)])
+
+    def _draw_frame(self, frame) -> None:
+        self.frame = frame
+        opts = self.view_options
+        # A live frame goes into both views, but only one is repainted at once:
+        # the other repaints one pump period later, in a paint pass of its own.
+        # Qt composes the window and renders every updated view in one pass, and
+        # two views in one pass made the longest event-loop stalls (with software
+        # GL, under a solve); final frames repaint both at once.
+        live = self.runner.busy and not frame.final and self.alternate_live_views
+        self._turn = (self._turn + 1) % 2
+        first, second = (self.view, self.pattern_view) if self._turn == 0 else (self.pattern_view, self.view)
+        first.show_frame(frame, opts, render=True)
+        second.show_frame(frame, opts, render=not live)
+        self._catch_up = second if live else None
+        if live:
+            self._catch_up_timer.start()
+        project = self.project
+        if project is not None:
+            stale = frame.final and not project.result_is_current and not self.runner.busy
+            self.metrics.show_frame(frame, project, stale=stale)
+        if self.runner.busy:
+            self.energy_plot.set_history(self.runner.history)
+            self._show_progress(frame)
+
+    def _repaint_catch_up(self) -> None:
+        view, self._catch_up = self._catch_up, None
+        if view is not None:
+            view.render()
+
+    def _show_progress(self, frame) -> None:
+        hist = self.runner.history
+        n = frame.stats.get("nodes", 0)
+        if self._first_nodes is None:
+            self._first_nodes = n
+        delta = ""
+        if len(hist) >= 2 and hist[-2][1] > 0:
+            delta = f" (change {hist[-1][1] - hist[-2][1]:+.3g})"
+        paused = " - paused" if self.runner.paused else ""
+        text = (f"{self.runner.stage.capitalize()}{paused}: iteration {frame.iteration}, "
+                f"EN {frame.energy:.6g}{delta}, {n:,} nodes ({n - self._first_nodes:+,d} since the drape)")
+        self.progress.setText(text)
+        self._info_label.setText(f"iteration {frame.iteration}  EN {frame.energy:.4g}  {n:,} nodes")
+
+    def _show_hover(self, text: str | None) -> None:
+        self._hover_label.setText(text or "")
+        if text:
+            QToolTip.showText(QCursor.pos(), text)
+        else:
+            QToolTip.hideText()
+
+    # ------------------------------------------------------------------ solving
+    def run(self) -> None:
+        """Solve the document's project from a new drape."""
+        if self.document is None:
+            return
+        self._rerun_timer.stop()
+        self.runner.start(self.document.project)
+
+    def rerun(self) -> None:
+        """Solve again after an edit: from the last result when the drape is unchanged."""
+        if self.document is None:
+            return
+        project = self.document.project
+        self.runner.start(project, warm_start(project))
+
+    def toggle_pause(self) -> None:
+        self.runner.toggle_pause()
+        if self.frame is not None and self.runner.busy:
+            self._show_progress(self.frame)
+
+    def stop(self) -> None:
+        self._rerun_timer.stop()
+        self.runner.stop()
+
+    def _run_started(self, project: Project) -> None:
+        self._first_nodes = None
+        self.energy_plot.clear()
+        if project.result is None or warm_start(project) is None:
+            self.pattern_view.request_fit()
+        self.progress.setText("Draping the mesh..." if warm_start(project) is None else "Starting...")
+        self._update_actions()
+
+    def _run_finished(self, outcome: RunOutcome) -> None:
+        self.last_outcome = outcome
+        r = outcome.result
+        if r is None:
+            self.progress.setText("Stopped before the first iteration; nothing changed.")
+            self.show_result(self.project)
+        else:
+            m = r.metrics
+            label = "Stop" if outcome.stopped else "Solve"
+            attached = self.document.attach_result(r, outcome.source, label=label)
+            if attached:
+                self.energy_plot.set_history(self.runner.last_history)
+                text = (f"{m.get('solver_status', 'done').capitalize()}: {m.get('iterations', 0)} iterations, "
+                        f"{m.get('nodes', 0):,} nodes, EN {m.get('energy', 0):.6g}, "
+                        f"{m.get('seconds', 0.0):.2f} s.")
+            else:
+                text = "The settings changed during the run; its result was set aside."
+                self.show_result(self.project)
+            self.progress.setText(text)
+            self.statusBar().showMessage(text, 8000)
+        self._update_actions()
+        self.run_finished.emit(outcome)
+
+    def _run_failed(self, message: str) -> None:
+        self.show_error(f"Solve failed: {message}")
+        self.progress.setText(f"Solve failed: {message}")
+        if self.project is not None:
+            self.show_result(self.project)  # back to the document's own state
+        self._update_actions()
+        self.run_failed.emit(message)
+
+    # ------------------------------------------------------------------ errors
     def show_error(self, message: str) -> None:
         """Show a one-line error without blocking (a window-modal box, opened, not exec'd)."""
+        message = " ".join(str(message).split())
         self.last_error = message
         self.statusBar().showMessage(message, 10000)
         if self.error_box is not None:
             self.error_box.close()
-        box = QMessageBox(QMessageBox.Icon.Warning, "flatweave", message,
-                          QMessageBox.StandardButton.Ok, self)
+        box = QMessageBox(QMessageBox.Icon.Warning, "flatweave", message, QMessageBox.StandardButton.Ok, self)
         box.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
+        box.setWindowModality(Qt.WindowModality.NonModal)
         box.finished.connect(self._error_box_finished)
         self.error_box = box
-        box.open()
+        box.show()
 
     def _error_box_finished(self, _result: int) -> None:
         self.error_box = None
 
     # ------------------------------------------------------------------ lifetime
+    def showEvent(self, event) -> None:  # noqa: N802 (Qt name)
+        super().showEvent(event)
+        if not self._shown:
+            self._shown = True  # the views have their sizes only now: frame the surface again
+            QTimer.singleShot(0, self.view.reset_camera)
+
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt name)
-        # The render window must go before the widgets holding it are destroyed.
+        self._rerun_timer.stop()
+        self.runner.shutdown()
+        if self.export_thread is not None:
+            self.export_thread.wait()  # atomic writes: a few seconds at most
+        if self.error_box is not None:
+            self.error_box.close()
+        # the render windows must go before the widgets holding them are destroyed
         self.view.close()
+        self.pattern_view.close()
         super().closeEvent(event)

@@ -1,19 +1,25 @@
-"""The 3D view: an adapter that owns every pyvista / VTK object of the app.
+"""The 3D view: the surface, the spring mesh on it coloured by strain (or its
+cells by shear), boundary and dart nodes, the darts' curves and a colour bar.
 
-The rest of the app hands it plain numpy arrays and Qt widgets get its
-:attr:`SurfaceView.widget`; nothing else imports pyvista or VTK.
+It owns its pyvista objects; the rest of the app hands it numpy arrays and
+:class:`~app.frames.Frame` s (see :mod:`app.viewbase`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pyvista as pv
-from pyvistaqt import QtInteractor
+from vtkmodules.vtkCommonCore import vtkDoubleArray
+from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
+
+from app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry
+
+__all__ = ["SurfaceView", "grid_faces", "grid_boundary"]
 
 SURFACE_COLOR = "#d8c3a5"
 EDGE_COLOR = "#3b3b3b"
-BACKGROUND_BOTTOM = "#f7f7f5"
-BACKGROUND_TOP = "#c9d3de"
+DART_COLOR = "#111111"
+TEXT_COLOR = (0.1, 0.1, 0.1)
 
 
 def grid_faces(nu: int, nv: int) -> np.ndarray:
@@ -37,31 +43,55 @@ def grid_boundary(nu: int, nv: int) -> np.ndarray:
     return loop
 
 
-class SurfaceView:
-    """A pyvistaqt render widget showing one gridded surface.
+def _scalar_bar() -> vtkScalarBarActor:
+    bar = vtkScalarBarActor()
+    bar.SetOrientationToVertical()
+    coord = bar.GetPositionCoordinate()
+    coord.SetCoordinateSystemToNormalizedViewport()
+    coord.SetValue(0.87, 0.1)
+    bar.SetWidth(0.125)
+    bar.SetHeight(0.55)
+    bar.SetBarRatio(0.28)
+    bar.DrawBackgroundOn()
+    bar.GetBackgroundProperty().SetColor(1.0, 1.0, 1.0)
+    bar.GetBackgroundProperty().SetOpacity(0.85)
+    bar.SetLabelFormat("%-#6.3g")
+    bar.SetVerticalTitleSeparation(8)
+    bar.UnconstrainedFontSizeOn()
+    for prop, size, bold in ((bar.GetTitleTextProperty(), 15, True), (bar.GetLabelTextProperty(), 13, False)):
+        prop.SetColor(*TEXT_COLOR)
+        prop.SetFontSize(size)
+        prop.SetBold(bold)
+        prop.SetItalic(False)
+        prop.SetShadow(False)
+    bar.SetUseCustomLabels(True)
+    bar.SetPickable(False)
+    return bar
 
-    ``set_surface`` replaces the surface; ``update_points`` moves its points
-    in place (for live updates). Call :meth:`close` before the owning window
-    is destroyed.
-    """
+
+class SurfaceView(ViewBase):
+    """The 3D view. ``set_surface`` shows a new surface (and clears the mesh);
+    ``show_frame`` draws a frame; ``restyle`` applies new view options."""
 
     def __init__(self, parent=None):
-        # auto_update=False: we render when something changed, not on a timer.
-        self._plotter = QtInteractor(parent, auto_update=False)
-        self._plotter.set_background(BACKGROUND_BOTTOM, top=BACKGROUND_TOP)
-        self._plotter.add_axes()
+        super().__init__(parent)
+        p = self._plotter
+        p.add_axes()
         self._surface: pv.PolyData | None = None
         self._boundary: pv.PolyData | None = None
-        self._actors: list = []
+        self._surface_actors: list = []
         self._shape: tuple[int, int] | None = None
-        self._closed = False
+        self._darts = pv.PolyData()
+        self._dart_actor = p.add_mesh(self._darts, color=DART_COLOR, line_width=3, render=False,
+                                      reset_camera=False, pickable=False)
+        self._dart_curves: tuple = ()
+        self._bar = _scalar_bar()
+        self._bar.SetVisibility(False)
+        p.renderer.AddViewProp(self._bar)
+        self.options = ViewOptions()
+        self._home = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)
 
     # ------------------------------------------------------------------ access
-    @property
-    def widget(self):
-        """The QWidget to put in a layout."""
-        return self._plotter.interactor
-
     @property
     def surface_points(self) -> np.ndarray | None:
         """(nu * nv, 3) float, a copy of the shown surface's points (row i*nv + j), or None."""
@@ -72,18 +102,27 @@ class SurfaceView:
         """(nu, nv) of the shown grid, or None."""
         return self._shape
 
+    @property
+    def colour_bar_title(self) -> str | None:
+        return self._bar.GetTitle() if self._bar.GetVisibility() else None
+
+    @property
+    def colour_bar_range(self) -> tuple[float, float]:
+        return self.layer.active_scale.range
+
     # ------------------------------------------------------------------ content
     def set_surface(self, xyz: np.ndarray, normals: np.ndarray | None = None) -> None:
-        """Show a new surface and fit the camera to it.
+        """Show a new surface, clear the mesh and fit the camera.
 
         xyz : (nu, nv, 3) float, grid points; normals : (nu, nv, 3) float or None,
         unit normals at them (used for smooth shading).
         """
         xyz = np.asarray(xyz, dtype=float)
         nu, nv = xyz.shape[:2]
-        for actor in self._actors:
-            self._plotter.remove_actor(actor, render=False)
-        self._actors.clear()
+        p = self._plotter
+        for actor in self._surface_actors:
+            p.remove_actor(actor, render=False)
+        self._surface_actors.clear()
 
         mesh = pv.PolyData(xyz.reshape(-1, 3).copy(), grid_faces(nu, nv))
         if normals is not None:
@@ -93,50 +132,97 @@ class SurfaceView:
         # lines= in the constructor: no vertex cells, so the grid points are not drawn
         boundary = pv.PolyData(mesh.points.copy(), lines=np.concatenate([[loop.size], loop]))
 
-        surface_actor = self._plotter.add_mesh(
-            mesh, color=SURFACE_COLOR, specular=0.2, name="surface",
-            render=False, reset_camera=False)
+        surface_actor = p.add_mesh(mesh, color=SURFACE_COLOR, specular=0.2, name=f"{self._name}-surface",
+                                   render=False, reset_camera=False, pickable=False)
         surface_actor.prop.interpolation = "phong"  # with the exact normals given
-        self._actors.append(surface_actor)
-        self._actors.append(self._plotter.add_mesh(
-            boundary, color=EDGE_COLOR, line_width=2, name="boundary",
-            render=False, reset_camera=False))
+        # the springs are chords a hair inside a convex surface: push the surface back in depth
+        mapper = surface_actor.GetMapper()
+        mapper.SetResolveCoincidentTopologyToPolygonOffset()
+        mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(4.0, 600.0)
+        self._surface_actors.append(surface_actor)
+        self._surface_actors.append(p.add_mesh(
+            boundary, color=EDGE_COLOR, line_width=2, name=f"{self._name}-rim",
+            render=False, reset_camera=False, pickable=False))
         self._surface, self._boundary, self._shape = mesh, boundary, (nu, nv)
-        self._plotter.reset_camera()
-        self._plotter.render()
+        self.clear_frame()
+        self._apply_surface_visibility()
+        self._home = self._home_direction(normals)
+        self.reset_camera()
 
-    def update_points(self, xyz: np.ndarray, normals: np.ndarray | None = None) -> None:
-        """Move the shown surface's points in place; xyz : (nu, nv, 3) of the current shape."""
-        if self._surface is None or np.shape(xyz)[:2] != self._shape:
-            self.set_surface(xyz, normals)
-            return
-        self._surface.points[:] = np.asarray(xyz, dtype=float).reshape(-1, 3)
-        if normals is not None:
-            self._surface.point_data["Normals"][:] = np.asarray(normals, dtype=float).reshape(-1, 3)
-        self._boundary.points[:] = self._surface.points
-        self._plotter.render()
+    @staticmethod
+    def _home_direction(normals) -> np.ndarray:
+        """A viewing direction for a new surface: along its mean normal, raised a
+        little so its relief shows (an isometric view if the normals cancel out)."""
+        d = np.zeros(3) if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3).mean(axis=0)
+        if np.linalg.norm(d) < 0.3:
+            d = np.array([1.0, 1.0, 1.0])
+        d = d / np.linalg.norm(d) + np.array([0.0, 0.0, 0.35])
+        return d / np.linalg.norm(d)
 
     def reset_camera(self) -> None:
-        self._plotter.reset_camera()
-        self._plotter.render()
+        """Look at the surface from its home direction, z up."""
+        if self._closed:
+            return
+        p = self._plotter
+        d = self._home
+        up = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.95 else np.array([0.0, 1.0, 0.0])
+        cam = p.renderer.GetActiveCamera()
+        cam.SetFocalPoint(0.0, 0.0, 0.0)
+        cam.SetPosition(*d)
+        cam.SetViewUp(*up)
+        p.reset_camera(render=False)
+        cam.SetWindowCenter(0.1, 0.0)  # the piece a little left of the middle: the colour bar is on the right
+        cam.Zoom(1.02)
+        self.render()
 
-    # ------------------------------------------------------------------ output
-    def is_ready(self) -> bool:
-        """True once the GL window can render (wait for this before screenshots)."""
-        rw = self._plotter.render_window
-        return bool(rw is not None and rw.GetReadyForRendering())
+    def clear_frame(self) -> None:
+        """Remove the mesh, darts and colour bar (a new surface, or no result)."""
+        self.layer.clear()
+        self._dart_curves = ()
+        replace_geometry(self._darts, np.zeros((0, 3)))
+        self._bar.SetVisibility(False)
 
-    def render(self) -> None:
-        self._plotter.render()
+    def show_frame(self, frame, options: ViewOptions, render: bool = True) -> None:
+        self.options = options
+        self.layer.show(frame, frame.xyz, options)
+        if frame.dart_curves is not self._dart_curves:  # cached per run: redrawn once
+            self._dart_curves = frame.dart_curves
+            pts, cells = polyline_cells(frame.dart_curves, closed=False)
+            replace_geometry(self._darts, pts, lines=cells)
+        self._update_bar()
+        self._apply_surface_visibility()
+        if render:
+            self.render()
 
-    def screenshot(self, path) -> None:
-        """Write the 3D view (without the window around it) to an image file."""
-        self._plotter.screenshot(str(path))
+    def restyle(self, options: ViewOptions, render: bool = True) -> None:
+        self.options = options
+        self.layer.restyle(options)
+        self._update_bar()
+        self._apply_surface_visibility()
+        if render:
+            self.render()
 
-    def close(self) -> None:
-        """Release the render window; safe to call twice."""
-        if not self._closed:
-            self._closed = True
-            self._actors.clear()
-            self._surface = self._boundary = None
-            self._plotter.close()
+    def _apply_surface_visibility(self) -> None:
+        for actor in self._surface_actors[:1]:
+            actor.SetVisibility(bool(self.options.surface))
+        self._dart_actor.SetVisibility(self.layer.frame is not None)
+
+    def _update_bar(self) -> None:
+        if self.layer.frame is None:
+            self._bar.SetVisibility(False)
+            return
+        scale = self.layer.active_scale
+        self._bar.SetLookupTable(scale.ctf)
+        self._bar.SetMaximumNumberOfColors(512)
+        labels = vtkDoubleArray()
+        if self.options.mode == "shear":
+            self._bar.SetTitle("shear (deg)")
+            values = [0.0, self.options.shear_warning_deg, self.options.shear_limit_deg, scale.range[1]]
+        else:
+            self._bar.SetTitle("strain (%)")
+            lo, hi = scale.range
+            values = [lo, lo / 2, 0.0, hi / 2, hi]
+        for v in values:
+            labels.InsertNextValue(float(v))
+        self._bar.SetCustomLabels(labels)
+        self._bar.SetVisibility(True)

@@ -1,7 +1,8 @@
-"""GUI tests: real windows on the Xvfb display that pytest-xvfb starts.
+"""GUI tests: the window, its surface, menus and errors, and the command.
 
-Asserts are on data (the mesh the view holds, the window's state, exit codes
-and the pixels of a written PNG), not on golden images.
+Real windows on the Xvfb display that pytest-xvfb starts. Asserts are on data
+(the mesh the view holds, the window's state, exit codes and the pixels of a
+written PNG), not on golden images. Solves in the window: tests/test_app_run.py.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QImage
 
-from app.mainwindow import GRID_POINTS, MainWindow
+from app.mainwindow import GRID_POINTS
 from app.view3d import grid_boundary, grid_faces
 from core.examples import example_names, example_path
 from core.surface_io import load_surface
@@ -25,28 +26,10 @@ from core.surface_io import load_surface
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _open_plotters() -> set[str]:
-    # pyvista registers every live plotter here (the check pyvistaqt's own tests make)
-    from pyvista.plotting.plotter import _ALL_PLOTTERS
-    return set(_ALL_PLOTTERS)
-
-
 @pytest.fixture
-def window(qtbot):
-    """The main window on the octant example, shown and ready to render.
-
-    Fails if the window's plotter outlives it.
-    """
-    before = _open_plotters()
-    win = MainWindow()
-    qtbot.addWidget(win)
-    assert win.open_example("octant")
-    win.show()
-    qtbot.waitExposed(win)
-    qtbot.waitUntil(win.view.is_ready, timeout=10000)
-    yield win
-    win.close()
-    assert _open_plotters() <= before, "the window's plotter was not closed"
+def window(make_window):
+    """The main window on the octant example, shown and ready to render."""
+    return make_window(example="octant")
 
 
 def expected_grid(surface, n=GRID_POINTS):
@@ -185,3 +168,46 @@ def test_missing_surface_file_exits_2(tmp_path):
     proc = run_app(tmp_path / "nope.json", "--quit", timeout=60)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_scripted_run_writes_a_screenshot_of_the_solved_piece(tmp_path):
+    out = tmp_path / "run.png"
+    proc = run_app("resources/surfaces/octant.json", "--spacing", "0.1", "--run", "--screenshot", out,
+                   "--quit", "--size", "1200x800")
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    pixels = image_array(out).astype(int)
+    h, w, _ = pixels.shape
+    assert (w, h) == (1200, 800)
+    r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+    # the strain colours are on screen: pure-ish red, green and blue springs
+    assert ((r > 200) & (g < 60) & (b < 60)).sum() > 20, "no tensile (red) springs drawn"
+    assert ((b > 200) & (r < 60) & (g < 60)).sum() > 20, "no compressive (blue) springs drawn"
+    assert ((g > 200) & (r < 80) & (b < 80)).sum() > 200, "no zero-strain (green) springs drawn"
+
+
+def test_scripted_run_that_fails_exits_1_with_one_line(tmp_path):
+    out = tmp_path / "never.png"
+    proc = run_app("resources/surfaces/octant.json", "--spacing", "0.0001", "--run", "--screenshot", out,
+                   "--quit")
+    assert proc.returncode == 1, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "nodes" in lines[0] and lines[0].startswith("flatweave: error:"), proc.stderr
+    assert not out.exists()
+
+
+def test_opening_a_project_from_the_command_line(tmp_path):
+    from core.pipeline import FlattenSettings, flatten
+    from core.project import Project, save_project
+
+    surface = load_surface(example_path("octant"))
+    s = FlattenSettings(spacing=0.1)
+    save_project(Project(surface, s, name="o", result=flatten(surface, s)), tmp_path / "o.flatweave")
+    proc = run_app(tmp_path / "o.flatweave", "--screenshot", tmp_path / "o.png", "--quit", "--size", "1000x700")
+    assert proc.returncode == 0, proc.stderr
+    pixels = image_array(tmp_path / "o.png").astype(int)
+    assert ((pixels[..., 1] > 200) & (pixels[..., 0] < 80) & (pixels[..., 2] < 80)).sum() > 200
+    bad = tmp_path / "bad.flatweave"
+    bad.write_text("{")
+    proc = run_app(bad, "--quit", timeout=60)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "bad.flatweave" in proc.stderr

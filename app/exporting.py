@@ -1,0 +1,162 @@
+"""File > Export: the dialog (file, format, seam allowance, units, paper) and
+the thread that writes the files with :mod:`core.export`.
+
+The format follows the file name's suffix (and choosing a format changes the
+suffix); "every format" writes one file per format next to each other. The
+files are written off the GUI thread (a tiled PDF takes about a second), each
+atomically by ``core.export``.
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from pathlib import Path
+
+from PySide6.QtCore import QThread, Signal
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFileDialog,
+                               QFormLayout, QHBoxLayout, QLabel, QLineEdit, QPushButton, QVBoxLayout, QWidget)
+
+from core.errors import FlatweaveError
+from core.export import FORMATS, PAPERS, UNITS, ExportOptions, export_all
+from core.pipeline import FlattenResult
+
+from app.worker import one_line
+
+__all__ = ["ExportDialog", "ExportThread", "export_paths"]
+
+
+def export_paths(path: str | Path, every_format: bool) -> list[Path]:
+    """The files an export writes: ``path``, or with ``every_format`` one file per
+    format with ``path``'s folder and stem."""
+    path = Path(path)
+    if not every_format:
+        return [path]
+    stem = path.with_suffix("") if path.suffix.lower() in FORMATS else path
+    return [stem.with_name(stem.name + suffix) for suffix in FORMATS]
+
+
+class ExportThread(QThread):
+    """Writes ``paths`` for ``result``; ``succeeded(list of Path)`` or ``failed(str)``."""
+
+    succeeded = Signal(object)
+    failed = Signal(str)
+
+    def __init__(self, result: FlattenResult, paths: list[Path], options: ExportOptions, parent=None):
+        super().__init__(parent)
+        self.result, self.paths, self.options = result, list(paths), options
+
+    def run(self) -> None:
+        try:
+            written = export_all(self.result, self.paths, self.options)
+        except Exception as exc:  # every failure reaches the window as one line
+            if not isinstance(exc, FlatweaveError):
+                traceback.print_exc(file=sys.stderr)
+            self.failed.emit(one_line(exc))
+            return
+        self.succeeded.emit(written)
+
+
+class ExportDialog(QDialog):
+    """Where and how to export. ``paths()`` and ``options()`` once accepted."""
+
+    def __init__(self, path: Path, units: str, name: str, seam_allowance_mm: float = 10.0, paper: str = "a4",
+                 every_format: bool = False, stale: bool = False, parent=None):
+        super().__init__(parent)
+        self.setWindowTitle("Export pattern")
+        layout = QVBoxLayout(self)
+        form = QFormLayout()
+        self.path = QLineEdit(str(path))
+        browse = QPushButton("Browse...")
+        browse.clicked.connect(self._browse)
+        row = QHBoxLayout()
+        row.addWidget(self.path, 1)
+        row.addWidget(browse)
+        holder = QWidget()
+        holder.setLayout(row)
+        row.setContentsMargins(0, 0, 0, 0)
+        form.addRow("File", holder)
+        self.format = QComboBox()
+        for suffix, text in FORMATS.items():
+            self.format.addItem(f"{suffix[1:].upper()}: {text}", suffix)
+        form.addRow("Format", self.format)
+        self.every_format = QCheckBox("every format (" + ", ".join(s[1:] for s in FORMATS) + ")")
+        self.every_format.setChecked(every_format)
+        form.addRow("", self.every_format)
+        self.seam = QDoubleSpinBox()
+        self.seam.setRange(0.0, 200.0)
+        self.seam.setDecimals(1)
+        self.seam.setSuffix(" mm")
+        self.seam.setValue(float(seam_allowance_mm))
+        form.addRow("Seam allowance", self.seam)
+        self.units = QComboBox()
+        for u in UNITS:
+            self.units.addItem(u, u)
+        self.units.setCurrentIndex(max(0, self.units.findData(units)))
+        self.units.setToolTip("The model's units (what one coordinate unit of the surface is); "
+                              "2D files are written in mm")
+        form.addRow("Model units", self.units)
+        self.paper = QComboBox()
+        for p in PAPERS:
+            self.paper.addItem(p.upper() if p == "a4" else p, p)
+        self.paper.setCurrentIndex(max(0, self.paper.findData(paper)))
+        form.addRow("Paper (PDF)", self.paper)
+        self.name = QLineEdit(name)
+        form.addRow("Piece name", self.name)
+        layout.addLayout(form)
+        if stale:
+            note = QLabel("The pattern was made with earlier settings; Run to update it first.")
+            note.setStyleSheet("color: #b36b00")
+            layout.addWidget(note)
+        self.error = QLabel("")
+        self.error.setStyleSheet("color: #c00000")
+        layout.addWidget(self.error)
+        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Cancel)
+        self.export_button = buttons.addButton("Export", QDialogButtonBox.ButtonRole.AcceptRole)
+        buttons.accepted.connect(self._accept)
+        buttons.rejected.connect(self.reject)
+        layout.addWidget(buttons)
+        self.path.textEdited.connect(self._path_edited)
+        self.format.activated.connect(self._format_chosen)
+        self._path_edited(self.path.text())
+        self.resize(560, self.sizeHint().height())
+
+    # ------------------------------------------------------------------ format <-> suffix
+    def _path_edited(self, text: str) -> None:
+        idx = self.format.findData(Path(text).suffix.lower())
+        if idx >= 0:
+            self.format.setCurrentIndex(idx)
+
+    def _format_chosen(self, _index: int) -> None:
+        p = Path(self.path.text())
+        if p.name:
+            self.path.setText(str(p.with_suffix(self.format.currentData())))
+
+    def _browse(self) -> None:
+        filters = ";;".join(f"{text} (*{suffix})" for suffix, text in FORMATS.items())
+        path, _ = QFileDialog.getSaveFileName(self, "Export pattern", self.path.text(), filters)
+        if path:
+            self.path.setText(path)
+            self._path_edited(path)
+
+    # ------------------------------------------------------------------ results
+    def paths(self) -> list[Path]:
+        p = Path(self.path.text().strip())
+        if not self.every_format.isChecked() and p.suffix.lower() not in FORMATS:
+            p = p.with_name(p.name + self.format.currentData())
+        return export_paths(p, self.every_format.isChecked())
+
+    def options(self) -> ExportOptions:
+        return ExportOptions(seam_allowance_mm=float(self.seam.value()), units=self.units.currentData(),
+                             paper=self.paper.currentData(), name=self.name.text().strip() or "piece")
+
+    def _accept(self) -> None:
+        if not self.path.text().strip():
+            self.error.setText("Choose a file to export to.")
+            return
+        try:
+            self.options()
+        except FlatweaveError as exc:
+            self.error.setText(str(exc))
+            return
+        self.accept()

@@ -1,0 +1,305 @@
+"""The side panels: the settings a user edits and the headline metrics.
+
+:class:`SettingsPanel` shows a :class:`~core.project.Project`'s settings and
+reports every committed edit as ``settings_edited(label, changes)`` (fields of
+FlattenSettings) or ``display_edited(label, changes)`` (units, shear angles);
+it never changes the document itself: the window turns each report into one
+undoable edit, and shows the project again (so a refused value snaps back).
+"""
+
+from __future__ import annotations
+
+import math
+
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtGui import QDoubleValidator
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout,
+                               QLabel, QLineEdit, QSpinBox, QVBoxLayout, QWidget)
+
+from core.errors import SettingsError
+from core.mesh import MATERIALS, Material, parse_material
+from core.project import UNITS, Project
+
+__all__ = ["NumberEdit", "SettingsPanel", "MetricsPanel"]
+
+SOLVER_LABELS = {"fast": "fast (Levenberg-Marquardt)", "paper": "paper (steepest descent + CG)"}
+
+
+class NumberEdit(QLineEdit):
+    """A line edit for one positive number, shown with ``%g`` (0.04, 1e-09).
+
+    ``value_committed(float)`` when the user finishes editing a new valid value.
+    """
+
+    value_committed = Signal(float)
+
+    def __init__(self, value: float, minimum: float = 0.0, maximum: float = 1e12, parent=None):
+        super().__init__(parent)
+        v = QDoubleValidator(minimum, maximum, 12, self)
+        v.setNotation(QDoubleValidator.Notation.ScientificNotation)
+        self.setValidator(v)
+        self._value = float(value)
+        self.setText(f"{value:g}")
+        self.editingFinished.connect(self._commit)
+
+    def value(self) -> float:
+        return self._value
+
+    def set_value(self, value: float) -> None:
+        self._value = float(value)
+        self.setText(f"{value:g}")
+
+    def _commit(self) -> None:
+        try:
+            v = float(self.text().replace(",", "."))
+        except ValueError:
+            self.set_value(self._value)
+            return
+        if not math.isfinite(v) or v == self._value:
+            self.set_value(self._value)
+            return
+        self._value = v
+        self.value_committed.emit(v)
+
+
+def _spin(lo: float, hi: float, step: float, decimals: int, suffix: str = "") -> QDoubleSpinBox:
+    s = QDoubleSpinBox()
+    s.setRange(lo, hi)
+    s.setSingleStep(step)
+    s.setDecimals(decimals)
+    s.setKeyboardTracking(False)  # one change per commit, not per keystroke
+    if suffix:
+        s.setSuffix(suffix)
+    return s
+
+
+class SettingsPanel(QWidget):
+    """The settings form (see the module docstring)."""
+
+    settings_edited = Signal(str, dict)
+    display_edited = Signal(str, dict)
+    input_error = Signal(str)  # a value the panel itself cannot read (one line)
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self._loading = False
+        self._project: Project | None = None
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(4, 4, 4, 4)
+
+        mesh_box = QGroupBox("Fabric and mesh")
+        form = QFormLayout(mesh_box)
+        self.material = QComboBox()
+        for name, m in MATERIALS.items():
+            self.material.addItem(f"{name} ({m.ratio})", name)
+        self.material.addItem("custom ratio", "custom")
+        self.material.setToolTip("Spring constants weft : warp : diagonal")
+        self.ratio = QLineEdit()
+        self.ratio.setPlaceholderText("weft:warp:diag, e.g. 500:500:1")
+        self.ratio.setToolTip("A custom spring-constant ratio WEFT:WARP:DIAG")
+        form.addRow("Material", self.material)
+        form.addRow("Ratio", self.ratio)
+        self.spacing = NumberEdit(0.05, 0.0)
+        self.spacing.setToolTip("Rest length of the weft springs, in model units")
+        self.spacing_warp = NumberEdit(0.05, 0.0)
+        self.spacing_warp.setToolTip("Rest length of the warp springs, in model units")
+        self.same_warp = QCheckBox("same as weft")
+        warp_row = QHBoxLayout()
+        warp_row.addWidget(self.spacing_warp, 1)
+        warp_row.addWidget(self.same_warp)
+        form.addRow("Weft spacing", self.spacing)
+        form.addRow("Warp spacing", warp_row)
+        self.seed_u = _spin(0.0, 1.0, 0.05, 3)
+        self.seed_v = _spin(0.0, 1.0, 0.05, 3)
+        for s, d in ((self.seed_u, "u"), (self.seed_v, "v")):
+            s.setToolTip(f"Seed point: fraction of the parameter domain along {d}")
+        seed_row = QHBoxLayout()
+        seed_row.addWidget(QLabel("u"))
+        seed_row.addWidget(self.seed_u, 1)
+        seed_row.addWidget(QLabel("v"))
+        seed_row.addWidget(self.seed_v, 1)
+        form.addRow("Seed", seed_row)
+        self.angle = _spin(-180.0, 180.0, 5.0, 1, " deg")
+        self.angle.setToolTip("Weft direction at the seed, from the u direction towards v")
+        form.addRow("Weft angle", self.angle)
+        layout.addWidget(mesh_box)
+
+        solve_box = QGroupBox("Solver")
+        form = QFormLayout(solve_box)
+        self.solver = QComboBox()
+        for key, text in SOLVER_LABELS.items():
+            self.solver.addItem(text, key)
+        self.tol = NumberEdit(1e-9, 0.0, 1.0)
+        self.tol.setToolTip("Stop when an iteration lowers the energy by less than this fraction")
+        self.max_iter = QSpinBox()
+        self.max_iter.setRange(1, 1_000_000)
+        self.max_iter.setKeyboardTracking(False)
+        self.auto_rerun = QCheckBox("Re-run when a setting changes")
+        self.auto_rerun.setChecked(True)
+        form.addRow("Method", self.solver)
+        form.addRow("Tolerance", self.tol)
+        form.addRow("Max iterations", self.max_iter)
+        form.addRow(self.auto_rerun)
+        layout.addWidget(solve_box)
+
+        show_box = QGroupBox("Model and display")
+        form = QFormLayout(show_box)
+        self.units = QComboBox()
+        for u in UNITS:
+            self.units.addItem(u, u)
+        self.units.setToolTip("What one unit of the surface's coordinates is")
+        self.shear_warning = _spin(0.5, 89.0, 1.0, 1, " deg")
+        self.shear_limit = _spin(1.0, 90.0, 1.0, 1, " deg")
+        form.addRow("Model units", self.units)
+        form.addRow("Shear warning", self.shear_warning)
+        form.addRow("Shear limit", self.shear_limit)
+        layout.addWidget(show_box)
+
+        self._connect()
+
+    # ------------------------------------------------------------------ wiring
+    def _connect(self) -> None:
+        self.material.activated.connect(self._material_chosen)
+        self.ratio.editingFinished.connect(self._ratio_committed)
+        self.spacing.value_committed.connect(lambda v: self._settings("Weft spacing", spacing=v))
+        self.spacing_warp.value_committed.connect(lambda v: self._settings("Warp spacing", spacing_warp=v))
+        self.same_warp.toggled.connect(self._same_warp_toggled)
+        self.seed_u.valueChanged.connect(lambda _v: self._seed())
+        self.seed_v.valueChanged.connect(lambda _v: self._seed())
+        self.angle.valueChanged.connect(lambda v: self._settings("Weft angle", angle_deg=float(v)))
+        self.solver.activated.connect(lambda _i: self._settings("Solver", solver=self.solver.currentData()))
+        self.tol.value_committed.connect(lambda v: self._settings("Tolerance", tol=v))
+        self.max_iter.valueChanged.connect(lambda v: self._settings("Max iterations", max_iter=int(v)))
+        self.units.activated.connect(lambda _i: self._display("Units", units=self.units.currentData()))
+        self.shear_warning.valueChanged.connect(
+            lambda v: self._display("Shear warning angle", shear_warning_deg=float(v)))
+        self.shear_limit.valueChanged.connect(
+            lambda v: self._display("Shear limit angle", shear_limit_deg=float(v)))
+
+    def _settings(self, label: str, **changes) -> None:
+        if not self._loading:
+            self.settings_edited.emit(label, changes)
+
+    def _display(self, label: str, **changes) -> None:
+        if not self._loading:
+            self.display_edited.emit(label, changes)
+
+    def _seed(self) -> None:
+        self._settings("Seed", seed=(float(self.seed_u.value()), float(self.seed_v.value())))
+
+    def _same_warp_toggled(self, on: bool) -> None:
+        self.spacing_warp.setEnabled(not on)
+        if on:
+            self._settings("Warp spacing", spacing_warp=None)
+        else:
+            self._settings("Warp spacing", spacing_warp=self.spacing.value())
+
+    def _material_chosen(self, _index: int) -> None:
+        key = self.material.currentData()
+        self.ratio.setEnabled(key == "custom")
+        if key == "custom":
+            current = self._project.settings.material if self._project else MATERIALS["woven"]
+            self._settings("Material", material=Material(f"custom {current.ratio}", current.k_weft,
+                                                          current.k_warp, current.k_diag))
+        else:
+            self._settings("Material", material=MATERIALS[key])
+
+    def _ratio_committed(self) -> None:
+        if self._loading or self._project is None:
+            return
+        text = self.ratio.text().strip()
+        if not text or text == self._project.settings.material.ratio:
+            return
+        try:
+            material = parse_material(text)
+        except SettingsError as exc:
+            self.ratio.setText(self._project.settings.material.ratio)
+            self.input_error.emit(str(exc))
+            return
+        if material.name in MATERIALS:  # a preset's name typed in
+            self._settings("Material", material=material)
+        else:
+            self._settings("Material", material=Material(f"custom {material.ratio}", material.k_weft,
+                                                          material.k_warp, material.k_diag))
+
+    # ------------------------------------------------------------------ showing a project
+    def set_project(self, project: Project) -> None:
+        """Show ``project``'s values (without reporting them as edits)."""
+        self._project = project
+        s = project.settings
+        self._loading = True
+        try:
+            key = s.material.name if s.material.name in MATERIALS and MATERIALS[s.material.name] == s.material \
+                else "custom"
+            self.material.setCurrentIndex(self.material.findData(key))
+            self.ratio.setText(s.material.ratio)
+            self.ratio.setEnabled(key == "custom")
+            self.spacing.set_value(s.spacing)
+            same = s.spacing_warp is None
+            self.same_warp.setChecked(same)
+            self.spacing_warp.set_value(s.spacing if same else s.spacing_warp)
+            self.spacing_warp.setEnabled(not same)
+            self.seed_u.setValue(float(s.seed[0]))
+            self.seed_v.setValue(float(s.seed[1]))
+            self.angle.setValue(float(s.angle_deg))
+            idx = self.solver.findData(s.solver)
+            self.solver.setCurrentIndex(idx if idx >= 0 else 0)
+            self.tol.set_value(s.tol)
+            self.max_iter.setValue(int(s.max_iter))
+            self.units.setCurrentIndex(self.units.findData(project.units))
+            self.shear_warning.setValue(float(project.shear_warning_deg))
+            self.shear_limit.setValue(float(project.shear_limit_deg))
+        finally:
+            self._loading = False
+
+
+class MetricsPanel(QWidget):
+    """Headline numbers of the pattern shown: energy, boundary and area error,
+    max shear, max thread strain, size, nodes, iterations, solver status."""
+
+    ROWS = (("energy", "Energy EN"), ("boundary", "Boundary error"), ("area", "Area error"),
+            ("shear", "Max shear"), ("thread", "Max thread strain"), ("size", "Pattern size"),
+            ("nodes", "Nodes / springs"), ("iterations", "Iterations"), ("status", "Status"))
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        form = QFormLayout(self)
+        form.setContentsMargins(6, 4, 6, 4)
+        form.setVerticalSpacing(2)
+        self.labels: dict[str, QLabel] = {}
+        for key, title in self.ROWS:
+            lab = QLabel("-")
+            lab.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+            self.labels[key] = lab
+            form.addRow(title, lab)
+
+    def text(self, key: str) -> str:
+        return self.labels[key].text()
+
+    def clear(self) -> None:
+        for lab in self.labels.values():
+            lab.setText("-")
+            lab.setStyleSheet("")
+
+    def show_frame(self, frame, project: Project, stale: bool = False) -> None:
+        st = frame.stats
+        u = project.units
+        self.labels["energy"].setText(f"{frame.energy:.6g}")
+        for key, name in (("boundary", "boundary_error_pct"), ("area", "area_error_pct")):
+            self.labels[key].setText(f"{st[name]:.3f} %" if name in st else "- (pattern pending)")
+        shear = st.get("max_shear_deg", math.nan)
+        lab = self.labels["shear"]
+        lab.setText(f"{shear:.2f} deg")
+        colour = ("#c00000" if shear > project.shear_limit_deg else
+                  "#b36b00" if shear > project.shear_warning_deg else "#207020")
+        lab.setStyleSheet(f"color: {colour}; font-weight: bold")
+        self.labels["thread"].setText(f"{st.get('max_thread_strain_pct', math.nan):.4f} %")
+        if frame.pattern is not None and len(frame.pattern.outline):
+            ext = frame.pattern.outline.max(axis=0) - frame.pattern.outline.min(axis=0)
+            self.labels["size"].setText(f"{ext[0]:.4g} x {ext[1]:.4g} {u}")
+        self.labels["nodes"].setText(f"{st.get('nodes', 0):,} / {st.get('springs', 0):,}")
+        self.labels["iterations"].setText(str(frame.iteration))
+        status = frame.status if frame.final else "solving..."
+        if stale:
+            status += " (settings changed since; Run to update)"
+        self.labels["status"].setText(status)

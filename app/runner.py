@@ -1,0 +1,203 @@
+"""Runs solves for the window: one :class:`~app.worker.SolveThread` at a time,
+a frame pump that hands the newest frame to the views at a bounded rate, and
+the bookkeeping of Run, Pause/Resume, Stop and "run again with new settings".
+
+A run that is replaced by a newer one (settings changed while it ran) is
+abandoned: it stops at its next iteration without making a result, and the
+new one starts as soon as its thread has ended, so two solves never run at once.
+"""
+
+from __future__ import annotations
+
+import time
+
+from PySide6.QtCore import QObject, QTimer, Signal
+
+from core.project import Project
+from core.solver import State
+
+from app.worker import RunOutcome, SolveThread
+
+__all__ = ["Runner"]
+
+FRAME_INTERVAL_MS = 30
+"""The frame pump's period: at most about 33 frames a second reach the views."""
+
+
+class Runner(QObject):
+    """Signals: ``frame(Frame)`` to draw; ``started(Project)``; ``finished(RunOutcome)``;
+    ``failed(str)`` (one line); ``state_changed(str)`` with "idle", "running",
+    "paused" or "stopping"."""
+
+    frame = Signal(object)
+    started = Signal(object)
+    finished = Signal(object)
+    failed = Signal(str)
+    state_changed = Signal(str)
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self.thread: SolveThread | None = None
+        self._pending: tuple[Project, State | None] | None = None
+        self._seen = 0
+        self._outcome: RunOutcome | None = None
+        self._error: str | None = None
+        self._timer = QTimer(self)
+        self._timer.setInterval(FRAME_INTERVAL_MS)
+        self._timer.timeout.connect(self.pump)
+        self.frames_shown = 0
+        self.frame_seconds: list[float] = []  # GUI time spent on each delivered frame (for the benchmark)
+        self.runs_started = 0
+        self.last_history: list = []  # the history of the last run that ended
+        self.last_start: tuple[Project, State | None] | None = None  # what the last run started from
+
+    # ------------------------------------------------------------------ state
+    @property
+    def busy(self) -> bool:
+        return self.thread is not None
+
+    @property
+    def active(self) -> bool:
+        """A run is in flight that will deliver frames and an outcome (not abandoned)."""
+        return self.thread is not None and not self.thread.abandoned
+
+    @property
+    def paused(self) -> bool:
+        """Paused, or asked to pause (the solve waits after its current iteration)."""
+        return self.thread is not None and self.thread.pause_requested
+
+    @property
+    def state(self) -> str:
+        t = self.thread
+        if t is None:
+            return "idle"
+        if t.stopping:
+            return "stopping"
+        return "paused" if t.pause_requested else "running"
+
+    @property
+    def history(self) -> list:
+        return list(self.thread.history) if self.thread is not None else []
+
+    @property
+    def stage(self) -> str:
+        return self.thread.stage if self.thread is not None else "idle"
+
+    # ------------------------------------------------------------------ commands
+    def start(self, project: Project, initial: State | None = None) -> None:
+        """Solve ``project`` (warm-started from ``initial`` if given). A run in
+        flight is abandoned and this one starts when it has ended."""
+        if self.thread is not None:
+            self._pending = (project, initial)
+            self.thread.abandon()
+            self.state_changed.emit(self.state)
+            return
+        self._launch(project, initial)
+
+    def stop(self) -> None:
+        """Stop the run after its current iteration; the last iterate becomes its result."""
+        self._pending = None
+        if self.thread is not None and not self.thread.stopping:
+            self.thread.request_stop()
+            self.state_changed.emit(self.state)
+
+    def pause(self) -> None:
+        if self.thread is not None:
+            self.thread.pause()
+            self.state_changed.emit(self.state)
+
+    def resume(self) -> None:
+        if self.thread is not None:
+            self.thread.resume()
+            self.state_changed.emit(self.state)
+
+    def toggle_pause(self) -> None:
+        if self.paused:
+            self.resume()
+        else:
+            self.pause()
+
+    def cancel(self) -> None:
+        """Abandon the run in flight (no result, no signal) and any queued one."""
+        self._pending = None
+        if self.thread is not None:
+            self.thread.abandon()
+            self.state_changed.emit(self.state)
+
+    def shutdown(self, timeout_ms: int = 10000) -> bool:
+        """Abandon any run and wait for its thread (at window close). True if none is left."""
+        self._pending = None
+        t = self.thread
+        if t is None:
+            return True
+        t.abandon()
+        done = t.wait(timeout_ms)
+        if done:
+            self._cleanup()
+        return done
+
+    # ------------------------------------------------------------------ internals
+    def _launch(self, project: Project, initial: State | None) -> None:
+        self.last_start = (project, initial)
+        t = SolveThread(project, initial)
+        t.succeeded.connect(self._on_succeeded)
+        t.failed.connect(self._on_failed)
+        t.paused_changed.connect(lambda _p: self.state_changed.emit(self.state))
+        t.finished.connect(self._on_thread_finished)
+        self.thread = t
+        self._seen = 0
+        self._outcome = None
+        self._error = None
+        self.runs_started += 1
+        t.start()
+        self._timer.start()
+        self.started.emit(project)
+        self.state_changed.emit(self.state)
+
+    def pump(self) -> None:
+        """Hand the newest frame (if there is a new one) to ``frame``'s slots."""
+        t = self.thread
+        if t is None or t.abandoned:  # an abandoned run's frames belong to nobody
+            return
+        seq, frame = t.take_frame(self._seen)
+        if frame is None:
+            return
+        self._seen = seq
+        t0 = time.perf_counter()
+        self.frame.emit(frame)
+        self.frame_seconds.append(time.perf_counter() - t0)
+        self.frames_shown += 1
+
+    def _on_succeeded(self, outcome: RunOutcome) -> None:
+        self._outcome = outcome
+
+    def _on_failed(self, message: str) -> None:
+        self._error = message
+
+    def _on_thread_finished(self) -> None:
+        t = self.thread
+        if t is None or self.sender() is not t:
+            return
+        abandoned = t.abandoned
+        if not abandoned:
+            self.pump()  # the final frame (or the last live one)
+        outcome, error = self._outcome, self._error
+        self.last_history = list(t.history)
+        self._cleanup()
+        if error is not None:
+            self.failed.emit(error)
+        elif outcome is not None:
+            self.finished.emit(outcome)
+        if self._pending is not None:
+            project, initial = self._pending
+            self._pending = None
+            self._launch(project, initial)
+        else:
+            self.state_changed.emit(self.state)
+
+    def _cleanup(self) -> None:
+        self._timer.stop()
+        t, self.thread = self.thread, None
+        if t is not None:
+            t.wait()
+            t.deleteLater()

@@ -1,0 +1,412 @@
+"""What the 3D view and the pattern view share: the render widget, colour
+scales as VTK sees them, the spring mesh layer and hover picking.
+
+With :mod:`app.view3d` and :mod:`app.view2d` this is the only code that
+touches pyvista or VTK; the rest of the app hands these classes numpy arrays
+(:class:`app.frames.Frame`) and :class:`ViewOptions`.
+
+Live updates write into the existing ``pv.PolyData`` objects (points, cell
+scalars) so no actor is rebuilt per frame; only a change of topology (nodes
+deleted or added) replaces a layer's geometry, still in the same actors.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+import pyvista as pv
+from pyvistaqt import QtInteractor
+from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.vtkRenderingCore import vtkCellPicker, vtkColorTransferFunction
+
+from app.colours import YELLOW, ramp, shear_stops, strain_range, strain_stops
+
+__all__ = ["ViewOptions", "ColourScale", "MeshLayer", "ViewBase", "KINDS", "scale_stops"]
+
+# Layers start empty and are filled in place (an actor per layer for the app's lifetime).
+pv.global_theme.allow_empty_mesh = True
+
+KINDS = ("weft", "warp", "diag")
+BACKGROUND_BOTTOM = "#f7f7f5"
+BACKGROUND_TOP = "#c9d3de"
+HOVER_INTERVAL = 0.04
+THIN_LINES_ABOVE = 4000  # springs; denser meshes are drawn with 1-pixel lines  # seconds between two hover picks at most
+
+
+@dataclass(frozen=True)
+class ViewOptions:
+    """How the views draw a frame (view state, not part of the document).
+
+    mode : "strain" (springs coloured by strain) or "shear" (cells by shear angle)
+    weft, warp, diag : which spring kinds are drawn (strain mode)
+    surface : draw the surface under the mesh (3D view)
+    nodes : draw boundary nodes (yellow) and dart nodes (red +, blue -)
+    shear_warning_deg, shear_limit_deg : the shear scale's thresholds
+    units : model units, for the pattern's scale bar
+    """
+
+    mode: str = "strain"
+    weft: bool = True
+    warp: bool = True
+    diag: bool = True
+    surface: bool = True
+    nodes: bool = True
+    shear_warning_deg: float = 15.0
+    shear_limit_deg: float = 30.0
+    units: str = "m"
+
+    @property
+    def kinds(self) -> tuple[bool, bool, bool]:
+        return (self.weft, self.warp, self.diag)
+
+
+def scale_stops(frame, options: ViewOptions) -> list:
+    """The colour stops for ``frame`` in the current mode: strain in percent
+    over the springs of the visible kinds, or shear in degrees."""
+    if options.mode == "shear":
+        return shear_stops(options.shear_warning_deg, options.shear_limit_deg)
+    shown = np.asarray(options.kinds)[frame.mesh.kind] if len(frame.strain) else np.zeros(0, bool)
+    lo, hi = strain_range(100.0 * frame.strain[shown] if shown.any() else 100.0 * frame.strain)
+    return strain_stops(lo, hi)
+
+
+class ColourScale:
+    """A VTK colour transfer function that is exactly :func:`app.colours.ramp`
+    on the given stops (piecewise linear in RGB, clamped at the ends)."""
+
+    def __init__(self):
+        self.ctf = vtkColorTransferFunction()
+        self.ctf.SetColorSpaceToRGB()
+        self.ctf.ClampingOn()
+        self.stops: list = []
+
+    def set_stops(self, stops) -> None:
+        if stops == self.stops:
+            return
+        self.stops = list(stops)
+        self.ctf.RemoveAllPoints()
+        for value, (r, g, b) in self.stops:
+            self.ctf.AddRGBPoint(float(value), r, g, b)
+
+    @property
+    def range(self) -> tuple[float, float]:
+        return (self.stops[0][0], self.stops[-1][0]) if self.stops else (0.0, 1.0)
+
+    def map(self, values: np.ndarray) -> np.ndarray:
+        """(k, 3) uint8: the colours VTK gives ``values`` (what is on screen)."""
+        arr = numpy_to_vtk(np.ascontiguousarray(values, dtype=float), deep=True)
+        out = self.ctf.MapScalars(arr, 0, -1)  # VTK_COLOR_MODE_DEFAULT, magnitude
+        rgba = np.frombuffer(memoryview(out), dtype=np.uint8).reshape(-1, out.GetNumberOfComponents())
+        return rgba[:, :3].copy()
+
+    def expected(self, values: np.ndarray) -> np.ndarray:
+        """(k, 3) float: the same colours by numpy (:func:`app.colours.ramp`)."""
+        return ramp(values, self.stops)
+
+
+def _line_cells(ends: np.ndarray) -> np.ndarray:
+    """VTK line cell array of segments ``ends`` (k, 2)."""
+    ends = np.asarray(ends, dtype=np.int64).reshape(-1, 2)
+    return np.column_stack([np.full(len(ends), 2, dtype=np.int64), ends]).ravel()
+
+
+def polyline_cells(loops, closed: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Points and VTK line cells of polylines (each (k, d) with d = 2 or 3)."""
+    pts, cells, base = [], [], 0
+    for loop in loops:
+        loop = np.asarray(loop, dtype=float)
+        if len(loop) < 2:
+            continue
+        if loop.shape[1] == 2:
+            loop = np.column_stack([loop, np.zeros(len(loop))])
+        k = len(loop)
+        ids = base + np.arange(k)
+        if closed:
+            ids = np.append(ids, base)
+        cells.append(np.concatenate([[len(ids)], ids]))
+        pts.append(loop)
+        base += k
+    if not pts:
+        return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    return np.vstack(pts), np.concatenate(cells).astype(np.int64)
+
+
+def replace_geometry(poly: pv.PolyData, points: np.ndarray, lines=None, faces=None, verts: bool = False,
+                     scalars: np.ndarray | None = None) -> None:
+    """Give an existing PolyData (and so its actor) new geometry in one go:
+    ``lines`` or ``faces`` (VTK cell arrays), or one vertex per point
+    (``verts``); ``scalars`` become the cell array "value"."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    has_lines = lines is not None and len(lines) > 0
+    has_faces = faces is not None and len(faces) > 0
+    if len(points) == 0 or not (verts or has_lines or has_faces):
+        new = pv.PolyData()
+    elif verts:
+        new = pv.PolyData(points.copy())  # pyvista makes one vertex cell per point
+    elif has_lines:
+        new = pv.PolyData(points.copy(), lines=lines)
+    else:
+        new = pv.PolyData(points.copy(), faces=faces)
+    if scalars is not None and new.n_cells and new.n_cells == len(scalars):
+        new.cell_data["value"] = np.asarray(scalars, dtype=float)
+    poly.copy_from(new, deep=False)
+
+
+class MeshLayer:
+    """The spring mesh drawn in one view: a line actor per spring kind, a cell
+    actor (shear mode), and boundary and dart node spheres.
+
+    ``z`` lifts (or sinks) the layer along z, for the flat pattern's stacking.
+    """
+
+    def __init__(self, plotter: QtInteractor, line_width: float = 2.0, point_size: float = 9.0):
+        self.plotter = plotter
+        self.line_width = line_width
+        self.strain_scale = ColourScale()
+        self.shear_scale = ColourScale()
+        self.springs = [pv.PolyData() for _ in KINDS]
+        self.spring_index = [np.zeros(0, dtype=np.int64) for _ in KINDS]
+        self.cells = pv.PolyData()
+        self.boundary = pv.PolyData()
+        self.dart_pos = pv.PolyData()
+        self.dart_neg = pv.PolyData()
+        self.spring_actors = [self._scalar_actor(p, self.strain_scale, line_width=line_width) for p in self.springs]
+        self.cell_actor = self._scalar_actor(self.cells, self.shear_scale, line_width=None)
+        self.node_actors = [
+            plotter.add_mesh(poly, color=color, point_size=point_size, render_points_as_spheres=True,
+                             render=False, reset_camera=False, pickable=False)
+            for poly, color in ((self.boundary, YELLOW), (self.dart_pos, (1.0, 0.0, 0.0)),
+                                (self.dart_neg, (0.0, 0.0, 1.0)))]
+        self.topology = None
+        self.frame = None
+        self.options = ViewOptions()
+        self.set_visible(False)
+
+    def _scalar_actor(self, poly: pv.PolyData, scale: ColourScale, line_width):
+        kwargs = {"line_width": line_width} if line_width else {"show_edges": False}
+        actor = self.plotter.add_mesh(poly, color="white", render=False, reset_camera=False, lighting=line_width is None,
+                                      **kwargs)
+        mapper = actor.GetMapper()
+        mapper.SetLookupTable(scale.ctf)
+        mapper.SetScalarModeToUseCellFieldData()
+        mapper.SelectColorArray("value")
+        mapper.SetColorModeToMapScalars()
+        mapper.UseLookupTableScalarRangeOn()
+        mapper.ScalarVisibilityOn()
+        return actor
+
+    # ------------------------------------------------------------------ content
+    def clear(self) -> None:
+        for poly in (*self.springs, self.cells, self.boundary, self.dart_pos, self.dart_neg):
+            poly.copy_from(pv.PolyData(), deep=False)
+        self.topology = None
+        self.frame = None
+        self.set_visible(False)
+
+    def set_visible(self, on: bool) -> None:
+        opt = self.options
+        strain = opt.mode != "shear"
+        for actor, kind_on in zip(self.spring_actors, opt.kinds):
+            actor.SetVisibility(bool(on and strain and kind_on))
+        self.cell_actor.SetVisibility(bool(on and not strain))
+        for actor in self.node_actors:
+            actor.SetVisibility(bool(on and opt.nodes))
+
+    def show(self, frame, points: np.ndarray, options: ViewOptions) -> None:
+        """Draw ``frame`` with node positions ``points`` (n, 3)."""
+        self.options = options
+        self.frame = frame
+        mesh = frame.mesh
+        strain_pct = 100.0 * frame.strain
+        shear = np.abs(frame.shear)
+        self.strain_scale.set_stops(scale_stops(frame, replace_mode(options, "strain")))
+        self.shear_scale.set_stops(scale_stops(frame, replace_mode(options, "shear")))
+        if frame.topology != self.topology:
+            self.topology = frame.topology
+            # wide lines cost a geometry-shader pass: thin ones for dense meshes (and they read better)
+            width = self.line_width if mesh.n_springs <= THIN_LINES_ABOVE else 1.0
+            for actor in self.spring_actors:
+                actor.GetProperty().SetLineWidth(width)
+            for k, poly in enumerate(self.springs):
+                idx = np.flatnonzero(mesh.kind == k)
+                self.spring_index[k] = idx
+                replace_geometry(poly, points, lines=_line_cells(mesh.ends[idx]), scalars=strain_pct[idx])
+            faces = (np.column_stack([np.full(len(mesh.cells), 4), mesh.cells]).ravel()
+                     if len(mesh.cells) else None)
+            replace_geometry(self.cells, points, faces=faces, scalars=shear)
+            replace_geometry(self.boundary, points[frame.boundary], verts=True)
+            replace_geometry(self.dart_pos, points[frame.dart_positive], verts=True)
+            replace_geometry(self.dart_neg, points[frame.dart_negative], verts=True)
+        else:
+            for k, poly in enumerate(self.springs):
+                if poly.n_points:
+                    poly.points[:] = points
+                    poly.cell_data["value"][:] = strain_pct[self.spring_index[k]]
+            if self.cells.n_points:
+                self.cells.points[:] = points
+                self.cells.cell_data["value"][:] = shear
+            for poly, idx in ((self.boundary, frame.boundary), (self.dart_pos, frame.dart_positive),
+                              (self.dart_neg, frame.dart_negative)):
+                if len(idx):
+                    poly.points[:] = points[idx]
+        self.set_visible(True)
+
+    def restyle(self, options: ViewOptions) -> None:
+        """New options for the frame already shown (mode, kinds, thresholds)."""
+        self.options = options
+        if self.frame is not None:
+            self.strain_scale.set_stops(scale_stops(self.frame, replace_mode(options, "strain")))
+            self.shear_scale.set_stops(scale_stops(self.frame, replace_mode(options, "shear")))
+            self.set_visible(True)
+
+    @property
+    def active_scale(self) -> ColourScale:
+        return self.shear_scale if self.options.mode == "shear" else self.strain_scale
+
+    # ------------------------------------------------------------------ queries
+    def spring_colours(self) -> tuple[np.ndarray, np.ndarray]:
+        """(springs (k,), rgb (k, 3) uint8) as the views colour them now: every
+        drawn spring's index in the mesh and its colour through the VTK scale."""
+        idx, rgb = [], []
+        for k, poly in enumerate(self.springs):
+            if poly.n_cells:
+                idx.append(self.spring_index[k])
+                rgb.append(self.strain_scale.map(np.asarray(poly.cell_data["value"])))
+        if not idx:
+            return np.zeros(0, dtype=np.int64), np.zeros((0, 3), dtype=np.uint8)
+        idx, rgb = np.concatenate(idx), np.concatenate(rgb)
+        order = np.argsort(idx)
+        return idx[order], rgb[order]
+
+    def describe(self, actor, cell: int) -> str | None:
+        """Text for the spring or cell ``cell`` of ``actor``, or None."""
+        f = self.frame
+        if f is None or cell < 0:
+            return None
+        for k, a in enumerate(self.spring_actors):
+            if actor is a and cell < len(self.spring_index[k]):
+                s = int(self.spring_index[k][cell])
+                i, j = f.mesh.ends[s]
+                return (f"{KINDS[k]} spring {s} (nodes {i}-{j}): strain {100 * f.strain[s]:+.4f} %, "
+                        f"length {np.linalg.norm(f.xyz[i] - f.xyz[j]):.5g} / rest {f.mesh.rest[s]:.5g}")
+        if actor is self.cell_actor and cell < len(f.shear):
+            opt = self.options
+            a = abs(float(f.shear[cell]))
+            verdict = ("beyond the limit" if a > opt.shear_limit_deg else
+                       "above the warning angle" if a > opt.shear_warning_deg else "fine")
+            return f"cell {cell}: shear {f.shear[cell]:+.2f} deg ({verdict})"
+        return None
+
+    def pickable_actors(self) -> list:
+        return [a for a in (*self.spring_actors, self.cell_actor) if a.GetVisibility()]
+
+
+def replace_mode(options: ViewOptions, mode: str) -> ViewOptions:
+    return replace(options, mode=mode)
+
+
+_IDS = itertools.count()
+
+
+class ViewBase:
+    """A pyvistaqt render widget with hover picking over a :class:`MeshLayer`.
+
+    ``hover_callback(text or None)`` is called (in the GUI thread) when the
+    mouse moves over a spring or cell, or off them.
+    """
+
+    def __init__(self, parent=None):
+        # No multisampling: with Mesa's software renderer 4x MSAA made every render
+        # 3-7 times slower (measured: 15 ms -> 110 ms for 10k springs at 800x600).
+        self._plotter = QtInteractor(parent, auto_update=False, multi_samples=0)
+        self._plotter.set_background(BACKGROUND_BOTTOM, top=BACKGROUND_TOP)
+        self._closed = False
+        self._name = f"view{next(_IDS)}"
+        self.layer = MeshLayer(self._plotter)
+        self.hover_callback: Callable[[str | None], None] | None = None
+        self.hover_text: str | None = None
+        self._picker = vtkCellPicker()
+        self._picker.SetTolerance(0.004)
+        self._last_pick = 0.0
+        self._plotter.iren.add_observer("MouseMoveEvent", self._on_mouse_move)
+
+    # ------------------------------------------------------------------ access
+    @property
+    def widget(self):
+        """The QWidget to put in a layout."""
+        return self._plotter.interactor
+
+    @property
+    def plotter(self) -> QtInteractor:
+        return self._plotter
+
+    def is_ready(self) -> bool:
+        """True once the GL window can render (wait for this before screenshots)."""
+        rw = self._plotter.render_window
+        return bool(rw is not None and rw.GetReadyForRendering())
+
+    def render(self) -> None:
+        """Schedule a redraw. pyvistaqt's widget renders the scene in its paintGL,
+        so asking Qt for a repaint renders once, and repaints asked for in one
+        pass of the event loop are merged (``plotter.render()`` would render
+        now and then again in the repaint it schedules)."""
+        if not self._closed:
+            self._plotter.interactor.update()
+
+    def render_now(self) -> None:
+        """Render at once (before reading pixels back from VTK)."""
+        if not self._closed:
+            self._plotter.render()
+
+    def screenshot(self, path) -> None:
+        self._plotter.screenshot(str(path))
+
+    def reset_camera(self) -> None:
+        self._plotter.reset_camera()
+        self.render()
+
+    def close(self) -> None:
+        """Release the render window; safe to call twice."""
+        if not self._closed:
+            self._closed = True
+            self.hover_callback = None
+            self._plotter.close()
+
+    # ------------------------------------------------------------------ hover
+    def display_point(self, xyz) -> tuple[float, float]:
+        """Display coordinates (VTK's: origin bottom left) of a world point."""
+        ren = self._plotter.renderer
+        ren.SetWorldPoint(float(xyz[0]), float(xyz[1]), float(xyz[2]), 1.0)
+        ren.WorldToDisplay()
+        x, y, _ = ren.GetDisplayPoint()
+        return x, y
+
+    def describe_at(self, x: float, y: float) -> str | None:
+        """What lies under display point (x, y): a spring or cell's value, or None."""
+        actors = self.layer.pickable_actors()
+        if not actors:
+            return None
+        picker = self._picker
+        picker.InitializePickList()
+        for a in actors:
+            picker.AddPickList(a)
+        picker.PickFromListOn()
+        if not picker.Pick(x, y, 0.0, self._plotter.renderer):
+            return None
+        return self.layer.describe(picker.GetActor(), int(picker.GetCellId()))
+
+    def _on_mouse_move(self, iren, _event) -> None:
+        now = time.perf_counter()
+        if now - self._last_pick < HOVER_INTERVAL:
+            return
+        self._last_pick = now
+        x, y = iren.GetEventPosition()
+        text = self.describe_at(x, y)
+        if text != self.hover_text:
+            self.hover_text = text
+            if self.hover_callback is not None:
+                self.hover_callback(text)

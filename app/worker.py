@@ -1,0 +1,239 @@
+"""The solve worker: :func:`core.pipeline.flatten_iter` in a QThread.
+
+The thread turns every solver snapshot into a :class:`~app.frames.Frame`
+(strain, shear, boundary and dart nodes, and at intervals the pattern) and
+leaves the newest in a slot; the GUI takes it from there on its own timer
+(:meth:`SolveThread.take_frame`), so a fast solver never floods the event loop
+and the GUI always draws the latest state. Control is by flags checked between
+snapshots (the generator yields every iteration):
+
+* :meth:`request_stop`: the solve ends after the current iteration; the last
+  iterate becomes a consistent result (its own pattern and metrics), marked
+  as stopped. :meth:`abandon` ends it without a result (a newer run replaces it).
+* :meth:`pause` / :meth:`resume`: the thread waits between iterations.
+
+Any exception ends the run with :attr:`failed` (a one-line message); the
+traceback of one that is not a :class:`~core.errors.FlatweaveError` (a bug,
+not a user error) also goes to stderr for a bug report.
+
+superqt's ``GeneratorWorker`` was the first choice; it is not used because it
+hands back a ``RuntimeError`` (and subclasses) raised by the work as a warning
+instead of its ``errored`` signal (so such a failure would never reach the
+error dialog), swaps the process-wide warning filters from the worker thread
+while it runs, and on abort drops the generator without letting it finish a
+consistent result.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+import traceback
+from dataclasses import dataclass, replace
+
+from PySide6.QtCore import QThread, Signal
+
+from core.errors import FlatweaveError
+from core.pipeline import FlattenResult, flatten_iter
+from core.project import Project
+from core.solver import State
+
+from app.frames import Frame, FrameMaker
+
+__all__ = ["SolveThread", "RunOutcome", "one_line"]
+
+PATTERN_INTERVAL = 0.25
+"""Seconds between live patterns at least (more when a pattern is slow: at most
+about a seventh of the run goes into them)."""
+
+
+def one_line(exc: BaseException) -> str:
+    """A one-line message for an exception: the text of a FlatweaveError, else
+    the exception's type and first line."""
+    if isinstance(exc, FlatweaveError):
+        text = str(exc)
+    else:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        text = f"{type(exc).__name__}: {first}" if first else type(exc).__name__
+    return " ".join(text.split())
+
+
+def _lower_priority(niceness: int = 10) -> None:
+    """Make the calling thread yield the CPU to the GUI thread (and the software
+    GL renderer's threads) when they compete: on Linux a thread has its own
+    nice value. Elsewhere, or if refused, nothing changes."""
+    if hasattr(os, "setpriority") and hasattr(threading, "get_native_id") and sys.platform.startswith("linux"):
+        try:
+            tid = threading.get_native_id()
+            os.setpriority(os.PRIO_PROCESS, tid, max(os.getpriority(os.PRIO_PROCESS, tid), niceness))
+        except OSError:
+            pass
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """How a run ended: its result (None if stopped before the first iteration)
+    and the project it started from."""
+
+    result: FlattenResult | None
+    source: Project
+    stopped: bool
+
+
+class SolveThread(QThread):
+    """One solve of ``project`` (from ``initial`` if given, else a new drape).
+
+    Signals (queued to the GUI thread): ``succeeded(RunOutcome)`` for a
+    finished or stopped run, ``failed(str)`` with a one-line message, and
+    ``paused_changed(bool)``. ``QThread.finished`` follows either; an
+    abandoned run emits neither of the first two.
+    """
+
+    succeeded = Signal(object)
+    failed = Signal(str)
+    paused_changed = Signal(bool)
+
+    def __init__(self, project: Project, initial: State | None = None, parent=None):
+        super().__init__(parent)
+        self.project = project
+        self.initial = initial
+        self._stop = threading.Event()
+        self._abandon = threading.Event()
+        self._running = threading.Event()  # set while not paused
+        self._running.set()
+        self._waiting = False
+        self._lock = threading.Lock()
+        self._frame: Frame | None = None
+        self._frame_seq = 0
+        self.history: list[tuple[int, float, bool]] = []  # (iteration, energy, population changed)
+        self.stage = "starting"
+        self.pattern_seconds = 0.0
+
+    # ------------------------------------------------------------------ control (GUI thread)
+    def request_stop(self) -> None:
+        self._stop.set()
+        self._running.set()
+
+    def abandon(self) -> None:
+        self._abandon.set()
+        self.request_stop()
+
+    def pause(self) -> None:
+        """Ask the thread to wait after its current iteration (``paused`` turns
+        True, and ``paused_changed(True)`` is emitted, once it does)."""
+        if not self._stop.is_set():
+            self._running.clear()
+
+    def resume(self) -> None:
+        self._running.set()
+
+    @property
+    def pause_requested(self) -> bool:
+        return not self._running.is_set()
+
+    @property
+    def paused(self) -> bool:
+        """The thread is waiting between iterations (not merely asked to)."""
+        return self._waiting
+
+    @property
+    def stopping(self) -> bool:
+        return self._stop.is_set()
+
+    @property
+    def abandoned(self) -> bool:
+        return self._abandon.is_set()
+
+    def take_frame(self, seen: int) -> tuple[int, Frame | None]:
+        """(sequence number, frame) of the newest frame, or (seen, None) if there is
+        none newer than sequence number ``seen``."""
+        with self._lock:
+            if self._frame_seq == seen:
+                return seen, None
+            return self._frame_seq, self._frame
+
+    # ------------------------------------------------------------------ the thread
+    def _publish(self, frame: Frame) -> None:
+        with self._lock:
+            self._frame = frame
+            self._frame_seq += 1
+
+    def run(self) -> None:  # noqa: D401 (Qt's name)
+        _lower_priority()
+        try:
+            outcome = self._solve()
+        except Exception as exc:  # everything reaches the GUI as one line
+            if not self._abandon.is_set():
+                if not isinstance(exc, FlatweaveError):  # a bug, not a user error: keep its traceback
+                    traceback.print_exc(file=sys.stderr)
+                self.failed.emit(one_line(exc))
+            return
+        if outcome is not None and not self._abandon.is_set():
+            self.succeeded.emit(outcome)
+
+    def _solve(self) -> RunOutcome | None:
+        p = self.project
+        surface, settings = p.surface, p.settings
+        maker = FrameMaker(surface, settings)
+        self.stage = "draping" if self.initial is None else "starting from the last result"
+        gen = flatten_iter(surface, settings, self.initial, area=maker.A3)
+        last = None
+        next_pattern = time.perf_counter() + PATTERN_INTERVAL
+        try:
+            while True:
+                if not self._running.is_set():
+                    self._waiting = True
+                    self.paused_changed.emit(True)
+                    self._running.wait()
+                    self._waiting = False
+                    self.paused_changed.emit(False)
+                if self._stop.is_set():
+                    break
+                try:
+                    snap = next(gen)
+                except StopIteration as done:
+                    result: FlattenResult = done.value
+                    self.stage = "done"
+                    self._publish(maker.from_result(result))
+                    return RunOutcome(result, p, stopped=False)
+                self.stage = "solving"
+                last = snap
+                self.history.append((snap.iteration, snap.energy, snap.population_changed))
+                pattern = None
+                now = time.perf_counter()
+                if now >= next_pattern:
+                    pattern = maker.pattern(snap.mesh, snap.uv, snap.xyz)
+                    cost = time.perf_counter() - now
+                    self.pattern_seconds += cost
+                    next_pattern = now + max(PATTERN_INTERVAL, 6 * cost)
+                self._publish(maker.from_snapshot(snap, pattern))
+        finally:
+            gen.close()
+        if self._abandon.is_set():
+            return None
+        if last is None:
+            return RunOutcome(None, p, stopped=True)
+        return RunOutcome(self._stopped_result(maker, last), p, stopped=True)
+
+    def _stopped_result(self, maker: FrameMaker, snap) -> FlattenResult:
+        """The last iterate as a result: its pattern and metrics by the pipeline
+        (the solver off), the settings those of the run, the status 'stopped'."""
+        p = self.project
+        self.stage = "pattern of the last iterate"
+        gen = flatten_iter(p.surface, replace(p.settings, solver="none"), State(snap.mesh, snap.uv),
+                           area=maker.A3)
+        try:
+            next(gen)
+        except StopIteration as done:
+            result: FlattenResult = done.value
+        else:  # pragma: no cover - the pipeline does not yield without a solver
+            raise RuntimeError("the pipeline yielded with the solver off")
+        metrics = dict(result.metrics)
+        metrics.update({"iterations": snap.iteration, "energy_evaluations": snap.nfev,
+                        "solver_status": f"stopped by the user at iteration {snap.iteration}",
+                        "solve_seconds": snap.seconds})
+        result = replace(result, settings=p.settings, metrics=metrics)
+        self._publish(maker.from_result(result))
+        return result

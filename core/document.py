@@ -1,0 +1,215 @@
+"""The open document: the current :class:`~core.project.Project`, its undo
+history and the listeners that show it. No Qt: the GUI subscribes, the tests
+and a soak test drive it directly.
+
+Every change goes through :meth:`Document.apply` (an edit: one undo step),
+:meth:`Document.undo` / :meth:`Document.redo`, :meth:`Document.attach_result`
+(a finished solve) or :meth:`Document.reset` (a new or opened document).
+Projects are immutable, so an :class:`Edit` is just the project before and
+after; undo and redo swap them back and never re-solve.
+
+A finished solve belongs to the edit it answers: when the run started from
+the project an edit produced, and that edit is still the latest, the result is
+folded into it (undo goes back to the previous result, redo brings this one
+back). A solve with no edit to answer (the Run button) is an edit of its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from core.pipeline import FlattenResult
+from core.project import Project, settings_equal
+
+__all__ = ["Document", "Edit", "Change", "ASPECTS"]
+
+ASPECTS = ("surface", "settings", "display", "result", "name")
+"""What a change can touch: listeners get the set of aspects that differ."""
+
+
+@dataclass(frozen=True)
+class Edit:
+    """One undo step: the project before and after, and what the user called it."""
+
+    label: str
+    before: Project
+    after: Project
+    answers_solve: bool = False  # a solve of ``after`` may still be folded in
+
+
+@dataclass(frozen=True)
+class Change:
+    """What a listener is told: why (cause), which aspects differ, the edit's label.
+
+    cause : "edit", "undo", "redo", "result", "reset", "saved"
+    """
+
+    cause: str
+    aspects: frozenset
+    label: str = ""
+
+
+def changed_aspects(old: Project | None, new: Project) -> frozenset:
+    """The aspects (see :data:`ASPECTS`) in which ``new`` differs from ``old``."""
+    if old is None:
+        return frozenset(ASPECTS)
+    out = set()
+    if old.surface is not new.surface:
+        out.add("surface")
+    if not settings_equal(old.settings, new.settings):
+        out.add("settings")
+    if (old.units, old.shear_warning_deg, old.shear_limit_deg) != (
+            new.units, new.shear_warning_deg, new.shear_limit_deg):
+        out.add("display")
+    if old.result is not new.result:
+        out.add("result")
+    if (old.name, old.source) != (new.name, new.source):
+        out.add("name")
+    return frozenset(out)
+
+
+class Document:
+    """The current project with undo and redo.
+
+    path : where it was last saved or opened from (None: never saved)
+    dirty : it differs from the saved (or opened) project
+    """
+
+    def __init__(self, project: Project, path: str | Path | None = None, limit: int = 100):
+        self._project = project
+        self._undo: list[Edit] = []
+        self._redo: list[Edit] = []
+        self._listeners: list[Callable[[Project, Change], None]] = []
+        self.limit = int(limit)
+        self.path = None if path is None else Path(path)
+        self._saved: Project | None = project if path is not None else None
+        self.revision = 0
+
+    # ------------------------------------------------------------------ state
+    @property
+    def project(self) -> Project:
+        return self._project
+
+    @property
+    def dirty(self) -> bool:
+        return self._saved is not self._project
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    @property
+    def undo_label(self) -> str | None:
+        return self._undo[-1].label if self._undo else None
+
+    @property
+    def redo_label(self) -> str | None:
+        return self._redo[-1].label if self._redo else None
+
+    @property
+    def history(self) -> tuple[Edit, ...]:
+        """The undo stack, oldest first."""
+        return tuple(self._undo)
+
+    # ------------------------------------------------------------------ listeners
+    def subscribe(self, listener: Callable[[Project, Change], None]) -> Callable[[], None]:
+        """Call ``listener(project, change)`` after every change; returns an unsubscribe function."""
+        self._listeners.append(listener)
+
+        def unsubscribe():
+            if listener in self._listeners:
+                self._listeners.remove(listener)
+        return unsubscribe
+
+    def _set(self, project: Project, cause: str, label: str = "") -> Change:
+        old, self._project = self._project, project
+        self.revision += 1
+        change = Change(cause, changed_aspects(old, project), label)
+        for listener in list(self._listeners):
+            listener(project, change)
+        return change
+
+    # ------------------------------------------------------------------ edits
+    def apply(self, label: str, project: Project, answers_solve: bool = True) -> Edit | None:
+        """Make ``project`` current as one undoable edit called ``label``.
+
+        Nothing happens (None) when ``project`` does not differ from the current
+        one. ``answers_solve``: a solve started from ``project`` is folded into
+        this edit when it finishes (see the module docstring).
+        """
+        if not changed_aspects(self._project, project):
+            return None
+        edit = Edit(label, self._project, project, answers_solve)
+        self._undo.append(edit)
+        del self._undo[:-self.limit]
+        self._redo.clear()
+        self._set(project, "edit", label)
+        return edit
+
+    def edit_settings(self, label: str, **changes) -> Edit | None:
+        """An edit of FlattenSettings fields (validated; a SettingsError leaves the document as it was)."""
+        return self.apply(label, self._project.with_settings(**changes))
+
+    def edit_display(self, label: str, **changes) -> Edit | None:
+        """An edit of units or shear angles (no solve answers it)."""
+        return self.apply(label, self._project.with_display(**changes), answers_solve=False)
+
+    def undo(self) -> bool:
+        if not self._undo:
+            return False
+        edit = self._undo.pop()
+        self._redo.append(edit)
+        self._set(edit.before, "undo", edit.label)
+        return True
+
+    def redo(self) -> bool:
+        if not self._redo:
+            return False
+        edit = self._redo.pop()
+        self._undo.append(edit)
+        self._set(edit.after, "redo", edit.label)
+        return True
+
+    def attach_result(self, result: FlattenResult, source: Project, label: str = "Solve") -> bool:
+        """Record a finished solve that started from project ``source``.
+
+        Refused (False) when the document has since moved to another surface or
+        other settings: the result answers a question nobody asks any more.
+        Otherwise the result is folded into the latest edit if that edit made
+        ``source`` and is waiting for its solve, or becomes an edit ``label``.
+        """
+        cur = self._project
+        if cur.surface is not source.surface or not settings_equal(cur.settings, source.settings):
+            return False
+        new = cur.with_result(result)
+        top = self._undo[-1] if self._undo else None
+        if top is not None and top.answers_solve and top.after is cur:
+            self._undo[-1] = Edit(top.label, top.before, new, answers_solve=False)
+            self._set(new, "result", top.label)
+        else:
+            self._undo.append(Edit(label, cur, new, answers_solve=False))
+            del self._undo[:-self.limit]
+            self._redo.clear()
+            self._set(new, "result", label)
+        return True
+
+    # ------------------------------------------------------------------ documents
+    def reset(self, project: Project, path: str | Path | None = None) -> None:
+        """Start over with ``project`` (opened from ``path``, if given): history cleared."""
+        self._undo.clear()
+        self._redo.clear()
+        self.path = None if path is None else Path(path)
+        self._saved = project if path is not None else None
+        self._set(project, "reset")
+
+    def mark_saved(self, path: str | Path) -> None:
+        """The current project is now on disk at ``path``."""
+        self.path = Path(path)
+        self._saved = self._project
+        self._set(self._project, "saved")

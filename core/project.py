@@ -1,0 +1,546 @@
+"""The project: the document a designer edits and saves, and its file.
+
+A :class:`Project` is an immutable snapshot of everything a flattening job
+holds: the surface, the settings (including darts and yarn constraints), the
+display choices that belong to the job (model units, shear warning and limit
+angles) and the last result. Every edit makes a new Project
+(:meth:`Project.with_settings` and friends), so an undo history is a list of
+them (:mod:`core.document`) and an autosave writes one without locking.
+
+The file (``.flatweave``) is JSON::
+
+    {"format": "flatweave-project", "version": 1, "flatweave": "0.1.0",
+     "name": "octant", "source": "resources/surfaces/octant.json",
+     "surface": {geomdl JSON document},
+     "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
+                  solver, tol, max_iter, max_seconds, max_nodes},
+     "darts": [...], "yarns": [...],
+     "display": {"units": "m", "shear_warning_deg": 15.0, "shear_limit_deg": 30.0},
+     "result": a result document (core.pipeline.result_to_dict) or null}
+
+Floats are written with ``repr`` precision, so a project reads back
+bit-identical. The result is restored from its nodes' lattice positions and
+(u, v) (the mesh, xyz and pattern are recomputed by the same code that made
+them, so they come back identical) and its stored metrics. Saves are atomic
+(:func:`core.fileio.write_json`). Every problem reading a file is a one-line
+:class:`ProjectError` naming the file: not JSON, not a project, a version
+newer than this program reads, a damaged entry.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import core
+from core.darts import CurveDart, PlaneDart
+from core.energy import YarnConstraint
+from core.errors import FlatweaveError, SettingsError
+from core.fileio import write_json
+from core.mesh import MATERIALS, Material
+from core.nurbs import NurbsSurface
+from core.pipeline import (SOLVERS, FlattenResult, FlattenSettings, _settings_dict, flatten_iter,
+                           result_to_dict, state_from_dict)
+from core.quadrature import region_area
+from core.solver import State
+from core.surface_io import surface_from_json_dict, surface_to_json_dict
+
+__all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
+           "DRAPE_KEYS", "settings_to_dict", "settings_from_dict", "settings_equal", "validate_settings",
+           "needs_new_drape", "warm_start", "project_to_dict", "project_from_dict", "save_project",
+           "load_project", "result_from_dict", "project_problems", "new_project"]
+
+PROJECT_FORMAT = "flatweave-project"
+PROJECT_VERSION = 1
+PROJECT_SUFFIX = ".flatweave"
+
+UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
+"""Model units a user can choose, with their length in metres."""
+
+DRAPE_KEYS = ("spacing", "spacing_warp", "seed", "angle_deg", "paths", "max_nodes")
+"""Settings that decide the drape: changing one needs a new drape, not a warm start."""
+
+_SETTINGS_KEYS = ("spacing", "spacing_warp", "material", "seed", "angle_deg", "paths", "solver", "tol",
+                  "max_iter", "max_seconds", "max_nodes")
+
+
+class ProjectError(FlatweaveError, ValueError):
+    """A project file cannot be read, or a project value is invalid (one line)."""
+
+
+# ---------------------------------------------------------------------- the model
+@dataclass(frozen=True, eq=False)
+class Project:
+    """One flattening job, immutable.
+
+    surface : the NURBS surface
+    settings : FlattenSettings (darts and yarn constraints included)
+    name : a short name (the surface file's stem or the example's name)
+    source : where the surface came from (a path), or None
+    units : model units, a key of :data:`UNITS` (what one coordinate unit is)
+    shear_warning_deg, shear_limit_deg : shear display thresholds, 0 < warning < limit <= 90
+    result : the last FlattenResult, or None; it may be stale (made with other
+        settings, see :attr:`result_is_current`)
+
+    Equality is identity (arrays inside); compare :func:`project_to_dict` s.
+    """
+
+    surface: NurbsSurface
+    settings: FlattenSettings
+    name: str = "untitled"
+    source: str | None = None
+    units: str = "m"
+    shear_warning_deg: float = 15.0
+    shear_limit_deg: float = 30.0
+    result: FlattenResult | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.surface, NurbsSurface):
+            raise TypeError(f"Project.surface must be a NurbsSurface, got {type(self.surface).__name__}")
+        if self.units not in UNITS:
+            raise SettingsError(f"units must be one of {', '.join(UNITS)}, got {self.units!r}")
+        w, lim = self.shear_warning_deg, self.shear_limit_deg
+        for label, value in (("shear warning angle", w), ("shear limit angle", lim)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and 0 < value <= 90):
+                raise SettingsError(f"{label} must be between 0 and 90 degrees, got {value!r}")
+        if not w < lim:
+            raise SettingsError(f"the shear warning angle ({w:g}) must be below the limit angle ({lim:g})")
+        validate_settings(self.settings)
+
+    # -------------------------------------------------------------- edits
+    def with_settings(self, **changes) -> "Project":
+        """A copy with some FlattenSettings fields changed (validated)."""
+        return replace(self, settings=replace(self.settings, **changes))
+
+    def with_display(self, **changes) -> "Project":
+        """A copy with units or shear angles changed."""
+        allowed = {"units", "shear_warning_deg", "shear_limit_deg"}
+        if not set(changes) <= allowed:
+            raise TypeError(f"with_display takes {', '.join(sorted(allowed))}")
+        return replace(self, **changes)
+
+    def with_result(self, result: FlattenResult | None) -> "Project":
+        return replace(self, result=result)
+
+    # -------------------------------------------------------------- queries
+    @property
+    def result_is_current(self) -> bool:
+        """There is a result and it was made from this surface with these settings."""
+        r = self.result
+        return r is not None and r.surface is self.surface and settings_equal(r.settings, self.settings)
+
+    @property
+    def metres_per_unit(self) -> float:
+        return UNITS[self.units]
+
+
+def validate_settings(s: FlattenSettings) -> None:
+    """Raise a one-line SettingsError for a setting no solve can use."""
+    def positive(name, value):
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and math.isfinite(value) and value > 0):
+            raise SettingsError(f"{name} must be a positive number, got {value!r}")
+
+    positive("spacing", s.spacing)
+    if s.spacing_warp is not None:
+        positive("warp spacing", s.spacing_warp)
+    if not isinstance(s.material, Material):
+        raise SettingsError(f"material must be a Material, got {type(s.material).__name__}")
+    for name in ("k_weft", "k_warp", "k_diag"):
+        positive(f"material {name}", getattr(s.material, name))
+    seed = tuple(s.seed)
+    if len(seed) != 2 or not all(isinstance(x, (int, float)) and 0 <= x <= 1 for x in seed):
+        raise SettingsError(f"seed must be two fractions of the domain between 0 and 1, got {s.seed!r}")
+    if not (isinstance(s.angle_deg, (int, float)) and math.isfinite(s.angle_deg)):
+        raise SettingsError(f"weft angle must be a number of degrees, got {s.angle_deg!r}")
+    if s.paths not in ("plane", "geodesic"):
+        raise SettingsError(f"paths must be 'plane' or 'geodesic', got {s.paths!r}")
+    if s.solver not in SOLVERS:
+        raise SettingsError(f"solver {s.solver!r} is not one of {', '.join(SOLVERS)}")
+    positive("tolerance", s.tol)
+    if not (isinstance(s.max_iter, int) and not isinstance(s.max_iter, bool) and s.max_iter >= 0):
+        raise SettingsError(f"max iterations must be a non-negative integer, got {s.max_iter!r}")
+    if not (isinstance(s.max_seconds, (int, float)) and s.max_seconds > 0):
+        raise SettingsError(f"time budget must be a positive number of seconds, got {s.max_seconds!r}")
+    if not (isinstance(s.max_nodes, int) and s.max_nodes > 0):
+        raise SettingsError(f"max nodes must be a positive integer, got {s.max_nodes!r}")
+
+
+# ---------------------------------------------------------------------- settings <-> dict
+def _darts_to_list(darts) -> list[dict]:
+    out = []
+    for d in darts:
+        if d.kind == "plane":
+            out.append({"kind": "plane", "name": d.name, "plane": [float(x) for x in d.plane],
+                        "box": None if d.box is None else [float(x) for x in d.box]})
+        else:
+            out.append({"kind": "curve", "name": d.name, "uv": np.asarray(d.uv, dtype=float).tolist()})
+    return out
+
+
+def _yarns_to_list(yarns) -> list[dict]:
+    return [{"kind": y.kind, "index": int(y.index), "plane": [float(x) for x in y.plane], "k": float(y.k)}
+            for y in yarns]
+
+
+def settings_to_dict(s: FlattenSettings) -> dict:
+    """JSON-ready settings without darts and yarns (those are listed on their own).
+
+    ``spacing_warp`` stays null when it follows the weft spacing and an
+    infinite time budget is null, so :func:`settings_from_dict` gives back
+    equal settings.
+    """
+    d = _settings_dict(s)
+    d["spacing_warp"] = s.spacing_warp
+    return {k: d[k] for k in _SETTINGS_KEYS}
+
+
+class _Fields:
+    """Typed reads from a JSON object with one-line errors naming the entry."""
+
+    def __init__(self, where: str):
+        self.where = where
+
+    def fail(self, message: str) -> ProjectError:
+        return ProjectError(f"{self.where}: {message}")
+
+    def obj(self, value: Any, what: str) -> dict:
+        if not isinstance(value, dict):
+            raise self.fail(f"{what} must be an object, got {type(value).__name__}")
+        return value
+
+    def get(self, d: dict, key: str, what: str) -> Any:
+        if key not in d:
+            raise self.fail(f"{what} has no {key!r}")
+        return d[key]
+
+    def number(self, value: Any, what: str, allow_none: bool = False) -> float | None:
+        if value is None and allow_none:
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.fail(f"{what} must be a finite number, got {value!r:.60}")
+        return float(value)
+
+    def integer(self, value: Any, what: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
+            raise self.fail(f"{what} must be an integer, got {value!r:.60}")
+        return int(value)
+
+    def string(self, value: Any, what: str) -> str:
+        if not isinstance(value, str):
+            raise self.fail(f"{what} must be a string, got {value!r:.60}")
+        return value
+
+    def numbers(self, value: Any, n: int, what: str) -> tuple[float, ...]:
+        if not isinstance(value, list) or len(value) != n:
+            raise self.fail(f"{what} must be a list of {n} numbers")
+        return tuple(self.number(x, what) for x in value)
+
+
+def _material_from(f: _Fields, value: Any) -> Material:
+    m = f.obj(value, "settings.material")
+    name = f.string(f.get(m, "name", "settings.material"), "settings.material.name")
+    ks = [f.number(f.get(m, k, "settings.material"), f"settings.material.{k}") for k in ("k_weft", "k_warp", "k_diag")]
+    preset = MATERIALS.get(name)
+    if preset is not None and [preset.k_weft, preset.k_warp, preset.k_diag] == ks:
+        return preset
+    return Material(name, *ks)
+
+
+def settings_from_dict(d: Any, darts: Any = (), yarns: Any = (), where: str = "project") -> FlattenSettings:
+    """FlattenSettings from :func:`settings_to_dict`'s form (and dart and yarn lists).
+
+    Raises ProjectError (a malformed entry) or SettingsError (a value no solve can use).
+    """
+    f = _Fields(where)
+    d = f.obj(d, "settings")
+    for key in _SETTINGS_KEYS:
+        f.get(d, key, "settings")
+    max_seconds = f.number(d["max_seconds"], "settings.max_seconds", allow_none=True)
+    out = FlattenSettings(
+        spacing=f.number(d["spacing"], "settings.spacing"),
+        spacing_warp=f.number(d["spacing_warp"], "settings.spacing_warp", allow_none=True),
+        material=_material_from(f, d["material"]),
+        seed=f.numbers(d["seed"], 2, "settings.seed"),
+        angle_deg=f.number(d["angle_deg"], "settings.angle_deg"),
+        paths=f.string(d["paths"], "settings.paths"),
+        solver=f.string(d["solver"], "settings.solver"),
+        tol=f.number(d["tol"], "settings.tol"),
+        max_iter=f.integer(d["max_iter"], "settings.max_iter"),
+        max_seconds=math.inf if max_seconds is None else max_seconds,
+        max_nodes=f.integer(d["max_nodes"], "settings.max_nodes"),
+        darts=_darts_from(f, darts),
+        yarns=_yarns_from(f, yarns),
+    )
+    try:
+        validate_settings(out)
+    except SettingsError as exc:
+        raise ProjectError(f"{where}: {exc}") from None
+    return out
+
+
+def _darts_from(f: _Fields, value: Any) -> tuple:
+    if not isinstance(value, (list, tuple)):
+        raise f.fail("darts must be a list")
+    out = []
+    for k, item in enumerate(value):
+        what = f"darts[{k}]"
+        item = f.obj(item, what)
+        kind = f.get(item, "kind", what)
+        name = f.string(item.get("name", f"{kind} dart"), f"{what}.name")
+        try:
+            if kind == "plane":
+                box = item.get("box")
+                out.append(PlaneDart(f.numbers(f.get(item, "plane", what), 4, f"{what}.plane"),
+                                     None if box is None else f.numbers(box, 6, f"{what}.box"), name=name))
+            elif kind == "curve":
+                uv = f.get(item, "uv", what)
+                if not isinstance(uv, list) or not all(isinstance(p, list) for p in uv):
+                    raise f.fail(f"{what}.uv must be a list of [u, v] points")
+                pts = np.array([f.numbers(p, 2, f"{what}.uv") for p in uv], dtype=float).reshape(-1, 2)
+                out.append(CurveDart(pts, name=name))
+            else:
+                raise f.fail(f"{what}.kind must be 'plane' or 'curve', got {kind!r:.40}")
+        except SettingsError as exc:
+            raise f.fail(f"{what}: {exc}") from None
+    return tuple(out)
+
+
+def _yarns_from(f: _Fields, value: Any) -> tuple:
+    if not isinstance(value, (list, tuple)):
+        raise f.fail("yarns must be a list")
+    out = []
+    for k, item in enumerate(value):
+        what = f"yarns[{k}]"
+        item = f.obj(item, what)
+        try:
+            out.append(YarnConstraint(f.string(f.get(item, "kind", what), f"{what}.kind"),
+                                      f.integer(f.get(item, "index", what), f"{what}.index"),
+                                      f.numbers(f.get(item, "plane", what), 4, f"{what}.plane"),
+                                      f.number(f.get(item, "k", what), f"{what}.k")))
+        except SettingsError as exc:
+            raise f.fail(f"{what}: {exc}") from None
+    return tuple(out)
+
+
+def _settings_key(s: FlattenSettings) -> str:
+    d = settings_to_dict(s)
+    if d["spacing_warp"] is None:  # the same drape as an explicit warp spacing equal to the weft's
+        d["spacing_warp"] = d["spacing"]
+    return json.dumps([d, _darts_to_list(s.darts), _yarns_to_list(s.yarns)], sort_keys=True)
+
+
+def settings_equal(a: FlattenSettings, b: FlattenSettings) -> bool:
+    """Equal settings, darts and yarns included (dataclass ``==`` cannot compare
+    curve darts, whose points are arrays)."""
+    return a is b or _settings_key(a) == _settings_key(b)
+
+
+def needs_new_drape(old: FlattenSettings, new: FlattenSettings) -> bool:
+    """True when going from ``old`` to ``new`` changes the drape (spacing, seed,
+    weft angle, paths, node limit); other changes (material, solver, tolerance,
+    darts, yarns) can warm-start from the old equilibrium."""
+    a, b = settings_to_dict(old), settings_to_dict(new)
+    return any(a[k] != b[k] for k in DRAPE_KEYS)
+
+
+def warm_start(project: Project) -> State | None:
+    """The state a re-run of ``project`` can start from: its last result's mesh,
+    when that result is on the same surface and drape; else None (drape anew)."""
+    r = project.result
+    if r is None or r.surface is not project.surface or needs_new_drape(r.settings, project.settings):
+        return None
+    return r.state()
+
+
+# ---------------------------------------------------------------------- project <-> dict
+def project_to_dict(project: Project) -> dict:
+    """The project file's content (see the module docstring)."""
+    p = project
+    return {
+        "format": PROJECT_FORMAT,
+        "version": PROJECT_VERSION,
+        "flatweave": core.__version__,
+        "name": p.name,
+        "source": p.source,
+        "surface": surface_to_json_dict(p.surface),
+        "settings": settings_to_dict(p.settings),
+        "darts": _darts_to_list(p.settings.darts),
+        "yarns": _yarns_to_list(p.settings.yarns),
+        "display": {"units": p.units, "shear_warning_deg": float(p.shear_warning_deg),
+                    "shear_limit_deg": float(p.shear_limit_deg)},
+        "result": None if p.result is None else result_to_dict(p.result, p.source),
+    }
+
+
+def result_from_dict(d: Any, surface: NurbsSurface, where: str = "project") -> FlattenResult:
+    """A FlattenResult from a result document (:func:`core.pipeline.result_to_dict`).
+
+    The mesh is rebuilt from the nodes' lattice positions and (u, v), and xyz,
+    the pattern and the dart openings are recomputed by the pipeline (with the
+    solver off), so they equal the saved ones; the metrics and drape
+    statistics are the saved ones (the recomputation does not know how many
+    iterations the solve took).
+    """
+    f = _Fields(where)
+    d = f.obj(d, "result")
+    s = f.obj(f.get(d, "settings", "result"), "result.settings")
+    settings = settings_from_dict(s, s.get("darts", []), s.get("yarns", []), where=f"{where}: result")
+    metrics = f.obj(f.get(d, "metrics", "result"), "result.metrics")
+    stats = f.obj(d.get("drape", {}), "result.drape")
+    nodes = f.obj(f.get(d, "nodes", "result"), "result.nodes")
+    try:
+        ij = np.asarray(f.get(nodes, "ij", "result.nodes"), dtype=float).reshape(-1, 2)
+        uv = np.asarray(f.get(nodes, "uv", "result.nodes"), dtype=float).reshape(-1, 2)
+    except (TypeError, ValueError):
+        raise f.fail("result.nodes.ij and .uv must be lists of number pairs") from None
+    if len(ij) == 0 or len(ij) != len(uv):
+        raise f.fail(f"result.nodes has {len(ij)} lattice positions and {len(uv)} (u, v): not one per node")
+    if not (np.isfinite(ij).all() and np.array_equal(ij, np.round(ij))):
+        raise f.fail("result.nodes.ij must be integer lattice positions")
+    if not (np.isfinite(uv).all() and surface.in_domain(uv).all()):
+        raise f.fail("result.nodes.uv lie outside the surface's domain")
+    state = state_from_dict(d, surface, settings)
+    area = metrics.get("area_3d")
+    area = float(area) if isinstance(area, (int, float)) and not isinstance(area, bool) and area > 0 else None
+    gen = flatten_iter(surface, replace(settings, solver="none"), initial=state, area=area)
+    try:
+        next(gen)
+    except StopIteration as done:
+        rebuilt = done.value
+    else:  # the pipeline never yields without a solver
+        raise AssertionError("flatten_iter yielded with the solver off")
+    return replace(rebuilt, settings=settings, metrics=dict(metrics), drape_stats=dict(stats))
+
+
+def project_from_dict(d: Any, where: str = "project") -> Project:
+    """A Project from a project document; one-line ProjectError on any problem."""
+    f = _Fields(where)
+    if not isinstance(d, dict):
+        raise f.fail(f"not a flatweave project (the file holds {type(d).__name__}, not an object)")
+    fmt = d.get("format")
+    if fmt != PROJECT_FORMAT:
+        if fmt == "flatweave-result":
+            raise f.fail("this is a flatweave result file, not a project; open its surface instead")
+        raise f.fail(f"not a flatweave project (format {fmt!r:.40}, expected {PROJECT_FORMAT!r})")
+    version = d.get("version")
+    if isinstance(version, bool) or not isinstance(version, int):
+        raise f.fail(f"project version must be an integer, got {version!r:.40}")
+    if version > PROJECT_VERSION:
+        raise f.fail(f"saved by a newer flatweave (project version {version}; this flatweave "
+                     f"{core.__version__} reads versions up to {PROJECT_VERSION})")
+    if version < 1:
+        raise f.fail(f"project version {version} is not a valid version")
+    surface_doc = f.get(d, "surface", "project")
+    try:
+        surface = surface_from_json_dict(surface_doc, source=f"{where}: surface")
+    except FlatweaveError as exc:
+        raise ProjectError(str(exc)) from None
+    settings = settings_from_dict(f.get(d, "settings", "project"), d.get("darts", []), d.get("yarns", []), where)
+    display = f.obj(d.get("display", {}), "display")
+    name = d.get("name", "untitled")
+    source = d.get("source")
+    try:
+        project = Project(
+            surface, settings,
+            name=f.string(name, "name"),
+            source=None if source is None else f.string(source, "source"),
+            units=f.string(display.get("units", "m"), "display.units"),
+            shear_warning_deg=f.number(display.get("shear_warning_deg", 15.0), "display.shear_warning_deg"),
+            shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"))
+    except SettingsError as exc:
+        raise ProjectError(f"{where}: {exc}") from None
+    if d.get("result") is not None:
+        project = project.with_result(result_from_dict(d["result"], surface, where))
+    return project
+
+
+# ---------------------------------------------------------------------- files
+def save_project(project: Project, path: str | os.PathLike) -> Path:
+    """Write ``project`` to ``path`` atomically (the old file survives any failure).
+
+    Returns the path. Raises a one-line FlatweaveError when it cannot be written.
+    """
+    path = Path(path)
+    write_json(path, project_to_dict(project))
+    return path
+
+
+def load_project(path: str | os.PathLike) -> Project:
+    """Read a ``.flatweave`` file; one-line ProjectError naming the file on any problem."""
+    name = os.fspath(path)
+    try:
+        raw = Path(name).read_bytes()
+    except OSError as exc:
+        raise ProjectError(f"{name}: cannot read file: {exc.strerror or type(exc).__name__}") from None
+    if not raw.strip():
+        raise ProjectError(f"{name}: file is empty")
+    try:
+        doc = json.loads(raw.decode("utf-8-sig"))
+    except UnicodeDecodeError:
+        raise ProjectError(f"{name}: not a flatweave project (binary data, not JSON text)") from None
+    except json.JSONDecodeError as exc:
+        raise ProjectError(f"{name}: damaged or not a flatweave project (invalid JSON at line {exc.lineno}, "
+                           f"column {exc.colno}: {exc.msg})") from None
+    except (RecursionError, ValueError) as exc:
+        raise ProjectError(f"{name}: not usable JSON ({type(exc).__name__})") from None
+    try:
+        return project_from_dict(doc, where=name)
+    except FlatweaveError:
+        raise
+    except (KeyError, TypeError, ValueError, IndexError) as exc:  # damage the checks above did not name
+        raise ProjectError(f"{name}: damaged project ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
+                           ) from None
+
+
+# ---------------------------------------------------------------------- consistency
+def project_problems(project: Project) -> list[str]:
+    """What is inconsistent in a project (empty when all is well).
+
+    Checks the result's arrays against its mesh: node counts of uv, xyz and
+    the pattern, springs indexing existing nodes, xyz on the surface at uv,
+    a closed outline, finite numbers. For tests and the soak test.
+    """
+    problems = []
+    r = project.result
+    if r is None:
+        return problems
+    n = r.mesh.n_nodes
+    if r.uv.shape != (n, 2):
+        problems.append(f"uv has shape {r.uv.shape}, mesh has {n} nodes")
+    if r.xyz.shape != (n, 3):
+        problems.append(f"xyz has shape {r.xyz.shape}, mesh has {n} nodes")
+    if r.pattern.xy.shape != (n, 2):
+        problems.append(f"pattern xy has shape {r.pattern.xy.shape}, mesh has {n} nodes")
+    if len(r.mesh.ends) and (r.mesh.ends.min() < 0 or r.mesh.ends.max() >= n):
+        problems.append("springs refer to missing nodes")
+    if not problems:
+        if not (np.isfinite(r.uv).all() and np.isfinite(r.xyz).all()):
+            problems.append("non-finite node positions")
+        elif n and np.abs(r.surface.points(r.uv) - r.xyz).max() > 1e-9 * max(1.0, r.surface.bbox_diagonal()):
+            problems.append("xyz is not the surface at uv")
+    if len(r.pattern.outline) < 3:
+        problems.append("the pattern has no outline")
+    for key in ("energy", "boundary_error_pct", "area_error_pct", "nodes"):
+        if key not in r.metrics:
+            problems.append(f"metrics lack {key!r}")
+    if "nodes" in r.metrics and r.metrics["nodes"] != n:
+        problems.append(f"metrics say {r.metrics['nodes']} nodes, mesh has {n}")
+    return problems
+
+
+def new_project(surface: NurbsSurface, name: str = "untitled", source: str | None = None,
+                spacing: float | None = None, units: str = "m") -> Project:
+    """A project with default settings for ``surface``: the woven material and,
+    unless given, a spacing of about a 25th of the square root of its area
+    (rounded to two significant digits), which makes about 600 nodes."""
+    if spacing is None:
+        raw = math.sqrt(float(region_area(surface))) / 25.0
+        spacing = float(f"{raw:.2g}") if raw > 0 and math.isfinite(raw) else 1.0
+    return Project(surface, FlattenSettings(spacing=float(spacing)), name=name, source=source, units=units)

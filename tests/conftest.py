@@ -1,0 +1,38 @@
+"""Shared fixtures of the GUI tests."""
+
+from __future__ import annotations
+
+import pytest
+
+
+def open_plotters() -> set[str]:
+    """pyvista registers every live plotter here (the check pyvistaqt's own tests make)."""
+    from pyvista.plotting.plotter import _ALL_PLOTTERS
+    return set(_ALL_PLOTTERS)
+
+
+@pytest.fixture
+def make_window(qtbot):
+    """A factory of shown, ready main windows; fails if a window's plotters outlive it."""
+    from app.mainwindow import MainWindow
+
+    before = open_plotters()
+    made = []
+
+    def make(project=None, example: str | None = "octant"):
+        win = MainWindow()
+        qtbot.addWidget(win)
+        if project is not None:
+            win.set_project(project)
+        elif example is not None:
+            assert win.open_example(example)
+        win.show()
+        qtbot.waitExposed(win)
+        qtbot.waitUntil(lambda: win.view.is_ready() and win.pattern_view.is_ready(), timeout=10000)
+        made.append(win)
+        return win
+
+    yield make
+    for win in made:
+        win.close()
+    assert open_plotters() <= before, "a window's plotter was not closed"

@@ -1,0 +1,130 @@
+"""The GUI's Qt-free parts: colour scales, frames, and which modules may touch VTK."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.colours import BLUE, GREEN, PURPLE, RED, YELLOW, ramp, shear_stops, strain_range, strain_stops
+from app.frames import FrameMaker
+from core.darts import CurveDart, DartSet, PlaneDart
+from core.examples import load_example
+from core.mesh import DIAG
+from core.metrics import cell_shear_deg, spring_strain
+from core.pipeline import FlattenSettings, flatten
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_strain_scale_is_the_papers():
+    lo, hi = strain_range(np.array([-3.0, -1.0, 0.5, 6.0]))
+    assert (lo, hi) == (-3.0, 6.0)
+    stops = strain_stops(lo, hi)
+    rgb = ramp(np.array([-3.0, -1.5, 0.0, 3.0, 6.0, 9.0, -9.0]), stops)
+    np.testing.assert_allclose(rgb[0], BLUE)    # highest compressive: pure blue
+    np.testing.assert_allclose(rgb[2], GREEN)   # zero: pure green
+    np.testing.assert_allclose(rgb[4], RED)     # highest tensile: pure red
+    np.testing.assert_allclose(rgb[1], [0.0, 0.5, 0.5])  # proportional in between
+    np.testing.assert_allclose(rgb[3], [0.5, 0.5, 0.0])
+    np.testing.assert_allclose(rgb[5], RED)     # clamped beyond the ends
+    np.testing.assert_allclose(rgb[6], BLUE)
+    # all tensile: zero is still green and the scale never collapses
+    lo, hi = strain_range(np.array([0.0, 0.0]))
+    assert lo < 0 < hi
+    lo, hi = strain_range(np.array([1.0, 2.0, np.nan]))
+    assert lo < 0 and hi == 2.0
+
+
+def test_shear_scale_thresholds():
+    stops = shear_stops(15.0, 30.0)
+    rgb = ramp(np.array([0.0, 15.0, 30.0, 30.1, 44.0, 80.0]), stops)
+    np.testing.assert_allclose(rgb[0], GREEN)
+    np.testing.assert_allclose(rgb[1], YELLOW)
+    np.testing.assert_allclose(rgb[2], RED)
+    for k in (3, 4, 5):
+        np.testing.assert_allclose(rgb[k], PURPLE)  # past the limit: one flat colour
+    assert stops[-1][0] == 45.0
+
+
+def test_nice_length():
+    from app.view2d import nice_length  # needs pyvista, not Qt windows
+
+    assert nice_length(0.63) == 0.5 and nice_length(1.0) == 1.0 and nice_length(3.7) == 2.0
+    assert nice_length(999.0) == 500.0 and nice_length(0.0123) == 0.01
+
+
+@pytest.fixture(scope="module")
+def dart_result():
+    surface = load_example("octant")
+    s = FlattenSettings(spacing=0.08, darts=(PlaneDart((1.0, 0.0, 0.0, -0.5), name="plane"),
+                                             CurveDart(np.array([[0.02, 0.75], [0.25, 0.72], [0.4, 0.7]]),
+                                                       name="curve")))
+    return flatten(surface, s)
+
+
+def test_frames_carry_the_results_own_numbers(dart_result):
+    r = dart_result
+    f = FrameMaker(r.surface, r.settings).from_result(r)
+    np.testing.assert_array_equal(f.strain, spring_strain(r.xyz, r.mesh))
+    np.testing.assert_array_equal(f.shear, cell_shear_deg(r.xyz, r.mesh))
+    np.testing.assert_array_equal(f.boundary, np.flatnonzero(r.mesh.boundary_nodes()))
+    np.testing.assert_array_equal(f.xy, r.pattern.xy)
+    assert f.final and f.pattern is r.pattern and f.status == r.metrics["solver_status"]
+    assert f.stats["boundary_error_pct"] == r.metrics["boundary_error_pct"]
+    thread = r.mesh.kind != DIAG
+    assert f.stats["max_thread_strain_pct"] == r.metrics["max_thread_strain_pct"] == pytest.approx(
+        100 * np.abs(f.strain[thread]).max())
+
+
+def test_frame_dart_nodes_are_the_cores(dart_result):
+    """The k-d tree shortcut finds exactly the nodes core's rule finds."""
+    r = dart_result
+    maker = FrameMaker(r.surface, r.settings)
+    f = maker.from_result(r)
+    reach = float(np.hypot(r.mesh.r_weft, r.mesh.r_warp))
+    labels = DartSet(r.surface, r.settings.darts).dart_nodes(maker.dart_curves(), r.uv, r.xyz, reach)
+    pos = np.unique(np.concatenate([d["positive"] for d in labels]))
+    neg = np.unique(np.concatenate([d["negative"] for d in labels]))
+    assert len(pos) > 5 and len(neg) > 5
+    np.testing.assert_array_equal(f.dart_positive, pos)
+    np.testing.assert_array_equal(f.dart_negative, neg)
+    assert len(f.dart_curves) == 2 and all(len(c) >= 2 for c in f.dart_curves)
+
+
+def test_topology_ids_are_unique_across_makers(dart_result):
+    r = dart_result
+    a = FrameMaker(r.surface, r.settings).from_result(r)
+    b = FrameMaker(r.surface, r.settings).from_result(r)
+    m = FrameMaker(r.surface, r.settings)
+    c1, c2 = m.from_result(r), m.from_result(r)
+    assert a.topology != b.topology and c1.topology == c2.topology
+
+
+VTK_NAMES = {"pyvista", "pyvistaqt", "vtk", "vtkmodules"}
+VIEW_MODULES = {"view3d.py", "view2d.py", "viewbase.py"}
+QT_FREE = {"colours.py", "frames.py"}
+
+
+def _imports(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+def test_only_the_views_touch_vtk():
+    files = sorted((REPO / "app").glob("*.py"))
+    assert {f.name for f in files} >= VIEW_MODULES | QT_FREE | {"mainwindow.py", "worker.py"}
+    for f in files:
+        used = _imports(f)
+        if f.name not in VIEW_MODULES:
+            assert not used & VTK_NAMES, f"{f.name} imports {used & VTK_NAMES}"
+        if f.name in QT_FREE:
+            assert not used & {"PySide6", "shiboken6", "superqt"}, f"{f.name} imports Qt"

@@ -1,0 +1,496 @@
+"""GUI tests of solving in the window: Run, Stop, Pause, live updates, errors,
+projects and settings edits. Small meshes (spacing 0.08-0.1 on the octant).
+
+What the window shows is compared with what the core computes for the same
+settings (core.pipeline.flatten), and colours are read back through the VTK
+colour functions the views use.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QTimer
+
+from app.colours import ramp, strain_range, strain_stops
+from app.view2d import nice_length
+from core.examples import example_path, load_example
+from core.metrics import spring_strain
+from core.pipeline import flatten
+from core.project import new_project, project_problems, project_to_dict
+
+RUN_TIMEOUT_MS = 60000
+
+
+def small_project(spacing=0.1, **settings):
+    surface = load_example("octant")
+    p = new_project(surface, "octant", str(example_path("octant")), spacing)
+    return p.with_settings(**settings) if settings else p
+
+
+def run_to_end(qtbot, win, start=None, timeout=RUN_TIMEOUT_MS):
+    """Start a run (win.run unless ``start`` is given) and wait for its outcome."""
+    with qtbot.waitSignal(win.run_finished, timeout=timeout) as blocker:
+        (start or win.run)()
+    return blocker.args[0]
+
+
+def shown_rgb(view):
+    """(spring indices, rgb uint8) as a view colours them now."""
+    return view.layer.spring_colours()
+
+
+def expected_rgb(strain):
+    """Colours the paper's scheme gives these strains: uint8 (m, 3)."""
+    pct = 100 * np.asarray(strain)
+    lo, hi = strain_range(pct)
+    return np.rint(255 * ramp(pct, strain_stops(lo, hi))).astype(int)
+
+
+# ---------------------------------------------------------------------- run
+def test_run_converges_and_matches_the_core(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    outcome = run_to_end(qtbot, win)
+    assert not outcome.stopped
+    project = win.project
+    r = project.result
+    assert r is outcome.result and project.result_is_current and project_problems(project) == []
+    assert r.metrics["solver_status"] == "converged"
+
+    core = flatten(project.surface, project.settings)  # the same path, outside the GUI
+    assert r.mesh.n_nodes == core.mesh.n_nodes and r.mesh.n_springs == core.mesh.n_springs
+    np.testing.assert_allclose(r.xyz, core.xyz, atol=1e-12)
+
+    # spring colours, 3D and pattern: the paper's red-green-blue of the core's strains
+    idx, rgb = shown_rgb(win.view)
+    np.testing.assert_array_equal(idx, np.arange(core.mesh.n_springs))
+    want = expected_rgb(spring_strain(core.xyz, core.mesh))
+    assert np.abs(rgb.astype(int) - want).max() <= 1
+    strain = spring_strain(core.xyz, core.mesh)
+    assert tuple(rgb[np.argmax(strain)]) == (255, 0, 0)  # highest tensile: pure red
+    assert tuple(rgb[np.argmin(strain)]) == (0, 0, 255)  # highest compressive: pure blue
+    idx2, rgb2 = shown_rgb(win.pattern_view)
+    np.testing.assert_array_equal(idx2, idx)
+    np.testing.assert_array_equal(rgb2, rgb)
+    assert win.view.colour_bar_title == "strain (%)"
+    lo, hi = win.view.colour_bar_range
+    assert lo == pytest.approx(100 * strain.min()) and hi == pytest.approx(100 * strain.max())
+
+    # the pattern view: the relaxed lattice and the core's outline
+    pts = np.asarray(win.pattern_view.layer.springs[0].points)[:, :2]
+    np.testing.assert_allclose(pts, core.pattern.xy, atol=1e-12)
+    outline = np.asarray(win.pattern_view.outline.points)[:, :2]
+    np.testing.assert_allclose(outline, core.pattern.outline, atol=1e-9)
+    # headline metrics beside it
+    assert win.metrics.text("boundary").startswith(f"{core.metrics['boundary_error_pct']:.3f}")
+    assert win.metrics.text("area").startswith(f"{core.metrics['area_error_pct']:.3f}")
+    assert win.metrics.text("status") == "converged"
+    # live updates happened, and the result is one undo step
+    assert win.runner.frames_shown >= 2
+    assert win.document.undo_label == "Solve"
+    assert win.actions["run"].isEnabled() and not win.actions["stop"].isEnabled()
+
+
+def test_stop_mid_run_leaves_a_consistent_state(make_window, qtbot):
+    # the paper's CG takes thousands of cheap iterations: plenty of time to stop it
+    win = make_window(small_project(0.08, solver="paper", max_iter=100000))
+    win.run()
+    qtbot.waitUntil(lambda: len(win.runner.history) >= 20, timeout=RUN_TIMEOUT_MS)
+    assert win.actions["stop"].isEnabled() and not win.actions["run"].isEnabled()
+    with qtbot.waitSignal(win.run_finished, timeout=10000) as blocker:
+        t0 = time.perf_counter()
+        win.stop()
+    latency = time.perf_counter() - t0
+    print(f"\nstop took {1000 * latency:.0f} ms")
+    assert latency < 1.0, f"stop took {latency:.2f} s"
+    outcome = blocker.args[0]
+    assert outcome.stopped
+    project = win.project
+    r = project.result
+    assert r is outcome.result and project_problems(project) == []
+    n_iter = r.metrics["iterations"]
+    assert 20 <= n_iter < 100000
+    assert r.metrics["solver_status"] == f"stopped by the user at iteration {n_iter}"
+    # the views show exactly the stopped state
+    idx, rgb = shown_rgb(win.view)
+    assert len(idx) == r.mesh.n_springs
+    assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(r.xyz, r.mesh))).max() <= 1
+    assert len(win.pattern_view.layer.springs[0].points) == r.mesh.n_nodes
+    np.testing.assert_allclose(np.asarray(win.pattern_view.outline.points)[:, :2], r.pattern.outline)
+    assert win.runner.state == "idle" and win.actions["run"].isEnabled()
+    assert not win.actions["stop"].isEnabled() and not win.actions["pause"].isEnabled()
+    # and it can run again
+    win.document.edit_settings("Solver", solver="fast")
+    outcome = run_to_end(qtbot, win, start=win.run)
+    assert not outcome.stopped and win.project.result.metrics["solver_status"] == "converged"
+
+
+def test_pause_and_resume(make_window, qtbot):
+    win = make_window(small_project(0.08, solver="paper", max_iter=100000))
+    win.run()
+    qtbot.waitUntil(lambda: len(win.runner.history) >= 5, timeout=RUN_TIMEOUT_MS)
+    win.actions["pause"].trigger()
+    assert win.runner.state == "paused" and win.actions["pause"].text() == "&Resume"
+    # the iteration in progress finishes, then the thread waits
+    qtbot.waitUntil(lambda: win.runner.thread.paused, timeout=5000)
+    n = len(win.runner.history)
+    qtbot.wait(400)
+    assert len(win.runner.history) == n, "iterations went on while paused"
+    win.actions["pause"].trigger()
+    qtbot.waitUntil(lambda: len(win.runner.history) > n + 3, timeout=10000)
+    assert win.runner.state == "running" and win.actions["pause"].text() == "&Pause"
+    with qtbot.waitSignal(win.run_finished, timeout=10000):
+        win.stop()
+
+
+def test_the_event_loop_runs_during_a_solve(make_window, qtbot):
+    """Ticks of a 10 ms timer during a run: the longest gap stays under 250 ms,
+    frames arrive, and the camera moves when dragged mid-run."""
+    win = make_window(small_project(0.05))  # ~650 nodes: a run of a second or two
+    qtbot.wait(500)  # let the new window finish its first paints (GL shader compilation) before timing
+    ticks = []
+    timer = QTimer()
+    timer.setInterval(10)
+    timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    moved = {}
+    iren = win.view.plotter.iren.interactor
+    cam = win.view.plotter.renderer.GetActiveCamera()
+
+    def drag_step():
+        """One mouse event per call, as a hand dragging the camera would send them."""
+        if not win.runner.busy or win.runner.frames_shown < 1 or "by" in moved:
+            return
+        w, h = win.view.plotter.window_size
+        step = moved.setdefault("step", 0)
+        x = w // 2 + 15 * step
+        iren.SetEventInformation(x, h // 2, 0, 0)
+        if step == 0:
+            moved["before"] = np.array(cam.GetPosition())
+            iren.InvokeEvent("LeftButtonPressEvent")
+        elif step < 6:
+            iren.InvokeEvent("MouseMoveEvent")
+        else:
+            iren.InvokeEvent("LeftButtonReleaseEvent")
+            moved["by"] = float(np.linalg.norm(np.array(cam.GetPosition()) - moved["before"]))
+            moved["busy"] = win.runner.busy
+        moved["step"] = step + 1
+
+    dragger = QTimer()
+    dragger.setInterval(30)
+    dragger.timeout.connect(drag_step)
+    dragger.start()
+    timer.start()
+    t0 = time.perf_counter()
+    outcome = run_to_end(qtbot, win)
+    t1 = time.perf_counter()
+    timer.stop()
+    dragger.stop()
+    assert outcome.result is not None
+    inside = np.array([t for t in ticks if t0 <= t <= t1])
+    gaps = np.diff(np.concatenate([[t0], inside, [t1]]))
+    print(f"\nrun {t1 - t0:.2f} s, {len(inside)} ticks, longest event-loop gap {1000 * gaps.max():.0f} ms, "
+          f"{win.runner.frames_shown} frames")
+
+    assert gaps.max() < 0.25, f"the event loop stalled for {1000 * gaps.max():.0f} ms"
+    assert win.runner.frames_shown >= 3
+    assert moved.get("busy") and moved["by"] > 1e-3, "the camera did not move during the run"
+
+
+def test_a_worker_exception_reaches_a_dialog(make_window, qtbot, monkeypatch):
+    import app.worker as worker
+
+    real = worker.flatten_iter
+
+    def exploding(surface, settings, initial=None, area=None):
+        gen = real(surface, settings, initial, area)
+        yield next(gen)
+        yield next(gen)
+        raise RuntimeError("the solver exploded\nsecond line")
+
+    win = make_window(small_project(0.1))
+    before = win.project
+    monkeypatch.setattr(worker, "flatten_iter", exploding)
+    with qtbot.waitSignal(win.run_failed, timeout=RUN_TIMEOUT_MS) as blocker:
+        win.run()
+    assert blocker.args[0] == "RuntimeError: the solver exploded"
+    assert win.last_error == "Solve failed: RuntimeError: the solver exploded"
+    qtbot.waitUntil(lambda: win.error_box is not None and win.error_box.isVisible())
+    assert win.error_box.text() == win.last_error and not win.error_box.isModal()
+    # the document is untouched and the views are back to it (no result: nothing drawn)
+    assert win.project is before and win.project.result is None and not win.document.can_undo
+    assert len(shown_rgb(win.view)[0]) == 0 and win.frame is None
+    assert win.runner.state == "idle" and win.actions["run"].isEnabled()
+    # the app stays usable: the next run works
+    monkeypatch.setattr(worker, "flatten_iter", real)
+    outcome = run_to_end(qtbot, win)
+    assert outcome.result is not None and win.project.result_is_current
+
+
+def test_a_refused_setting_is_a_one_line_error_from_the_run(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    win.document.edit_settings("Max nodes", max_nodes=50)
+    with qtbot.waitSignal(win.run_failed, timeout=RUN_TIMEOUT_MS) as blocker:
+        win.run()
+    msg = blocker.args[0]
+    assert "\n" not in msg and "more than the limit of 50" in msg and "smallest spacing" in msg
+
+
+# ---------------------------------------------------------------------- edits
+def test_a_settings_change_re_runs(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    first = run_to_end(qtbot, win).result
+    runs = win.runner.runs_started
+
+    # a new spacing typed into the panel: a new drape, folded into the edit
+    edit = win.settings_panel.spacing
+    edit.setText("0.09")
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS) as blocker:
+        edit.editingFinished.emit()
+    r = blocker.args[0].result
+    assert win.runner.runs_started == runs + 1 and win.runner.last_start[1] is None  # drape anew
+    assert r.settings.spacing == 0.09 and win.project.result is r and win.project.result_is_current
+    assert r.mesh.n_nodes > first.mesh.n_nodes
+    assert win.document.undo_label == "Weft spacing" and len(win.document.history) == 2
+
+    # a new tolerance from the panel: warm-started from the last result
+    win.settings_panel.tol.setText("1e-7")
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS) as blocker:
+        win.settings_panel.tol.editingFinished.emit()
+    assert win.runner.last_start[1] is not None
+    assert blocker.args[0].result.settings.tol == 1e-7 and win.project.result_is_current
+
+    # undo goes back to the earlier results without solving again
+    runs = win.runner.runs_started
+    win.actions["undo"].trigger()
+    assert win.project.result is r
+    win.actions["undo"].trigger()
+    assert win.project.result is first and win.project.settings.spacing == 0.1
+    assert win.settings_panel.spacing.text() == "0.1"
+    qtbot.wait(2 * 250 + 100)  # longer than the re-run delay
+    assert win.runner.runs_started == runs and not win.runner.busy
+    assert len(shown_rgb(win.view)[0]) == first.mesh.n_springs
+
+
+def test_settings_edits_during_a_run_restart_it(make_window, qtbot):
+    win = make_window(small_project(0.08, solver="paper", max_iter=100000))
+    run_to_end(qtbot, win, start=lambda: (win.run(), QTimer.singleShot(300, win.stop)))
+    win.run()
+    qtbot.waitUntil(lambda: len(win.runner.history) >= 3, timeout=RUN_TIMEOUT_MS)
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS) as blocker:
+        win.edit_settings("Solver", {"solver": "fast"})
+    # the paper run was abandoned (no result from it) and the fast one answered the edit
+    r = blocker.args[0].result
+    assert r.settings.solver == "fast" and r.metrics["solver_status"] == "converged"
+    assert win.project.result is r and win.document.undo_label == "Solver"
+
+
+def test_a_bad_value_in_the_panel_snaps_back(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    p0 = win.project
+    win.settings_panel.spacing.setText("0")
+    win.settings_panel.spacing.editingFinished.emit()
+    assert win.project is p0 and "spacing" in win.last_error and "\n" not in win.last_error
+    assert win.settings_panel.spacing.text() == "0.1"
+    win.settings_panel.shear_warning.setValue(40.0)  # above the limit (30)
+    assert win.project is p0 and "below the limit" in win.last_error
+    assert win.settings_panel.shear_warning.value() == 15.0
+
+
+def test_display_settings_restyle_without_a_solve(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    runs = win.runner.runs_started
+    win.settings_panel.units.setCurrentIndex(win.settings_panel.units.findData("cm"))
+    win.settings_panel.units.activated.emit(win.settings_panel.units.currentIndex())
+    assert win.project.units == "cm" and win.pattern_view.scale_label.GetInput().endswith(" cm")
+    assert win.pattern_view.scale_label.GetInput() == f"{nice_length(0.4 * _width(win)):g} cm"
+    win.actions["mode_shear"].trigger()
+    assert win.view.colour_bar_title == "shear (deg)"
+    assert win.view.colour_bar_range == (0.0, 1.5 * 30.0)
+    win.settings_panel.shear_limit.setValue(20.0)
+    assert win.project.shear_limit_deg == 20.0 and win.view.colour_bar_range == (0.0, 30.0)
+    qtbot.wait(400)
+    assert win.runner.runs_started == runs and not win.runner.busy
+
+
+def _width(win):
+    o = win.project.result.pattern.outline
+    return float(o[:, 0].max() - o[:, 0].min())
+
+
+def test_kind_toggles_and_the_colour_range(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    r = win.project.result
+    strain = spring_strain(r.xyz, r.mesh)
+    win.actions["show_diag"].trigger()  # off
+    assert not win.view.layer.spring_actors[2].GetVisibility()
+    assert win.view.layer.spring_actors[0].GetVisibility()
+    thread = r.mesh.kind != 2
+    lo, hi = win.view.colour_bar_range
+    assert lo == pytest.approx(100 * strain[thread].min()) and hi == pytest.approx(100 * strain[thread].max())
+    win.actions["show_surface"].trigger()
+    assert not win.view._surface_actors[0].GetVisibility()
+    win.actions["show_nodes"].trigger()
+    assert not any(a.GetVisibility() for a in win.view.layer.node_actors)
+
+
+def test_hover_shows_the_spring_or_cell_value(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    r = win.project.result
+    strain = spring_strain(r.xyz, r.mesh)
+    view = win.view
+    view.render()
+    # the middle of a weft spring near the middle of the piece (seen face-on)
+    weft = np.flatnonzero(r.mesh.kind == 0)
+    mid = 0.5 * (r.xyz[r.mesh.ends[weft, 0]] + r.xyz[r.mesh.ends[weft, 1]])
+    s = weft[np.argmin(np.linalg.norm(mid - r.xyz.mean(axis=0), axis=1))]
+    x, y = view.display_point(0.5 * (r.xyz[r.mesh.ends[s, 0]] + r.xyz[r.mesh.ends[s, 1]]))
+    text = view.describe_at(x, y)
+    assert text is not None and text.startswith(f"weft spring {s} ") and f"{100 * strain[s]:+.4f} %" in text
+    # through a real mouse move event, into the status bar
+    iren = view.plotter.iren.interactor
+    iren.SetEventInformation(int(round(x)), int(round(y)), 0, 0)
+    view._last_pick = 0.0
+    iren.InvokeEvent("MouseMoveEvent")
+    assert win._hover_label.text() == view.describe_at(int(round(x)), int(round(y)))
+    assert "spring" in win._hover_label.text()
+    # shear mode: cells
+    win.actions["mode_shear"].trigger()
+    view.render()
+    c = np.argmin(np.linalg.norm(r.xyz[r.mesh.cells].mean(axis=1) - r.xyz.mean(axis=0), axis=1))
+    x, y = view.display_point(r.xyz[r.mesh.cells[c]].mean(axis=0))
+    text = view.describe_at(x, y)
+    assert text is not None and text.startswith("cell ") and "shear" in text
+
+
+# ---------------------------------------------------------------------- projects
+def test_save_then_open_restores_the_document(make_window, qtbot, tmp_path):
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    win.edit_display("Units", {"units": "cm"})
+    win.edit_display("Shear warning angle", {"shear_warning_deg": 12.0})
+    saved = project_to_dict(win.project)
+    idx, rgb = shown_rgb(win.view)
+    path = tmp_path / "job"
+    assert win.save_to(path)
+    assert (tmp_path / "job.flatweave").exists() and not win.windowTitle().endswith("*")
+    assert win.windowTitle() == "flatweave - job.flatweave"
+
+    other = make_window(example="saddle")
+    assert other.open_file(tmp_path / "job.flatweave")
+    assert project_to_dict(other.project) == saved
+    assert other.project.result_is_current and not other.document.can_undo and not other.document.dirty
+    idx2, rgb2 = shown_rgb(other.view)
+    np.testing.assert_array_equal(idx2, idx)
+    np.testing.assert_array_equal(rgb2, rgb)
+    assert other.settings_panel.units.currentData() == "cm"
+    assert other.settings_panel.shear_warning.value() == 12.0
+    np.testing.assert_allclose(np.asarray(other.pattern_view.outline.points)[:, :2],
+                               win.project.result.pattern.outline)
+
+
+def test_opening_a_damaged_project_keeps_the_document(make_window, qtbot, tmp_path):
+    win = make_window(small_project(0.1))
+    before = win.project
+    bad = tmp_path / "bad.flatweave"
+    bad.write_text('{"format": "flatweave-project", "version": 99}')
+    assert not win.open_file(bad)
+    assert win.project is before
+    assert "newer" in win.last_error and "bad.flatweave" in win.last_error and "\n" not in win.last_error
+
+
+def test_opening_another_surface_mid_run_abandons_it(make_window, qtbot):
+    win = make_window(small_project(0.08, solver="paper", max_iter=100000))
+    finished = []
+    win.run_finished.connect(finished.append)
+    win.run()
+    qtbot.waitUntil(lambda: len(win.runner.history) >= 3, timeout=RUN_TIMEOUT_MS)
+    assert win.open_example("saddle")
+    assert win.surface_name == "saddle" and win.project.result is None
+    drawn = []
+    win.runner.frame.connect(drawn.append)
+    qtbot.waitUntil(lambda: win.runner.state == "idle", timeout=10000)
+    qtbot.wait(100)
+    assert drawn == [] and finished == []  # nothing of the old run reached the new document
+    assert win.frame is None and len(shown_rgb(win.view)[0]) == 0
+    assert win.actions["run"].isEnabled() and not win.document.can_undo
+
+
+def test_undo_mid_run_cancels_it_and_shows_the_earlier_result(make_window, qtbot):
+    win = make_window(small_project(0.1))
+    first = run_to_end(qtbot, win).result
+    win.settings_panel.auto_rerun.setChecked(True)
+    # a new drape solved by the paper's CG: thousands of iterations
+    win.document.edit_settings("Solver", spacing=0.08, solver="paper", max_iter=100000)
+    qtbot.waitUntil(lambda: win.runner.busy and len(win.runner.history) >= 3, timeout=RUN_TIMEOUT_MS)
+    win.actions["undo"].trigger()
+    assert win.project.result is first and not win.runner.active
+    idx, rgb = shown_rgb(win.view)
+    assert len(idx) == first.mesh.n_springs
+    assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(first.xyz, first.mesh))).max() <= 1
+    qtbot.waitUntil(lambda: win.runner.state == "idle", timeout=10000)
+    assert win.project.result is first and win.document.redo_label == "Solver"
+
+
+# ---------------------------------------------------------------------- export
+def test_export_needs_a_result(make_window):
+    win = make_window(small_project(0.1))
+    assert not win.actions["export"].isEnabled()
+
+
+def test_export_dialog_writes_every_format(make_window, qtbot, tmp_path):
+    from core.export import FORMATS, ExportOptions, export_bytes
+
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    win.edit_display("Units", {"units": "cm"})
+    assert win.actions["export"].isEnabled()
+    win.actions["export"].trigger()
+    dialog = win.export_box
+    qtbot.waitUntil(dialog.isVisible)
+    assert dialog.units.currentData() == "cm"  # the model's units by default
+    # the format follows the suffix, and choosing a format changes the suffix
+    dialog.path.setText(str(tmp_path / "piece.svg"))
+    dialog.path.textEdited.emit(dialog.path.text())
+    assert dialog.format.currentData() == ".svg"
+    dialog.format.setCurrentIndex(dialog.format.findData(".pdf"))
+    dialog.format.activated.emit(dialog.format.currentIndex())
+    assert dialog.path.text() == str(tmp_path / "piece.pdf")
+    dialog.every_format.setChecked(True)
+    dialog.seam.setValue(15.0)
+    dialog.paper.setCurrentIndex(dialog.paper.findData("letter"))
+    with qtbot.waitSignal(win.export_finished, timeout=60000) as blocker:
+        dialog.export_button.click()
+    written = blocker.args[0]
+    assert sorted(p.name for p in written) == sorted(f"piece{s}" for s in FORMATS)
+    assert all(p.stat().st_size > 0 for p in written)
+    assert str(tmp_path) in win.statusBar().currentMessage() and "piece.dxf" in win.progress.text()
+    # the same bytes as the core writes for these options (formats without timestamps)
+    options = ExportOptions(seam_allowance_mm=15.0, units="cm", paper="letter", name="octant")
+    assert win.export_options == options
+    r = win.project.result
+    for suffix in (".svg", ".vtp", ".obj"):
+        assert (tmp_path / f"piece{suffix}").read_bytes() == export_bytes(r, suffix, options), suffix
+    assert (tmp_path / "piece.pdf").read_bytes().startswith(b"%PDF")
+    assert b"SECTION" in (tmp_path / "piece.dxf").read_bytes()[:200]
+    qtbot.waitUntil(lambda: win.export_thread is None, timeout=5000)  # the thread ends after its signal
+    assert win.actions["export"].isEnabled()
+
+
+def test_export_failure_is_a_one_line_error(make_window, qtbot, tmp_path):
+    from core.export import ExportOptions
+
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    target = tmp_path / "missing" / "p.dxf"
+    with qtbot.waitSignal(win.export_failed, timeout=30000) as blocker:
+        assert win.export_to([target], ExportOptions())
+    msg = blocker.args[0]
+    assert "\n" not in msg and "p.dxf" in msg and "does not exist" in msg
+    assert win.last_error == f"Export failed: {msg}" and not target.exists()
+    qtbot.waitUntil(lambda: win.export_thread is None, timeout=5000)
+    assert win.actions["export"].isEnabled()
