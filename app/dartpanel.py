@@ -177,7 +177,7 @@ class DartPanel(QWidget):
         self.dart_list.itemChanged.connect(self._dart_item_changed)
         self.edit_dart.clicked.connect(lambda: self._emit_row(self.dart_list, self.dart_edit))
         self.delete_dart.clicked.connect(lambda: self._emit_row(self.dart_list, self.dart_delete))
-        self.yarn_list.currentRowChanged.connect(lambda r: None if self._loading else self.yarn_selected.emit(r))
+        self.yarn_list.currentRowChanged.connect(self._yarn_row)
         self.edit_yarn.clicked.connect(lambda: self._emit_row(self.yarn_list, self.yarn_edit))
         self.remove_yarn.clicked.connect(lambda: self._emit_row(self.yarn_list, self.yarn_remove))
         self.plane_edit.editingFinished.connect(self._plane_numbers)
@@ -199,6 +199,11 @@ class DartPanel(QWidget):
     def _dart_row(self, row: int) -> None:
         if not self._loading:
             self.dart_selected.emit(row)
+        self._update_buttons()
+
+    def _yarn_row(self, row: int) -> None:
+        if not self._loading:
+            self.yarn_selected.emit(row)
         self._update_buttons()
 
     def _dart_item_changed(self, item: QListWidgetItem) -> None:

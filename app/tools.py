@@ -354,11 +354,16 @@ class PlaneDartTool(Tool):
             self.box = None if d.box is None else tuple(float(x) for x in d.box)
             self.dart_name = d.name
         else:
+            # across the longest extent, through the middle; the box keeps the lower 60 % of the
+            # next longest, so the dart starts at the rim and ends inside (move both to taste)
+            order = np.argsort(-(hi - lo), kind="stable")
             axis = np.zeros(3)
-            axis[int(np.argmax(hi - lo))] = 1.0  # across the longest extent, through the middle
+            axis[order[0]] = 1.0
             centre = 0.5 * (lo + hi)
             self.plane = (*(float(a) for a in axis), float(-axis @ centre))
-            self.box = tuple(float(b) for b in np.ravel(np.column_stack([lo - 0.01 * pad, hi + 0.01 * pad])))
+            blo, bhi = lo - 0.01 * pad, hi + 0.01 * pad
+            bhi[order[1]] = lo[order[1]] + 0.6 * (hi - lo)[order[1]]
+            self.box = tuple(float(b) for b in np.ravel(np.column_stack([blo, bhi])))
             self.dart_name = unique_name("plane dart", (d.name for d in self.document.project.settings.darts))
         self.dart: PlaneDart | None = None
         self.curve = np.zeros((0, 3))

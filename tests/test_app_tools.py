@@ -184,3 +184,219 @@ def test_a_click_that_misses_the_surface_adds_nothing(solved, qtbot):
     qtbot.keyClick(view.widget, Qt.Key.Key_Escape)
     assert win.tool.handles == [] and len(view.preview_points) == 0
     assert doc.revision == revision and win.project.settings.darts == ()
+
+
+def draw_dart(qtbot, win, targets=TARGETS):
+    """Draw a curve dart through ``targets`` with the tool (clicks, then Enter) and wait for its re-run."""
+    win.actions["tool_curve_dart"].trigger()
+    for t in targets:
+        click(qtbot, win.view, *pixel(win.view, t))
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.keyClick(win.view.widget, Qt.Key.Key_Return)
+    win.actions["tool_curve_dart"].trigger()  # the tool off again
+    assert win.tool is None
+
+
+def test_a_double_click_finishes_the_dart(solved, qtbot):
+    win = solved
+    win.actions["tool_curve_dart"].trigger()
+    click(qtbot, win.view, *pixel(win.view, TARGETS[0]))
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        click(qtbot, win.view, *pixel(win.view, TARGETS[2]), double=True)
+    (dart,) = win.project.settings.darts
+    assert len(dart.handles) == 2 and win.tool.handles == []
+
+
+# ---------------------------------------------------------------------- plane darts
+def test_a_plane_dart_placed_with_the_widget(solved, qtbot):
+    win = solved
+    view, panel = win.view, win.dart_panel
+    before = win.project
+    win.actions["tool_plane_dart"].trigger()
+    tool = win.tool
+    assert panel.plane_box.isVisible() and view.box_widget is not None
+    # numbers typed in the panel move the widget
+    panel.plane_edit.setText("1, 0, 0, -0.4")
+    panel.plane_edit.editingFinished.emit()
+    origin, normal = view.plane_widget_state()
+    np.testing.assert_allclose(normal, [1, 0, 0], atol=1e-12)
+    assert origin[0] == pytest.approx(0.4)
+    # drag the plane along its normal, where it is outside the box (the box would take the press)
+    drag(qtbot, view, pixel(view, (0.4, 0.85, 0.75)), pixel(view, (0.75, 0.85, 0.75)))
+    origin, normal = view.plane_widget_state()
+    assert origin[0] > 0.45, "the drag did not move the plane"
+    n = normal / np.linalg.norm(normal)
+    np.testing.assert_allclose(tool.plane, (*n, -n @ origin), atol=1e-12)
+    assert panel.plane_edit.text() == ", ".join(f"{v:.6g}" for v in tool.plane)
+    # the preview is the plane's curve on the surface, inside the box
+    curve = view.preview_curve
+    assert len(curve) > 10
+    np.testing.assert_allclose(curve @ n - n @ origin, 0.0, atol=1e-7)
+    np.testing.assert_allclose(np.linalg.norm(curve, axis=1), 1.0, atol=1e-9)
+    box = np.array(tool.box)
+    assert np.all(curve >= box[0::2] - 1e-9) and np.all(curve <= box[1::2] + 1e-9)
+    assert win.project is before  # not applied yet
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.mouseClick(panel.plane_apply_button, Qt.MouseButton.LeftButton)
+    (dart,) = win.project.settings.darts
+    assert isinstance(dart, PlaneDart) and dart.name == "plane dart 1"
+    np.testing.assert_allclose(dart.plane, tool.plane)
+    np.testing.assert_allclose(dart.box, tool.box)
+    assert win.tool is None and view.plane_widget is None and len(view.preview_curve) == 0
+    after = win.project
+    assert after.result_is_current and project_problems(after) == []
+    assert crossing_springs(before.result, dart) > 0 and crossing_springs(after.result, dart) == 0
+    assert after.result.metrics["energy"] < before.result.metrics["energy"]
+
+
+# ---------------------------------------------------------------------- yarns
+def test_a_yarn_picked_by_clicking_a_node(solved, qtbot):
+    win = solved
+    view, panel = win.view, win.dart_panel
+    before = win.project
+    r = before.result
+    # a node in the middle of the piece, facing the camera
+    node = int(np.argmin(np.linalg.norm(r.xyz - TARGETS[1], axis=1)))
+    win.actions["tool_yarn"].trigger()
+    click(qtbot, view, *pixel(view, r.xyz[node]))
+    tool = win.tool
+    assert tool.pending is not None and tool.pending.node == node, win.last_hint
+    i, j = r.mesh.ij[node]
+    row = np.flatnonzero(r.mesh.ij[:, 0] == i)
+    assert len(row) > 3
+    np.testing.assert_array_equal(np.sort(tool.nodes()), row)  # the weft row through the node
+    np.testing.assert_allclose(view.picked_yarn_points, r.xyz[yarn_nodes(r.mesh, "weft", i)])
+    # the warp column instead, chosen in the panel
+    panel.yarn_kind.setFocus()
+    qtbot.keyClick(panel.yarn_kind, Qt.Key.Key_Down)
+    assert tool.pending.kind == "warp" and tool.pending.index == j
+    col = yarn_nodes(r.mesh, "warp", j)
+    np.testing.assert_array_equal(np.sort(tool.nodes()), np.flatnonzero(r.mesh.ij[:, 1] == j))
+    np.testing.assert_allclose(view.picked_yarn_points, r.xyz[col])
+    # the default plane: through the column's end points, containing the normal at the node
+    plane = np.array(tool.plane)
+    np.testing.assert_allclose(r.xyz[col[[0, -1]]] @ plane[:3] + plane[3], 0.0, atol=1e-12)
+    normal = before.surface.evaluate(r.uv[node:node + 1]).normal[0]
+    assert abs(plane[:3] @ normal) < 1e-12
+    # turned by 10 degrees about that normal, weight typed in, Enter applies
+    panel.yarn_angle.setValue(10.0)
+    turned = np.array(tool.plane)
+    cos = turned[:3] @ plane[:3]
+    assert cos == pytest.approx(np.cos(np.radians(10.0)), abs=1e-9)
+    assert len(view.preview_curve) > 10  # the plane's curve on the surface
+    panel.yarn_k.setFocus()
+    panel.yarn_k.selectAll()
+    qtbot.keyClicks(panel.yarn_k, "20000")
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.keyClick(panel.yarn_k, Qt.Key.Key_Return)
+    (yarn,) = win.project.settings.yarns
+    assert (yarn.kind, yarn.index, yarn.k) == ("warp", j, 20000.0)
+    np.testing.assert_allclose(yarn.plane, turned)
+    assert panel.yarn_list.count() == 1 and "warp column" in panel.yarn_list.item(0).text()
+    # the constraint changes the pattern and pulls the column towards its plane
+    after = win.project.result
+    assert win.project.result_is_current and project_problems(win.project) == []
+    # the pattern is the relaxed lattice: its outline (mapped from the nodes on the surface) moves
+    moved = max(distance_to_polyline(q, r.pattern.outline) for q in after.pattern.outline)
+    assert moved > 2e-3, moved
+    f = lambda res: np.abs(res.xyz[yarn_nodes(res.mesh, "warp", j)] @ turned[:3] + turned[3]).max()  # noqa: E731
+    assert f(after) < 0.2 * f(r)
+    # listed and removable like darts
+    panel.yarn_list.setCurrentRow(0)
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.mouseClick(panel.remove_yarn, Qt.MouseButton.LeftButton)
+    assert win.project.settings.yarns == () and panel.yarn_list.count() == 0
+
+
+# ---------------------------------------------------------------------- the list, editing, undo, saving
+def test_dart_list_rename_hide_move_points_and_delete(solved, qtbot):
+    win = solved
+    view, panel, doc = win.view, win.dart_panel, win.document
+    draw_dart(qtbot, win)
+    runs = win.runner.runs_started
+    # rename and hide: labels only, the result stays current, nothing re-runs
+    panel.dart_list.item(0).setText("shoulder")
+    assert win.project.settings.darts[0].name == "shoulder" and doc.undo_label == "Rename dart"
+    panel.dart_list.item(0).setCheckState(Qt.CheckState.Unchecked)
+    assert not win.project.settings.darts[0].visible and view.dart_curves == [None]
+    assert win.project.result_is_current and win.runner.runs_started == runs and not win.runner.busy
+    panel.dart_list.item(0).setCheckState(Qt.CheckState.Checked)
+    # select it: its points become handles; drag the middle one across the surface
+    panel.dart_list.setCurrentRow(0)
+    dart = win.project.settings.darts[0]
+    np.testing.assert_allclose(view.handle_points, win.surface.points(dart.handles))
+    assert view.selected_dart == 0
+    start = pixel(view, win.surface.points(dart.handles[1:2])[0])
+    target = np.array([0.55, 0.5, 0.67])
+    end = pixel(view, target / np.linalg.norm(target))
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        drag(qtbot, view, start, end)
+    moved = win.project.settings.darts[0]
+    assert moved.name == "shoulder" and doc.undo_label == "Move shoulder"
+    np.testing.assert_array_equal(moved.handles[[0, 2]], dart.handles[[0, 2]])
+    np.testing.assert_allclose(win.surface.points(moved.handles[1:2])[0], ray_sphere(view, *end), atol=1e-7)
+    assert distance_to_polyline(ray_sphere(view, *end), win.surface.points(moved.uv)) < 2e-3
+    assert crossing_springs(win.project.result, moved) == 0 and win.project.result_is_current
+    np.testing.assert_allclose(view.handle_points, win.surface.points(moved.handles))
+    # delete
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.mouseClick(panel.delete_dart, Qt.MouseButton.LeftButton)
+    assert win.project.settings.darts == () and panel.dart_list.count() == 0
+    assert len(view.handle_points) == 0 and view.dart_curves == []
+
+
+def test_undo_and_redo_restore_the_exact_documents(solved, qtbot):
+    win = solved
+    doc = win.document
+    states = [project_to_dict(win.project)]
+    draw_dart(qtbot, win)
+    states.append(project_to_dict(win.project))
+    win.dart_panel.dart_list.item(0).setText("front")
+    states.append(project_to_dict(win.project))
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        doc.add_dart(PlaneDart((0.0, 1.0, 0.0, -0.5), (0.0, 1.0, 0.0, 1.0, 0.0, 0.5), name="side"))
+    states.append(project_to_dict(win.project))
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        win.edit_settings("Tolerance", {"tol": 1e-7})
+    states.append(project_to_dict(win.project))
+    assert len(doc.history) >= 5  # the first solve, then the four edits above
+    runs = win.runner.runs_started
+    for k in range(len(states) - 1, 0, -1):
+        qtbot.keyClick(win, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+        assert project_to_dict(win.project) == states[k - 1], k
+        assert win.dart_panel.dart_names() == [d["name"] for d in states[k - 1]["darts"]]
+    for k in range(1, len(states)):
+        qtbot.keyClick(win, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+        assert project_to_dict(win.project) == states[k], k
+    assert win.runner.runs_started == runs and not win.runner.busy  # undo and redo never solve
+
+
+def test_a_saved_project_with_darts_and_yarns_reopens_identically(solved, qtbot, make_window, tmp_path):
+    win = solved
+    doc = win.document
+    draw_dart(qtbot, win)
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        doc.add_dart(PlaneDart((0.0, 1.0, 0.0, -0.5), (0.0, 1.0, 0.0, 1.0, 0.0, 0.5), name="side"))
+    doc.set_dart_visible(1, False)
+    r = win.project.result
+    node = int(np.argmin(np.linalg.norm(r.xyz - TARGETS[2], axis=1)))
+    win.actions["tool_yarn"].trigger()
+    win.tool.pick(node, "warp")
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        win.finish_tool()
+    saved = project_to_dict(win.project)
+    assert len(saved["darts"]) == 2 and len(saved["yarns"]) == 1 and saved["darts"][1]["visible"] is False
+    assert win.save_to(tmp_path / "darts")
+
+    other = make_window(example="saddle")
+    assert other.open_file(tmp_path / "darts.flatweave")
+    assert project_to_dict(other.project) == saved
+    assert other.project.result_is_current and not other.document.dirty
+    assert other.dart_panel.dart_names() == ["curve dart 1", "side"]
+    assert other.dart_panel.dart_checks() == [True, False]
+    assert other.dart_panel.yarn_list.count() == 1
+    assert other.view.dart_curves[1] is None
+    np.testing.assert_array_equal(other.view.dart_curves[0], win.view.dart_curves[0])
+    d0 = other.project.settings.darts[0]
+    np.testing.assert_array_equal(d0.handles, win.project.settings.darts[0].handles)
+    assert d0.view_dir == win.project.settings.darts[0].view_dir
