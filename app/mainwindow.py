@@ -669,6 +669,8 @@ class MainWindow(QMainWindow):
             self._refresh_handles()
         if aspects & {"settings", "result", "surface"} or change.cause in ("reset", "undo", "redo"):
             self._show_yarns(project)
+        if "result" in aspects and isinstance(self.tool, YarnTool):
+            self.tool.result_changed()
         if "display" in aspects:
             self.set_view_options(units=project.units, shear_warning_deg=project.shear_warning_deg,
                                   shear_limit_deg=project.shear_limit_deg)

@@ -463,6 +463,7 @@ class PendingYarn:
     node : the picked node (the anchor); kind, index : its weft row or warp column
     base : the plane an angle of 0 means (the default plane, or the constraint's own)
     angle_deg, k : the designer's choices; replaces : the constraint edited, or None
+    ij : the node's lattice position (to find it again in a new mesh)
     """
 
     node: int
@@ -472,6 +473,7 @@ class PendingYarn:
     angle_deg: float = 0.0
     k: float = DEFAULT_YARN_K
     replaces: int | None = None
+    ij: tuple | None = None
 
 
 class YarnTool(Tool):
@@ -525,10 +527,27 @@ class YarnTool(Tool):
         self.pick(int(node), kind)
         return True
 
+    def result_changed(self) -> None:
+        """A new result (a solve ended, or undo): the picked node is found again
+        by its lattice position, or the pick is dropped if the mesh lost it."""
+        p, r = self.pending, self.result
+        if p is None:
+            return
+        if r is None or p.ij is None:
+            self.cancel()
+            return
+        same = np.flatnonzero(np.all(r.mesh.ij == np.asarray(p.ij), axis=1))
+        if not len(same):
+            self.cancel()
+            self.hint("The picked node is gone from the new mesh; pick again.")
+            return
+        p.node = int(same[0])
+        self.update()
+
     def pick(self, node: int, kind: str = "weft") -> None:
         """Pick ``node``'s weft row or warp column (with the default plane)."""
         mesh = self.result.mesh
-        self.pending = PendingYarn(node, kind, yarn_index(mesh, node, kind), None)
+        self.pending = PendingYarn(node, kind, yarn_index(mesh, node, kind), None, ij=tuple(mesh.ij[node]))
         self.update()
 
     def edit(self, index: int) -> None:
@@ -542,7 +561,9 @@ class YarnTool(Tool):
         if not len(nodes):
             self.hint(f"The mesh has no {y.kind} {y.index} now; remove the constraint or run again.")
             return
-        self.pending = PendingYarn(int(nodes[len(nodes) // 2]), y.kind, y.index, tuple(y.plane), 0.0, y.k, index)
+        anchor = int(nodes[len(nodes) // 2])
+        self.pending = PendingYarn(anchor, y.kind, y.index, tuple(y.plane), 0.0, y.k, index,
+                                   ij=tuple(r.mesh.ij[anchor]))
         self.update()
 
     def set_choice(self, kind: str | None = None, angle_deg: float | None = None, k: float | None = None) -> None:

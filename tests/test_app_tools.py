@@ -400,3 +400,40 @@ def test_a_saved_project_with_darts_and_yarns_reopens_identically(solved, qtbot,
     d0 = other.project.settings.darts[0]
     np.testing.assert_array_equal(d0.handles, win.project.settings.darts[0].handles)
     assert d0.view_dir == win.project.settings.darts[0].view_dir
+
+
+def test_a_click_just_off_the_rim_goes_onto_the_rim(solved, qtbot):
+    win = solved
+    view = win.view
+    rim = np.array([np.cos(np.radians(30)), np.sin(np.radians(30)), 0.0])  # on the octant's equator edge
+    x0, y0 = view.display_point(rim)
+    x1, y1 = view.display_point(rim - [0.0, 0.0, 0.1])  # below the rim: off the surface
+    step = np.array([x1 - x0, y1 - y0]) / np.hypot(x1 - x0, y1 - y0)
+    x, y = (int(round(v)) for v in np.array([x0, y0]) + 6 * step)
+    assert ray_sphere(view, x, y, octant_only=True) is None  # a miss...
+    win.actions["tool_curve_dart"].trigger()
+    click(qtbot, view, x, y)
+    assert len(win.tool.handles) == 1, win.last_hint  # ...taken onto the rim
+    uv = win.tool.handles[0]
+    dom = win.surface.domain
+    assert np.min(np.abs(uv[:, None] - dom)) < 1e-12  # exactly on the domain's edge
+    p = win.surface.points(uv[None])[0]
+    assert abs(p[2]) < 1e-9 and np.hypot(*(np.array(view.display_point(p)) - [x, y])) <= 10.5
+    assert "on the edge" in win.last_hint
+
+
+def test_a_tool_error_is_a_one_line_message(solved, qtbot, monkeypatch):
+    win = solved
+    import app.tools
+
+    def broken(*_args):
+        raise ZeroDivisionError("float division by zero\nsecond line")
+    monkeypatch.setattr(app.tools, "pick_surface", broken)
+    revision = win.document.revision
+    win.actions["tool_curve_dart"].trigger()
+    click(qtbot, win.view, *pixel(win.view, TARGETS[0]))
+    assert win.last_error == "curve dart: ZeroDivisionError: float division by zero"
+    assert win.tool is not None and win.document.revision == revision  # the tool and document are intact
+    monkeypatch.undo()
+    click(qtbot, win.view, *pixel(win.view, TARGETS[0]))
+    assert len(win.tool.handles) == 1
