@@ -106,7 +106,7 @@ class SurfaceView(ViewBase):
         self._yarns, self._yarns_actor = overlay(YARN_COLOR, 4.0)
         self._pick, self._pick_actor = overlay(PICK_COLOR, 6.0)
         self._pick_node, self._pick_node_actor = overlay(PICK_COLOR, points=True, size=16.0)
-        self._preview, self._preview_actor = overlay(PREVIEW_COLOR, 4.0)
+        self._preview, self._preview_actor = overlay(PREVIEW_COLOR, 5.0)
         self._preview_points, self._preview_points_actor = overlay(PREVIEW_COLOR, points=True, size=13.0)
         self._handles, self._handles_actor = overlay(SELECTED_COLOR, points=True, size=15.0)
         self.dart_curves: list = []  # the document's darts as drawn: (k, 3) each, or None when hidden
