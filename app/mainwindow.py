@@ -734,15 +734,20 @@ class MainWindow(QMainWindow):
         if self.tool is None or isinstance(self.tool, HandleEditor):
             self.set_tool(None)
 
-    def _commit_typing(self) -> None:
-        """A number being typed in the darts panel counts before Enter acts on the tool."""
+    def _commit_typing(self) -> bool:
+        """Enter while a field has the focus commits what was typed there (the
+        field loses the focus, which ends its editing). True when Enter should
+        also act on the tool: the field was the tool's own (in the darts panel)."""
         w = QApplication.focusWidget()
-        if isinstance(w, (QLineEdit, QAbstractSpinBox)) and self.dart_panel.isAncestorOf(w):
+        if isinstance(w, (QLineEdit, QAbstractSpinBox)):
             w.clearFocus()
+            return self.dart_panel.isAncestorOf(w)
+        return True
 
     def finish_tool(self) -> None:
         if self.tool is not None:
-            self._commit_typing()
+            if not self._commit_typing():
+                return
             try:
                 self.tool.finish()
             except Exception as exc:  # noqa: BLE001

@@ -113,8 +113,8 @@ def main() -> int:
         r = win.project.result
         assert len(win.project.settings.darts) == 1 and win.project.result_is_current
         gaps = np.diff(ticks) if len(ticks) > 1 else np.zeros(1)
-        rows.append({"nice": nice, "load": os.getloadavg()[0], "nodes": r.mesh.n_nodes, "click_ms": 1000 * float(np.median(clicks)),
-                     "first_s": first[0], "total_s": total, "iterations": r.metrics["iterations"],
+        rows.append({"nice": nice, "load": os.getloadavg()[0], "nodes": r.mesh.n_nodes,
+                     "click_ms": 1000 * float(np.median(clicks)), "first_s": first[0], "total_s": total, "iterations": r.metrics["iterations"],
                      "frames": win.runner.frames_shown - shown0, "gap_ms": 1000 * float(gaps.max()),
                      "energy": (base.result.metrics["energy"], r.metrics["energy"])})
         win.actions["tool_curve_dart"].setChecked(False)
@@ -130,16 +130,16 @@ def main() -> int:
         "Xvfb with Mesa software OpenGL, window 1600x1000. The woven octant, solved, then a "
         "three-click curve dart across it and Enter; the re-solve warm-starts from the solved mesh.",
         "",
-        "| solve thread | load | nodes | click (ms, median) | Enter to first live frame (s) | Enter to result (s) | iterations | "
-        "frames shown | longest event-loop gap (ms) | energy before -> after |",
+        "| solve thread | load | nodes | click (ms, median) | Enter to first live frame (s) | "
+        "Enter to result (s) | iterations | frames shown | longest event-loop gap (ms) | energy before -> after |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for row in rows:
-        lines.append(f"| {'nice 10' if row['nice'] else 'normal'} | {row['load']:.1f} | {row['nodes']:,} | {row['click_ms']:.0f} | {row['first_s']:.2f} | {row['total_s']:.2f} | "
-                     f"{row['iterations']} | {row['frames']} | {row['gap_ms']:.0f} | "
+        lines.append(f"| {'nice 10' if row['nice'] else 'normal'} | {row['load']:.1f} | {row['nodes']:,} | "
+                     f"{row['click_ms']:.0f} | {row['first_s']:.2f} | {row['total_s']:.2f} | {row['iterations']} | {row['frames']} | {row['gap_ms']:.0f} | "
                      f"{row['energy'][0]:.4g} -> {row['energy'][1]:.4g} |")
-    lines += ["", "Load: the one-minute load average when the re-solve ended (this benchmark included; the rest is other work on the shared machine). "
-              "Enter to first frame includes the window's 250 ms delay that merges edits made in quick "
+    lines += ["", "Load: the one-minute load average when the re-solve ended (this benchmark included; the "
+              "rest is other work on the shared machine). Enter to first frame includes the window's 250 ms delay that merges edits made in quick "
               "succession into one re-run. The same re-solve in core alone (`core.pipeline.flatten` "
               "warm-started, no window) takes about 2.6 s."]
     text = "\n".join(lines) + "\n"

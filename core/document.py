@@ -231,7 +231,8 @@ class Document:
     def remove_yarn(self, index: int) -> Edit | None:
         yarns = list(self._project.settings.yarns)
         gone = yarns.pop(self._yarn_index(index))
-        return self.apply(f"Remove {gone.kind} {gone.index} constraint", self._project.with_settings(yarns=tuple(yarns)))
+        return self.apply(f"Remove {gone.kind} {gone.index} constraint",
+                          self._project.with_settings(yarns=tuple(yarns)))
 
     def undo(self) -> bool:
         if not self._undo:

@@ -59,7 +59,8 @@ from core.solver import State
 from core.surface_io import surface_from_json_dict, surface_to_json_dict
 
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
-           "DRAPE_KEYS", "settings_to_dict", "settings_from_dict", "settings_equal", "labels_equal", "validate_settings",
+           "DRAPE_KEYS", "settings_to_dict", "settings_from_dict", "settings_equal", "labels_equal",
+           "validate_settings",
            "needs_new_drape", "warm_start", "project_to_dict", "project_from_dict", "save_project",
            "load_project", "result_from_dict", "project_problems", "new_project"]
 

@@ -437,3 +437,19 @@ def test_a_tool_error_is_a_one_line_message(solved, qtbot, monkeypatch):
     monkeypatch.undo()
     click(qtbot, win.view, *pixel(win.view, TARGETS[0]))
     assert len(win.tool.handles) == 1
+
+
+def test_enter_in_a_settings_field_commits_the_field_not_the_dart(solved, qtbot):
+    win = solved
+    win.actions["tool_curve_dart"].trigger()
+    for t in TARGETS[:2]:
+        click(qtbot, win.view, *pixel(win.view, t))
+    win.side_tabs.setCurrentWidget(win.settings_panel)
+    field = win.settings_panel.tol
+    field.setFocus()
+    field.selectAll()
+    qtbot.keyClicks(field, "1e-07")
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.keyClick(field, Qt.Key.Key_Return)
+    assert win.project.settings.tol == 1e-7
+    assert win.project.settings.darts == () and len(win.tool.handles) == 2  # still drawing
