@@ -20,7 +20,7 @@ point lands exactly under the cursor. The curve between the points is the
 projection of the drawn polyline along the camera's direction of projection,
 which is what the paper prescribes; for a perspective view it differs from
 projecting every pixel along its own ray by at most the chord's sag times the
-sine of the half view angle (about 0.4 % of the octant's radius for clicks a
+sine of the half view angle (about 0.5 % of the octant's radius for clicks a
 quarter of the octant apart), and not at all at the clicks.
 """
 

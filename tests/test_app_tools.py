@@ -86,6 +86,10 @@ def ray_sphere(view, x: float, y: float, octant_only: bool = False) -> np.ndarra
     return None
 
 
+def format_plane(values) -> str:
+    return ", ".join(repr(float(v)) for v in values)
+
+
 def wait_run(qtbot, win, timeout=RUN_TIMEOUT_MS):
     """Wait for the re-run an edit starts (after the window's short delay) to finish."""
     with qtbot.waitSignal(win.run_finished, timeout=timeout) as blocker:
@@ -247,6 +251,18 @@ def test_a_plane_dart_placed_with_the_widget(solved, qtbot):
     assert after.result_is_current and project_problems(after) == []
     assert crossing_springs(before.result, dart) > 0 and crossing_springs(after.result, dart) == 0
     assert after.result.metrics["energy"] < before.result.metrics["energy"]
+    # edit it again in the widgets: the list's Edit puts it back, Apply replaces it (name kept)
+    panel.dart_list.setCurrentRow(0)
+    qtbot.mouseClick(panel.edit_dart, Qt.MouseButton.LeftButton)
+    assert isinstance(win.tool, type(tool)) and win.tool.index == 0 and view.plane_widget is not None
+    np.testing.assert_allclose(view.plane_widget_state()[1], n, atol=1e-12)
+    panel.plane_edit.setText(format_plane((*n, dart.plane[3] + 0.05)))
+    panel.plane_edit.editingFinished.emit()
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.mouseClick(panel.plane_apply_button, Qt.MouseButton.LeftButton)
+    (edited,) = win.project.settings.darts
+    assert edited.name == "plane dart 1" and win.document.undo_label == "Move plane dart 1"
+    assert edited.plane[3] == pytest.approx(dart.plane[3] + 0.05)
 
 
 # ---------------------------------------------------------------------- yarns
@@ -301,6 +317,17 @@ def test_a_yarn_picked_by_clicking_a_node(solved, qtbot):
     assert moved > 2e-3, moved
     f = lambda res: np.abs(res.xyz[yarn_nodes(res.mesh, "warp", j)] @ turned[:3] + turned[3]).max()  # noqa: E731
     assert f(after) < 0.2 * f(r)
+    # edited from the list: the stored plane is the angle's zero
+    panel.yarn_list.setCurrentRow(0)
+    qtbot.mouseClick(panel.edit_yarn, Qt.MouseButton.LeftButton)
+    assert tool.pending is not None and tool.pending.replaces == 0 and not panel.yarn_kind.isEnabled()
+    np.testing.assert_allclose(tool.plane, turned, atol=1e-12)
+    panel.yarn_angle.setValue(-5.0)
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.mouseClick(panel.yarn_apply_button, Qt.MouseButton.LeftButton)
+    (edited,) = win.project.settings.yarns
+    assert (edited.kind, edited.index, edited.k) == ("warp", j, 20000.0)
+    assert np.dot(edited.plane[:3], turned[:3]) == pytest.approx(np.cos(np.radians(5.0)), abs=1e-9)
     # listed and removable like darts
     panel.yarn_list.setCurrentRow(0)
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
