@@ -14,6 +14,11 @@ Structure (see docs/ARCHITECTURE.md):
   get numpy arrays (frames) and :class:`app.viewbase.ViewOptions`.
 * every action is in ``self.actions``; :meth:`_update_actions` is the one place
   that enables them.
+* the 3D view's tools (:mod:`app.tools`: draw a curve dart, place a plane
+  dart, move a curve dart's points, pick a yarn) get the view's left-button
+  events through :class:`_ToolMouse`, one tool at a time (:meth:`set_tool`),
+  and commit through the document's dart and yarn edits; the darts and yarns
+  panel (:mod:`app.dartpanel`) reports list edits the same way.
 """
 
 from __future__ import annotations
@@ -25,10 +30,12 @@ from pathlib import Path
 import numpy as np
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QActionGroup, QCursor, QKeySequence
-from PySide6.QtWidgets import (QDockWidget, QFileDialog, QHBoxLayout, QLabel, QMainWindow, QMessageBox,
-                               QScrollArea, QSplitter, QToolButton, QToolTip, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QAbstractSpinBox, QApplication, QDockWidget, QFileDialog, QHBoxLayout, QLabel,
+                               QLineEdit, QMainWindow, QMessageBox, QScrollArea, QSplitter, QTabWidget,
+                               QToolButton, QToolTip, QVBoxLayout, QWidget)
 
 from core.document import Change, Document
+from core.energy import yarn_nodes
 from core.errors import FlatweaveError
 from core.export import ExportOptions
 from core.examples import example_info, example_path, list_examples
@@ -36,15 +43,17 @@ from core.nurbs import NurbsSurface
 from core.project import PROJECT_SUFFIX, Project, load_project, new_project, save_project, warm_start
 from core.surface_io import load_surface
 
+from app.dartpanel import DartPanel
 from app.exporting import ExportDialog, ExportThread
 from app.frames import FrameMaker
 from app.panels import MetricsPanel, SettingsPanel
 from app.plot import EnergyPlot
 from app.runner import FRAME_INTERVAL_MS, Runner
+from app.tools import CurveDartTool, HandleEditor, PlaneDartTool, Tool, YarnTool
 from app.view2d import PatternView
 from app.view3d import SurfaceView
 from app.viewbase import ViewOptions
-from app.worker import RunOutcome
+from app.worker import RunOutcome, one_line
 
 GRID_POINTS = 60
 OPEN_FILTER = f"Projects and surfaces (*{PROJECT_SUFFIX} *.json);;Projects (*{PROJECT_SUFFIX});;" \
@@ -71,6 +80,33 @@ def freeze_long_lived_objects() -> None:
         _GC_FROZEN = True
         gc.collect()
         gc.freeze()
+
+
+class _ToolMouse:
+    """The 3D view's left-button events, handed to the window's active tool.
+    A tool's error becomes a one-line message: the view never sees it."""
+
+    def __init__(self, window: "MainWindow"):
+        self.window = window
+
+    def _call(self, method: str, *args) -> bool:
+        tool = self.window.tool
+        if tool is None or self.window.document is None:
+            return False
+        try:
+            return bool(getattr(tool, method)(*args))
+        except Exception as exc:  # noqa: BLE001 (a tool's bug must not reach VTK's event loop)
+            self.window.show_error(f"{tool.name}: {one_line(exc)}")
+            return True
+
+    def press(self, x, y, double):
+        return self._call("press", x, y, double)
+
+    def move(self, x, y):
+        return self._call("move", x, y)
+
+    def release(self, x, y):
+        return self._call("release", x, y)
 
 
 def surface_grid(surface: NurbsSurface, n: int = GRID_POINTS):
@@ -128,6 +164,12 @@ class MainWindow(QMainWindow):
         self.pattern_view.hover_callback = self._show_hover
         self.metrics = MetricsPanel(self)
         self.settings_panel = SettingsPanel(self)
+        self.dart_panel = DartPanel(self)
+        self.tool: Tool | None = None
+        self.selected_dart: int | None = None
+        self.last_hint: str | None = None  # the last hint a tool gave (also in the status bar)
+        self._curve_cache: dict = {}
+        self.view.mouse_handler = _ToolMouse(self)
         self.energy_plot = EnergyPlot(self)
         self.progress = QLabel("Open a surface or pick an example, then Run.", self)
         self.progress.setWordWrap(True)
@@ -169,7 +211,10 @@ class MainWindow(QMainWindow):
         side = QWidget(self)
         col = QVBoxLayout(side)
         col.setContentsMargins(4, 4, 4, 4)
-        col.addWidget(self.settings_panel)
+        self.side_tabs = QTabWidget(side)
+        self.side_tabs.addTab(self.settings_panel, "Settings")
+        self.side_tabs.addTab(self.dart_panel, "Darts and yarns")
+        col.addWidget(self.side_tabs)
         buttons = QHBoxLayout()
         for key in ("run", "pause", "stop"):
             b = QToolButton(side)
@@ -242,12 +287,29 @@ class MainWindow(QMainWindow):
             "show_nodes": act("&Nodes", lambda on: self.set_view_options(nodes=on), None,
                               "Show boundary nodes (yellow) and dart nodes (red, blue)",
                               checkable=True, checked=True),
+            "tool_curve_dart": act("&Curve dart", lambda on: self._tool_toggled(CurveDartTool, on), "D",
+                                   "Draw a curve dart: click points on the surface, Enter finishes",
+                                   checkable=True),
+            "tool_plane_dart": act("&Plane dart", lambda on: self._tool_toggled(PlaneDartTool, on), "P",
+                                   "Place a plane dart with a plane and a box, or numbers", checkable=True),
+            "tool_yarn": act("&Yarn", lambda on: self._tool_toggled(YarnTool, on), "Y",
+                             "Pick a yarn to hold to a plane: click a node of the mesh", checkable=True),
+            "tool_finish": act("&Finish", self.finish_tool, None, "Make the dart or constraint (Enter)"),
+            "tool_cancel": act("Ca&ncel", self.cancel_tool, "Esc", "Drop the dart or yarn being made (Esc)"),
+            "tool_back": act("Take &back a point", self.back_tool, "Backspace",
+                             "Remove the last point of the dart being drawn"),
         }
+        acts["tool_finish"].setShortcuts([QKeySequence(Qt.Key.Key_Return), QKeySequence(Qt.Key.Key_Enter)])
+        redo_keys = list(QKeySequence.keyBindings(QKeySequence.StandardKey.Redo))
+        if QKeySequence("Ctrl+Y") not in redo_keys:
+            redo_keys.append(QKeySequence("Ctrl+Y"))
+        acts["redo"].setShortcuts(redo_keys)
         group = QActionGroup(self)
         group.setExclusive(True)
         group.addAction(acts["mode_strain"])
         group.addAction(acts["mode_shear"])
-        for key in ("reset_view", "fit_pattern", "mode_strain", "mode_shear", "run", "pause", "stop"):
+        for key in ("reset_view", "fit_pattern", "mode_strain", "mode_shear", "run", "pause", "stop",
+                    "tool_curve_dart", "tool_plane_dart", "tool_yarn", "tool_finish", "tool_cancel", "tool_back"):
             acts[key].setShortcutContext(Qt.ShortcutContext.WindowShortcut)
         return acts
 
@@ -278,6 +340,12 @@ class MainWindow(QMainWindow):
             self.examples_menu.addAction(a)
         if not examples:
             self.examples_menu.addAction("(no examples found)").setEnabled(False)
+        tools_menu = bar.addMenu("&Tools")
+        for key in ("tool_curve_dart", "tool_plane_dart", "tool_yarn"):
+            tools_menu.addAction(self.actions[key])
+        tools_menu.addSeparator()
+        for key in ("tool_finish", "tool_back", "tool_cancel"):
+            tools_menu.addAction(self.actions[key])
         solve_menu = bar.addMenu("&Solve")
         for key in ("run", "pause", "stop"):
             solve_menu.addAction(self.actions[key])
@@ -304,6 +372,9 @@ class MainWindow(QMainWindow):
         for key in ("show_weft", "show_warp", "show_diag", "show_surface", "show_nodes"):
             tb.addAction(self.actions[key])
         tb.addSeparator()
+        for key in ("tool_curve_dart", "tool_plane_dart", "tool_yarn"):
+            tb.addAction(self.actions[key])
+        tb.addSeparator()
         tb.addAction(self.actions["reset_view"])
         tb.addAction(self.actions["fit_pattern"])
 
@@ -311,6 +382,23 @@ class MainWindow(QMainWindow):
         self.settings_panel.settings_edited.connect(self.edit_settings)
         self.settings_panel.display_edited.connect(self.edit_display)
         self.settings_panel.input_error.connect(self.show_error)
+        dp = self.dart_panel
+        dp.set_actions(self.actions["tool_curve_dart"], self.actions["tool_plane_dart"], self.actions["tool_yarn"])
+        dp.dart_selected.connect(lambda row: self.select_dart(row if row >= 0 else None))
+        dp.dart_renamed.connect(lambda row, name: self._dart_edit(self.document.rename_dart, row, name))
+        dp.dart_visibility.connect(lambda row, on: self._dart_edit(self.document.set_dart_visible, row, on))
+        dp.dart_delete.connect(self.delete_dart)
+        dp.dart_edit.connect(self.edit_dart)
+        dp.plane_values.connect(self._plane_values)
+        dp.plane_apply.connect(self.finish_tool)
+        dp.plane_cancel.connect(lambda: self.set_tool(None))
+        dp.yarn_selected.connect(lambda _row: self._show_yarns(self.project))
+        dp.yarn_remove.connect(lambda row: self._dart_edit(self.document.remove_yarn, row))
+        dp.yarn_edit.connect(self.edit_yarn)
+        dp.yarn_choice.connect(self._yarn_choice)
+        dp.yarn_apply.connect(self.finish_tool)
+        dp.yarn_cancel.connect(self.cancel_tool)
+        dp.input_error.connect(self.show_error)
         r = self.runner
         r.frame.connect(self._draw_frame)
         r.started.connect(self._run_started)
@@ -337,6 +425,18 @@ class MainWindow(QMainWindow):
         a["undo"].setText(f"&Undo {doc.undo_label}" if doc and doc.can_undo else "&Undo")
         a["redo"].setText(f"&Redo {doc.redo_label}" if doc and doc.can_redo else "&Redo")
         self.settings_panel.setEnabled(has_doc)
+        self.dart_panel.setEnabled(has_doc)
+        tool = self.tool
+        for key, kind in (("tool_curve_dart", CurveDartTool), ("tool_plane_dart", PlaneDartTool),
+                          ("tool_yarn", YarnTool)):
+            a[key].setEnabled(has_doc)
+            a[key].blockSignals(True)
+            a[key].setChecked(isinstance(tool, kind))
+            a[key].blockSignals(False)
+        making = tool is not None and not isinstance(tool, HandleEditor)
+        for key in ("tool_finish", "tool_cancel"):
+            a[key].setEnabled(making)
+        a["tool_back"].setEnabled(isinstance(tool, CurveDartTool))
 
     def _update_title(self) -> None:
         doc = self.document
@@ -554,6 +654,23 @@ class MainWindow(QMainWindow):
             self._info_label.setText(f"{kind}, degree {p}x{q}, {nu}x{nv} control points")
         if aspects & {"settings", "display", "name"} or change.cause in ("reset", "undo", "redo"):
             self.settings_panel.set_project(project)
+        if "surface" in aspects or change.cause == "reset":
+            self.set_tool(None)
+            self.selected_dart = None
+            self._curve_cache.clear()
+        elif change.cause in ("undo", "redo") and aspects & {"settings", "labels"} and self.tool is not None:
+            self.set_tool(None)  # the tool was working on a dart or yarn list that is gone now
+        if aspects & {"settings", "labels", "surface"} or change.cause in ("reset", "undo", "redo"):
+            darts = project.settings.darts
+            if self.selected_dart is not None and self.selected_dart >= len(darts):
+                self.selected_dart = None
+            self.dart_panel.set_project(project, self.selected_dart)
+            self._show_darts(project)
+            self._refresh_handles()
+        if aspects & {"settings", "result", "surface"} or change.cause in ("reset", "undo", "redo"):
+            self._show_yarns(project)
+        if "result" in aspects and isinstance(self.tool, YarnTool):
+            self.tool.result_changed()
         if "display" in aspects:
             self.set_view_options(units=project.units, shear_warning_deg=project.shear_warning_deg,
                                   shear_limit_deg=project.shear_limit_deg)
@@ -568,6 +685,167 @@ class MainWindow(QMainWindow):
             self._rerun_timer.start()
         self._update_actions()
         self._update_title()
+
+    # ------------------------------------------------------------------ tools, darts and yarns
+    def hint(self, text: str) -> None:
+        """A tool's hint, in the status bar."""
+        self.last_hint = text
+        self.statusBar().showMessage(text, 10000)
+
+    def set_tool(self, tool: Tool | None) -> None:
+        """Make ``tool`` the 3D view's tool (None: none; a selected curve dart's
+        points can then be dragged)."""
+        old, self.tool = self.tool, None
+        if old is not None:
+            try:
+                old.deactivate()
+            except Exception as exc:  # noqa: BLE001 (never leave the window in a half-switched state)
+                self.show_error(f"{old.name}: {one_line(exc)}")
+        if tool is None:
+            tool = self._handle_editor()
+        self.tool = tool
+        if tool is not None:
+            if not isinstance(tool, HandleEditor):
+                self.side_tabs.setCurrentWidget(self.dart_panel)
+            try:
+                tool.activate()
+            except Exception as exc:  # noqa: BLE001
+                self.tool = None
+                self.show_error(f"{tool.name}: {one_line(exc)}")
+        self._update_actions()
+
+    def _tool_toggled(self, kind, on: bool) -> None:
+        if self.document is None:
+            return
+        if on and not isinstance(self.tool, kind):
+            self.set_tool(kind(self))
+        elif not on and isinstance(self.tool, kind):
+            self.set_tool(None)
+
+    def _handle_editor(self) -> HandleEditor | None:
+        """The editor of the selected curve dart's points, if a curve dart is selected and shown."""
+        k, doc = self.selected_dart, self.document
+        if doc is None or k is None or k >= len(doc.project.settings.darts):
+            return None
+        dart = doc.project.settings.darts[k]
+        return HandleEditor(self, k) if dart.kind == "curve" and dart.visible else None
+
+    def _refresh_handles(self) -> None:
+        if self.tool is None or isinstance(self.tool, HandleEditor):
+            self.set_tool(None)
+
+    def _commit_typing(self) -> bool:
+        """Enter while a field has the focus commits what was typed there (the
+        field loses the focus, which ends its editing). True when Enter should
+        also act on the tool: the field was the tool's own (in the darts panel)."""
+        w = QApplication.focusWidget()
+        if isinstance(w, (QLineEdit, QAbstractSpinBox)):
+            w.clearFocus()
+            return self.dart_panel.isAncestorOf(w)
+        return True
+
+    def finish_tool(self) -> None:
+        if self.tool is not None:
+            if not self._commit_typing():
+                return
+            try:
+                self.tool.finish()
+            except Exception as exc:  # noqa: BLE001
+                self.show_error(f"{self.tool.name}: {one_line(exc)}")
+
+    def cancel_tool(self) -> None:
+        if self.tool is not None and not isinstance(self.tool, HandleEditor):
+            self.tool.cancel()
+
+    def back_tool(self) -> None:
+        if self.tool is not None:
+            self.tool.back()
+
+    def select_dart(self, index: int | None) -> None:
+        """Select dart ``index`` (None: none): it stands out, and a curve dart's points can be dragged."""
+        self.selected_dart = index
+        if self.project is not None:
+            self._show_darts(self.project)
+        if self.dart_panel.dart_list.currentRow() != (-1 if index is None else index):
+            self.dart_panel.set_project(self.project, index)
+        self._refresh_handles()
+
+    def _dart_edit(self, method, *args) -> bool:
+        """One dart or yarn list edit; a refused one shows its message and the list as it was."""
+        if self.document is None:
+            return False
+        try:
+            method(*args)
+        except FlatweaveError as exc:
+            self.show_error(str(exc))
+            self.dart_panel.set_project(self.document.project, self.selected_dart)
+            return False
+        return True
+
+    def delete_dart(self, index: int) -> None:
+        if self.selected_dart == index:
+            self.selected_dart = None
+        elif self.selected_dart is not None and self.selected_dart > index:
+            self.selected_dart -= 1
+        self._dart_edit(self.document.remove_dart, index)
+
+    def edit_dart(self, index: int) -> None:
+        """Edit dart ``index``: a plane dart's plane and box in the widgets; a curve dart by its points."""
+        darts = self.document.project.settings.darts
+        if not 0 <= index < len(darts):
+            return
+        if darts[index].kind == "plane":
+            self.set_tool(PlaneDartTool(self, index))
+        else:
+            self.select_dart(index)
+            self.hint("Drag the dart's points (dots) on the surface.")
+
+    def edit_yarn(self, index: int) -> None:
+        if not isinstance(self.tool, YarnTool):
+            self.set_tool(YarnTool(self))
+        if isinstance(self.tool, YarnTool):
+            self.tool.edit(index)
+
+    def _plane_values(self, plane, box) -> None:
+        if isinstance(self.tool, PlaneDartTool):
+            self.tool.set_values(plane, box)
+
+    def _yarn_choice(self, kind, angle, k) -> None:
+        if isinstance(self.tool, YarnTool):
+            self.tool.set_choice(kind, angle, k)
+
+    def dart_curve(self, surface: NurbsSurface, dart) -> np.ndarray:
+        """(k, 3) a dart's curve on the surface (cached: a plane dart's takes a grid search)."""
+        key = id(dart)
+        hit = self._curve_cache.get(key)
+        if hit is not None and hit[0] is dart and hit[1] is surface:
+            return hit[2]
+        uv = dart.curve_uv(surface)
+        curve = surface.points(uv) if len(uv) else np.zeros((0, 3))
+        if len(self._curve_cache) > 256:
+            self._curve_cache.clear()
+        self._curve_cache[key] = (dart, surface, curve)
+        return curve
+
+    def _show_darts(self, project: Project) -> None:
+        darts = project.settings.darts
+        curves = [self.dart_curve(project.surface, d) for d in darts]
+        self.view.set_darts(curves, [d.visible for d in darts], self.selected_dart)
+
+    def _yarn_polylines(self, project: Project, mesh, xyz) -> list:
+        return [xyz[yarn_nodes(mesh, y.kind, y.index)] for y in project.settings.yarns]
+
+    def _show_yarns(self, project: Project | None, frame=None) -> None:
+        if project is None:
+            return
+        r = project.result
+        if frame is not None:
+            lines = self._yarn_polylines(project, frame.mesh, frame.xyz)
+        elif r is not None and r.surface is project.surface:
+            lines = self._yarn_polylines(project, r.mesh, r.xyz)
+        else:
+            lines = []
+        self.view.set_yarns(lines, render=frame is None)
 
     # ------------------------------------------------------------------ showing
     def set_view_options(self, **changes) -> None:
@@ -611,6 +889,8 @@ class MainWindow(QMainWindow):
         if live:
             self._catch_up_timer.start()
         project = self.project
+        if project is not None and project.settings.yarns:
+            self._show_yarns(project, frame)
         if project is not None:
             stale = frame.final and not project.result_is_current and not self.runner.busy
             self.metrics.show_frame(frame, project, stale=stale)
@@ -734,6 +1014,8 @@ class MainWindow(QMainWindow):
 
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt name)
         self._rerun_timer.stop()
+        self.tool = None
+        self.view.mouse_handler = None
         self.runner.shutdown()
         if self.export_thread is not None:
             self.export_thread.wait()  # atomic writes: a few seconds at most

@@ -17,6 +17,12 @@ spring is formed across a dart when nodes are refilled.
 Both describe their curve on the surface from the mouth (the end on the
 region's boundary, if any) to the tip, which the pattern needs to open the
 dart into a V.
+
+A dart also carries labels that never change a solve: its ``name`` and
+whether it is drawn (``visible``). A curve dart drawn in the app keeps the
+points the designer placed (``handles``, their (u, v)) and the direction it was
+projected along (``view_dir``), so it can be edited and rebuilt
+(:func:`curve_dart_through`).
 """
 
 from __future__ import annotations
@@ -28,7 +34,8 @@ import numpy as np
 from core.errors import SettingsError
 from core.nurbs import NurbsSurface
 
-__all__ = ["PlaneDart", "CurveDart", "segments_cross", "DartSet", "curve_dart", "curve_dart_from_file"]
+__all__ = ["PlaneDart", "CurveDart", "segments_cross", "DartSet", "curve_dart", "curve_dart_from_file",
+           "curve_dart_through", "dart_handles"]
 
 
 def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -71,14 +78,17 @@ def segments_cross(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarra
 
 @dataclass(frozen=True)
 class PlaneDart:
-    """plane : (a, b, c, d); box : (xmin, xmax, ymin, ymax, zmin, zmax) or None (no limit)."""
+    """plane : (a, b, c, d); box : (xmin, xmax, ymin, ymax, zmin, zmax) or None (no limit);
+    name, visible : labels (see the module docstring)."""
 
     plane: tuple[float, float, float, float]
     box: tuple[float, float, float, float, float, float] | None = None
     name: str = "plane dart"
     kind: str = field(default="plane", init=False)
+    visible: bool = True
 
     def __post_init__(self):
+        _check_labels(self)
         p = np.asarray(self.plane, dtype=float)
         if p.shape != (4,) or not np.all(np.isfinite(p)) or not np.any(p[:3]):
             raise SettingsError(f"plane dart {self.plane!r} must be four numbers A,B,C,D with (A,B,C) != 0")
@@ -138,6 +148,13 @@ class PlaneDart:
         P = _newton_onto_level(surface, self.F, P)
         P = P[self.in_box(surface.points(P))]
         return _chain(P, 3.0 * np.max(np.ptp(dom, axis=1)) / n, surface)
+
+
+def _check_labels(dart) -> None:
+    if not isinstance(dart.name, str):
+        raise SettingsError(f"a dart's name must be text, got {dart.name!r:.40}")
+    if not isinstance(dart.visible, (bool, np.bool_)):
+        raise SettingsError(f"a dart's visibility must be true or false, got {dart.visible!r:.40}")
 
 
 def _newton_onto_level(surface, F, uv: np.ndarray, steps: int = 6) -> np.ndarray:
@@ -202,17 +219,36 @@ class CurveDart:
     """A dart along a (u, v) polyline, ordered from its mouth to its tip.
 
     uv : (k, 2) points of the curve in the parameter domain (k >= 2)
+    name, visible : labels (see the module docstring)
+    handles : (h, 2) (u, v) of the points the designer placed, in drawing
+        order, or None (a dart from a file); h >= 2
+    view_dir : (3,) the direction the drawing was projected along, or None
     """
 
     uv: np.ndarray
     name: str = "curve dart"
     kind: str = field(default="curve", init=False)
+    handles: np.ndarray | None = None
+    view_dir: tuple[float, float, float] | None = None
+    visible: bool = True
 
     def __post_init__(self):
+        _check_labels(self)
         uv = np.asarray(self.uv, dtype=float)
         if uv.ndim != 2 or uv.shape[1] != 2 or len(uv) < 2 or not np.all(np.isfinite(uv)):
             raise SettingsError("a curve dart needs at least two finite (u, v) points")
         object.__setattr__(self, "uv", uv)
+        if self.handles is not None:
+            h = np.asarray(self.handles, dtype=float)
+            if h.ndim != 2 or h.shape[1] != 2 or len(h) < 2 or not np.all(np.isfinite(h)):
+                raise SettingsError("a curve dart's handles must be at least two finite (u, v) points")
+            object.__setattr__(self, "handles", h)
+        if self.view_dir is not None:
+            d = np.asarray(self.view_dir, dtype=float).reshape(-1)
+            if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.linalg.norm(d) > 0:
+                raise SettingsError(f"a curve dart's view direction must be a non-zero 3-vector, "
+                                    f"got {self.view_dir!r:.60}")
+            object.__setattr__(self, "view_dir", tuple(float(x) for x in d))
 
     def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
         return segments_cross(uva, uvb, self.uv[:-1], self.uv[1:])
@@ -314,6 +350,58 @@ def curve_dart(surface: NurbsSurface, points, view_dir, tol: float | None = None
     if _boundary_distance(surface, uv[-1:])[0] < _boundary_distance(surface, uv[:1])[0]:
         uv = uv[::-1]
     return CurveDart(uv, name)
+
+
+def curve_dart_through(surface: NurbsSurface, handles, view_dir, tol: float | None = None,
+                       name: str = "curve dart", visible: bool = True) -> CurveDart:
+    """A curve dart through points on the surface: the polyline through
+    S(handles) projected along ``view_dir`` and fitted by biarcs
+    (:func:`curve_dart`), remembering the handles and the direction.
+
+    handles : (h, 2) (u, v) of points on the surface, in drawing order, h >= 2.
+    The points must be seen from ``view_dir`` (nothing of the surface in front
+    of them): each is its own projection, so the curve passes through every one.
+    """
+    h = np.asarray(handles, dtype=float)
+    if h.ndim != 2 or h.shape[1] != 2 or len(h) < 2 or not np.all(np.isfinite(h)):
+        raise SettingsError("a curve dart needs at least two points on the surface")
+    dom = surface.domain
+    h = np.clip(h, dom[:, 0], dom[:, 1])
+    if np.all(np.ptp(surface.points(h), axis=0) == 0):
+        raise SettingsError("a curve dart needs two different points")
+    dart = curve_dart(surface, surface.points(h), view_dir, tol=tol, name=name)
+    size = float(np.max(np.ptp(dom, axis=1)))
+    off = _polyline_distance(h, dart.uv) > 5e-3 * size + (0.0 if tol is None else 2.0 * tol)
+    if off.any():
+        k = int(np.flatnonzero(off)[0]) + 1
+        raise SettingsError(f"the dart's point {k} is hidden from this direction or the curve leaves the "
+                            "surface before it; turn the view so every point shows")
+    d = np.asarray(view_dir, dtype=float).reshape(-1)
+    return CurveDart(dart.uv, name=name, handles=h, view_dir=tuple(d / np.linalg.norm(d)), visible=visible)
+
+
+def _polyline_distance(p: np.ndarray, line: np.ndarray) -> np.ndarray:
+    """(k,) distance of points p (k, 2) to the polyline ``line`` (m, 2)."""
+    a, b = line[:-1], line[1:]
+    ab = b - a
+    t = np.clip(np.einsum("nkj,kj->nk", p[:, None, :] - a[None], ab)
+                / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-300), 0, 1)
+    foot = a[None] + t[..., None] * ab[None]
+    return np.sqrt(np.einsum("nkj,nkj->nk", p[:, None, :] - foot, p[:, None, :] - foot).min(axis=1))
+
+
+def dart_handles(surface: NurbsSurface, dart: CurveDart, count: int = 5) -> np.ndarray:
+    """(h, 2) handles for editing a curve dart: its own, or (a dart from a file,
+    which has none) ``count`` points evenly spaced along it on the surface,
+    both ends included."""
+    if dart.handles is not None:
+        return np.array(dart.handles)
+    xyz = surface.points(dart.uv)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))])
+    if s[-1] <= 0:
+        return dart.uv[[0, -1]].copy()
+    at = np.linspace(0.0, s[-1], count)
+    return np.column_stack([np.interp(at, s, dart.uv[:, 0]), np.interp(at, s, dart.uv[:, 1])])
 
 
 def curve_dart_from_file(surface: NurbsSurface, path, name: str = "curve dart") -> CurveDart:

@@ -25,7 +25,7 @@ from core.errors import SettingsError
 from core.mesh import SpringMesh
 from core.nurbs import NurbsSurface
 
-__all__ = ["YarnConstraint", "Energy", "parse_yarn"]
+__all__ = ["YarnConstraint", "Energy", "parse_yarn", "yarn_index", "yarn_nodes", "yarn_plane", "turn_plane"]
 
 
 @dataclass(frozen=True)
@@ -77,6 +77,68 @@ def parse_yarn(spec: str, plane: str, k: float) -> YarnConstraint:
     if len(values) != 4:
         raise SettingsError(f"yarn plane {plane!r} must be four numbers A,B,C,D")
     return YarnConstraint(kind.strip().lower(), index, values, float(k))
+
+
+def yarn_index(mesh: SpringMesh, node: int, kind: str) -> int:
+    """The lattice index of the weft row (kind "weft") or warp column ("warp") through ``node``."""
+    if kind not in ("weft", "warp"):
+        raise SettingsError(f"yarn kind must be 'weft' or 'warp', got {kind!r}")
+    return int(mesh.ij[node, 0 if kind == "weft" else 1])
+
+
+def yarn_nodes(mesh: SpringMesh, kind: str, index: int) -> np.ndarray:
+    """Indices of the nodes of a weft row or warp column, in order along it
+    (by their lattice column for a row, row for a column)."""
+    nodes = YarnConstraint(kind, index, (1.0, 0.0, 0.0, 0.0), 0.0).nodes(mesh)
+    along = mesh.ij[nodes, 1 if kind == "weft" else 0]
+    return nodes[np.argsort(along, kind="stable")]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    if not (np.isfinite(n) and n > 0):
+        raise SettingsError("the yarn's plane is undefined (a zero direction)")
+    return v / n
+
+
+def yarn_plane(ends: np.ndarray, normal: np.ndarray) -> tuple[float, float, float, float]:
+    """The plane (a, b, c, d), unit (a, b, c), through the yarn's end points
+    ``ends`` (2, 3) that contains the direction ``normal`` (3,) (the surface
+    normal at the picked node): the yarn's default direction plane (paper 2.3)."""
+    ends = np.asarray(ends, dtype=float)
+    n = _unit(np.asarray(normal, dtype=float))
+    chord = ends[1] - ends[0]
+    if not np.linalg.norm(chord) > 0:
+        raise SettingsError("the yarn's end points coincide: it has no direction")
+    m = np.cross(chord, n)
+    if np.linalg.norm(m) <= 1e-9 * np.linalg.norm(chord):
+        raise SettingsError("the yarn runs along the surface normal: no plane through it contains the normal")
+    m = _unit(m)
+    return (float(m[0]), float(m[1]), float(m[2]), float(-m @ ends[0]))
+
+
+def turn_plane(plane, point: np.ndarray, normal: np.ndarray, angle_deg: float) -> tuple[float, float, float, float]:
+    """``plane`` (a, b, c, d) turned by ``angle_deg`` about the line that runs
+    through the foot of ``point`` on the plane along ``normal`` (projected into
+    the plane): the yarn's direction turned in the surface's tangent plane,
+    positive counter-clockwise seen from the side ``normal`` points to.
+    The result has a unit normal; angle 0 gives the same plane, normalised."""
+    p = np.asarray(plane, dtype=float)
+    scale = np.linalg.norm(p[:3])
+    if not scale > 0:
+        raise SettingsError("the plane has no normal")
+    m, d = p[:3] / scale, p[3] / scale
+    x = np.asarray(point, dtype=float)
+    foot = x - (m @ x + d) * m
+    n = np.asarray(normal, dtype=float)
+    axis = n - (n @ m) * m
+    if not np.linalg.norm(axis) > 1e-9 * max(np.linalg.norm(n), 1e-300):
+        raise SettingsError("the surface normal is perpendicular to the plane: cannot turn about it")
+    axis = _unit(axis)
+    a = np.radians(float(angle_deg))
+    m2 = m * np.cos(a) + np.cross(axis, m) * np.sin(a) + axis * (axis @ m) * (1 - np.cos(a))
+    m2 = _unit(m2)
+    return (float(m2[0]), float(m2[1]), float(m2[2]), float(-m2 @ foot))
 
 
 class Energy:

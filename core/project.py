@@ -14,9 +14,16 @@ The file (``.flatweave``) is JSON::
      "surface": {geomdl JSON document},
      "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
                   solver, tol, max_iter, max_seconds, max_nodes},
-     "darts": [...], "yarns": [...],
+     "darts": [{"kind": "plane", "name", "visible", "plane": [a, b, c, d], "box": [6] or null}
+               or {"kind": "curve", "name", "visible", "uv": [[u, v], ...],
+                   "handles": [[u, v], ...] (optional), "view_dir": [dx, dy, dz] (optional)}],
+     "yarns": [{"kind": "weft" or "warp", "index", "plane": [a, b, c, d], "k"}],
      "display": {"units": "m", "shear_warning_deg": 15.0, "shear_limit_deg": 30.0},
      "result": a result document (core.pipeline.result_to_dict) or null}
+
+A dart's ``visible``, ``handles`` and ``view_dir`` came after the first
+files of version 1 were written; they are optional (a dart without them is
+visible and has no drawn points), so every version-1 file still reads.
 
 Floats are written with ``repr`` precision, so a project reads back
 bit-identical. The result is restored from its nodes' lattice positions and
@@ -52,7 +59,8 @@ from core.solver import State
 from core.surface_io import surface_from_json_dict, surface_to_json_dict
 
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
-           "DRAPE_KEYS", "settings_to_dict", "settings_from_dict", "settings_equal", "validate_settings",
+           "DRAPE_KEYS", "settings_to_dict", "settings_from_dict", "settings_equal", "labels_equal",
+           "validate_settings",
            "needs_new_drape", "warm_start", "project_to_dict", "project_from_dict", "save_project",
            "load_project", "result_from_dict", "project_problems", "new_project"]
 
@@ -173,14 +181,28 @@ def validate_settings(s: FlattenSettings) -> None:
 
 
 # ---------------------------------------------------------------------- settings <-> dict
-def _darts_to_list(darts) -> list[dict]:
+_SOLVE_DART_KEYS = ("kind", "plane", "box", "uv")  # what a dart's cut depends on
+
+
+def _darts_to_list(darts, labels: bool = True) -> list[dict]:
+    """The darts as JSON objects; ``labels=False`` keeps only what decides the
+    cut (kind, plane and box, or the (u, v) curve), not the name, visibility,
+    or a curve dart's drawn points and direction."""
     out = []
     for d in darts:
         if d.kind == "plane":
-            out.append({"kind": "plane", "name": d.name, "plane": [float(x) for x in d.plane],
-                        "box": None if d.box is None else [float(x) for x in d.box]})
+            item = {"kind": "plane", "name": d.name, "plane": [float(x) for x in d.plane],
+                    "box": None if d.box is None else [float(x) for x in d.box]}
         else:
-            out.append({"kind": "curve", "name": d.name, "uv": np.asarray(d.uv, dtype=float).tolist()})
+            item = {"kind": "curve", "name": d.name, "uv": np.asarray(d.uv, dtype=float).tolist()}
+            if d.handles is not None:
+                item["handles"] = np.asarray(d.handles, dtype=float).tolist()
+            if d.view_dir is not None:
+                item["view_dir"] = [float(x) for x in d.view_dir]
+        item["visible"] = bool(d.visible)
+        if not labels:
+            item = {k: v for k, v in item.items() if k in _SOLVE_DART_KEYS}
+        out.append(item)
     return out
 
 
@@ -294,22 +316,33 @@ def _darts_from(f: _Fields, value: Any) -> tuple:
         item = f.obj(item, what)
         kind = f.get(item, "kind", what)
         name = f.string(item.get("name", f"{kind} dart"), f"{what}.name")
+        visible = item.get("visible", True)  # absent in files written before darts could be hidden
+        if not isinstance(visible, bool):
+            raise f.fail(f"{what}.visible must be true or false, got {visible!r:.40}")
         try:
             if kind == "plane":
                 box = item.get("box")
                 out.append(PlaneDart(f.numbers(f.get(item, "plane", what), 4, f"{what}.plane"),
-                                     None if box is None else f.numbers(box, 6, f"{what}.box"), name=name))
+                                     None if box is None else f.numbers(box, 6, f"{what}.box"), name=name,
+                                     visible=visible))
             elif kind == "curve":
-                uv = f.get(item, "uv", what)
-                if not isinstance(uv, list) or not all(isinstance(p, list) for p in uv):
-                    raise f.fail(f"{what}.uv must be a list of [u, v] points")
-                pts = np.array([f.numbers(p, 2, f"{what}.uv") for p in uv], dtype=float).reshape(-1, 2)
-                out.append(CurveDart(pts, name=name))
+                pts = _uv_list(f, f.get(item, "uv", what), f"{what}.uv")
+                handles = item.get("handles")
+                view = item.get("view_dir")
+                out.append(CurveDart(pts, name=name, visible=visible,
+                                     handles=None if handles is None else _uv_list(f, handles, f"{what}.handles"),
+                                     view_dir=None if view is None else f.numbers(view, 3, f"{what}.view_dir")))
             else:
                 raise f.fail(f"{what}.kind must be 'plane' or 'curve', got {kind!r:.40}")
         except SettingsError as exc:
             raise f.fail(f"{what}: {exc}") from None
     return tuple(out)
+
+
+def _uv_list(f: _Fields, value: Any, what: str) -> np.ndarray:
+    if not isinstance(value, list) or not all(isinstance(p, list) for p in value):
+        raise f.fail(f"{what} must be a list of [u, v] points")
+    return np.array([f.numbers(p, 2, what) for p in value], dtype=float).reshape(-1, 2)
 
 
 def _yarns_from(f: _Fields, value: Any) -> tuple:
@@ -333,13 +366,20 @@ def _settings_key(s: FlattenSettings) -> str:
     d = settings_to_dict(s)
     if d["spacing_warp"] is None:  # the same drape as an explicit warp spacing equal to the weft's
         d["spacing_warp"] = d["spacing"]
-    return json.dumps([d, _darts_to_list(s.darts), _yarns_to_list(s.yarns)], sort_keys=True)
+    return json.dumps([d, _darts_to_list(s.darts, labels=False), _yarns_to_list(s.yarns)], sort_keys=True)
 
 
 def settings_equal(a: FlattenSettings, b: FlattenSettings) -> bool:
-    """Equal settings, darts and yarns included (dataclass ``==`` cannot compare
-    curve darts, whose points are arrays)."""
+    """Settings that make the same solve: equal values, darts and yarns included
+    (dataclass ``==`` cannot compare curve darts, whose points are arrays), but
+    not the darts' labels (names, visibility), which never change a result."""
     return a is b or _settings_key(a) == _settings_key(b)
+
+
+def labels_equal(a: FlattenSettings, b: FlattenSettings) -> bool:
+    """The darts agree in what :func:`settings_equal` leaves out: names,
+    visibility and a curve dart's drawn points and direction."""
+    return a is b or json.dumps(_darts_to_list(a.darts)) == json.dumps(_darts_to_list(b.darts))
 
 
 def needs_new_drape(old: FlattenSettings, new: FlattenSettings) -> bool:

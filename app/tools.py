@@ -1,0 +1,635 @@
+"""The 3D view's tools: draw a curve dart, place a plane dart, move a curve
+dart's points, pick a constrained yarn.
+
+A tool turns mouse events in the 3D view (display coordinates, VTK's origin
+bottom left) into previews drawn by the view and, when the designer commits,
+into one edit of the document through :class:`core.document.Document`'s dart
+and yarn methods, so undo, redo, re-runs and saving work as for any other edit.
+Tools never touch VTK: they ask the view for viewing rays, display positions
+and widget values, and core for the geometry (:func:`core.curves.project_points`
+puts a click on the surface, :func:`core.darts.curve_dart_through` builds the
+dart).
+
+A tool's ``press``, ``move`` and ``release`` return True when they used the
+event (the camera then ignores it): a click on the surface adds a point, a
+drag from off the surface still turns the view.
+
+Projection (paper 3.4 B). A click is put on the surface along its own viewing
+ray (for the perspective camera, the ray from the eye through that pixel), so a
+point lands exactly under the cursor. The curve between the points is the
+projection of the drawn polyline along the camera's direction of projection,
+which is what the paper prescribes; for a perspective view it differs from
+projecting every pixel along its own ray by at most the chord's sag times the
+sine of the half view angle (about 0.5 % of the octant's radius for clicks a
+quarter of the octant apart), and not at all at the clicks.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from core.curves import project_points
+from core.darts import CurveDart, PlaneDart, curve_dart_through, dart_handles
+from core.document import unique_name
+from core.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
+from core.errors import SettingsError
+
+__all__ = ["Tool", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
+           "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS", "DEFAULT_YARN_K"]
+
+STROKE_PIXELS = 8      # a drag adds a point every this many pixels
+SNAP_PIXELS = 10       # a click this close to the surface's visible rim goes onto the rim
+HANDLE_PIXELS = 10     # a press this close to a handle grabs it
+SAME_PIXELS = 3        # a click this close to the last point adds nothing
+DEFAULT_YARN_K = 1000.0
+RIM_SAMPLES = 200      # per side of the parameter domain
+PREVIEW_GRID = 128     # the plane dart preview's parameter grid (the solve's curve uses 256)
+
+
+def pick_surface(surface, view, x: float, y: float):
+    """The surface point under display point (x, y): ((u, v), xyz) of the first
+    hit along the pixel's viewing ray in front of the camera, or None (a miss)."""
+    origin, direction = view.pick_ray(x, y)
+    pr = project_points(surface, origin[None, :], direction)
+    if not pr.hit[0] or pr.t[0] < 0:
+        return None
+    return pr.uv[0], pr.xyz[0]
+
+
+def _rim(surface) -> tuple[np.ndarray, np.ndarray]:
+    """(k, 2) and (k, 3): points along the boundary of the parameter domain."""
+    (u0, u1), (v0, v1) = surface.domain
+    t = np.linspace(0.0, 1.0, RIM_SAMPLES, endpoint=False)
+    uv = np.concatenate([
+        np.column_stack([u0 + t * (u1 - u0), np.full_like(t, v0)]),
+        np.column_stack([np.full_like(t, u1), v0 + t * (v1 - v0)]),
+        np.column_stack([u1 - t * (u1 - u0), np.full_like(t, v1)]),
+        np.column_stack([np.full_like(t, u0), v1 - t * (v1 - v0)]),
+    ])
+    return uv, surface.points(uv)
+
+
+class Tool:
+    """A tool of the 3D view (see the module docstring). ``window`` is the
+    main window: its ``document``, ``view`` and ``hint(text)``."""
+
+    name = "tool"
+
+    def __init__(self, window):
+        self.window = window
+        self.view = window.view
+
+    @property
+    def document(self):
+        return self.window.document
+
+    @property
+    def surface(self):
+        return self.window.document.project.surface
+
+    def hint(self, text: str) -> None:
+        self.window.hint(text)
+
+    def activate(self) -> None:
+        pass
+
+    def deactivate(self) -> None:
+        pass
+
+    def press(self, x: float, y: float, double: bool) -> bool:
+        return False
+
+    def move(self, x: float, y: float) -> bool:
+        return False
+
+    def release(self, x: float, y: float) -> bool:
+        return False
+
+    def finish(self) -> bool:
+        """Enter: commit what the tool holds (False when there is nothing to commit)."""
+        return False
+
+    def cancel(self) -> None:
+        """Esc: drop what the tool holds."""
+
+    def back(self) -> None:
+        """Backspace: take back the last step."""
+
+    def _rim_point(self, x: float, y: float):
+        """The visible rim point within SNAP_PIXELS of (x, y): ((u, v), xyz), or None."""
+        uv, xyz = _rim(self.surface)
+        disp = self.view.display_points(xyz)
+        dist = np.hypot(disp[:, 0] - x, disp[:, 1] - y)
+        for k in np.argsort(dist)[:8]:
+            if dist[k] > SNAP_PIXELS:
+                break
+            origin, direction = self.view.pick_ray(*disp[k])
+            pr = project_points(self.surface, origin[None, :], direction)
+            depth = float((xyz[k] - origin) @ direction)
+            scale = float(np.linalg.norm(np.ptp(xyz, axis=0)))
+            if not pr.hit[0] or pr.t[0] >= depth - 1e-3 * scale:  # nothing of the surface in front of it
+                return uv[k], xyz[k]
+        return None
+
+
+# ---------------------------------------------------------------------- curve darts
+class CurveDartTool(Tool):
+    """Draw a curve dart: clicks (or drags) add points on the surface, Enter or
+    a double click finishes, Esc cancels, Backspace removes the last point."""
+
+    name = "curve dart"
+
+    def __init__(self, window):
+        super().__init__(window)
+        self.handles: list[np.ndarray] = []   # (u, v) of the points placed
+        self.pixels: list[tuple[float, float]] = []
+        self.dragging = False
+        self.preview: CurveDart | None = None
+
+    def activate(self) -> None:
+        self.hint("Curve dart: click points on the surface (or drag a stroke); Enter or a double click "
+                  "finishes, Esc cancels, Backspace takes back a point. Drag off the surface to turn the view.")
+
+    def deactivate(self) -> None:
+        self.cancel(quiet=True)
+
+    # -------------------------------------------------------------- events
+    def press(self, x, y, double):
+        if double and self.pixels and math.hypot(x - self.pixels[-1][0], y - self.pixels[-1][1]) <= 6:
+            self.finish()
+            return True
+        added = self._add(x, y, explain=True)
+        if double and added:
+            self.finish()
+            return True
+        self.dragging = added
+        return added
+
+    def move(self, x, y):
+        if not self.dragging:
+            return False
+        if self.pixels and math.hypot(x - self.pixels[-1][0], y - self.pixels[-1][1]) >= STROKE_PIXELS:
+            self._add(x, y, explain=False)
+        return True
+
+    def release(self, x, y):
+        if not self.dragging:
+            return False
+        self.dragging = False
+        return True
+
+    def _add(self, x, y, explain: bool) -> bool:
+        if self.pixels and math.hypot(x - self.pixels[-1][0], y - self.pixels[-1][1]) < SAME_PIXELS:
+            return True  # the same point again: nothing new, but the click is ours
+        hit = pick_surface(self.surface, self.view, x, y)
+        snapped = False
+        if hit is None:
+            hit = self._rim_point(x, y)
+            snapped = hit is not None
+        if hit is None:
+            if explain:
+                self.hint("That click missed the surface: no point added. Click on the surface "
+                          "(Esc cancels the dart).")
+            return False
+        self.handles.append(np.asarray(hit[0], dtype=float))
+        self.pixels.append((float(x), float(y)))
+        self._update_preview()
+        n = len(self.handles)
+        where = "on the edge" if snapped else "on the surface"
+        self.hint(f"Point {n} {where}. " + ("Click the next point." if n < 2 else
+                                            "Click more points, or Enter to make the dart."))
+        return True
+
+    # -------------------------------------------------------------- the curve
+    def _update_preview(self) -> None:
+        s = self.surface
+        pts = s.points(np.array(self.handles)) if self.handles else None
+        self.preview = None
+        curve = None
+        if len(self.handles) >= 2:
+            try:
+                self.preview = curve_dart_through(s, np.array(self.handles), self.view.view_direction())
+                curve = s.points(self.preview.uv)
+            except SettingsError as exc:
+                self.hint(str(exc))
+                curve = pts
+        self.view.set_preview(curve, pts)
+
+    def finish(self) -> bool:
+        if len(self.handles) < 2:
+            self.hint("A curve dart needs at least two points on the surface.")
+            return False
+        doc = self.document
+        name = unique_name("curve dart", (d.name for d in doc.project.settings.darts))
+        try:
+            dart = curve_dart_through(self.surface, np.array(self.handles), self.view.view_direction(), name=name)
+        except SettingsError as exc:
+            self.hint(f"Cannot make the dart: {exc}")
+            return False
+        self._clear()
+        doc.add_dart(dart)
+        self.hint(f"Added {name}.")
+        return True
+
+    def cancel(self, quiet: bool = False) -> None:
+        had = bool(self.handles)
+        self._clear()
+        if had and not quiet:
+            self.hint("Dart cancelled.")
+
+    def back(self) -> None:
+        if self.handles:
+            self.handles.pop()
+            self.pixels.pop()
+            self._update_preview()
+
+    def _clear(self) -> None:
+        self.handles.clear()
+        self.pixels.clear()
+        self.dragging = False
+        self.preview = None
+        self.view.set_preview()
+
+
+class HandleEditor(Tool):
+    """Move the points of the selected curve dart: drag a handle across the
+    surface; on release the dart is rebuilt through the points (projected
+    along the current view direction) and replaces the old one."""
+
+    name = "dart points"
+
+    def __init__(self, window, index: int):
+        super().__init__(window)
+        self.index = index
+        dart = self.document.project.settings.darts[index]
+        self.dart = dart
+        self.handles = dart_handles(self.surface, dart)
+        self.grabbed: int | None = None
+        self.moved = False
+
+    def activate(self) -> None:
+        self.view.set_handles(self.surface.points(self.handles))
+
+    def deactivate(self) -> None:
+        self.view.set_handles()
+        self.view.set_preview()
+
+    def press(self, x, y, double):
+        disp = self.view.display_points(self.surface.points(self.handles))
+        dist = np.hypot(disp[:, 0] - x, disp[:, 1] - y)
+        k = int(np.argmin(dist))
+        if dist[k] > HANDLE_PIXELS:
+            return False
+        self.grabbed, self.moved = k, False
+        return True
+
+    def move(self, x, y):
+        if self.grabbed is None:
+            return False
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            return True  # off the surface: the point stays where it was
+        self.handles[self.grabbed] = hit[0]
+        self.moved = True
+        pts = self.surface.points(self.handles)
+        try:
+            curve = self.surface.points(curve_dart_through(self.surface, self.handles, self.view.view_direction()).uv)
+        except SettingsError:
+            curve = pts
+        self.view.set_handles(pts, render=False)
+        self.view.set_preview(curve, None)
+        return True
+
+    def release(self, x, y):
+        if self.grabbed is None:
+            return False
+        self.grabbed = None
+        if self.moved:
+            self.commit()
+        return True
+
+    def commit(self) -> bool:
+        """Rebuild the dart through the handles and make it an edit."""
+        d = self.dart
+        try:
+            new = curve_dart_through(self.surface, self.handles, self.view.view_direction(), name=d.name,
+                                     visible=d.visible)
+        except SettingsError as exc:
+            self.hint(f"Cannot move the point: {exc}")
+            self.handles = dart_handles(self.surface, d)
+            self.view.set_handles(self.surface.points(self.handles))
+            self.view.set_preview()
+            return False
+        self.view.set_preview()
+        self.document.replace_dart(self.index, new, label=f"Move {d.name}")
+        return True
+
+
+# ---------------------------------------------------------------------- plane darts
+class PlaneDartTool(Tool):
+    """Place a plane dart with the plane and box widgets or numbers; the
+    plane's curve on the surface is previewed; Apply (or Enter) adds it, or
+    replaces dart ``index`` when editing one."""
+
+    name = "plane dart"
+
+    def __init__(self, window, index: int | None = None):
+        super().__init__(window)
+        self.index = index
+        s = self.surface
+        (u0, u1), (v0, v1) = s.domain
+        g = np.linspace(0, 1, 33)
+        U, V = np.meshgrid(u0 + g * (u1 - u0), v0 + g * (v1 - v0), indexing="ij")
+        xyz = s.points(np.column_stack([U.ravel(), V.ravel()]))
+        lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+        pad = 0.05 * float(np.linalg.norm(hi - lo))
+        self.bounds = np.ravel(np.column_stack([lo - pad, hi + pad]))  # the widgets' room
+        if index is not None:
+            d = self.document.project.settings.darts[index]
+            self.plane = tuple(float(x) for x in d.plane)
+            self.box = None if d.box is None else tuple(float(x) for x in d.box)
+            self.dart_name = d.name
+        else:
+            # across the longest extent, through the middle; the box keeps the lower 60 % of the
+            # next longest, so the dart starts at the rim and ends inside (move both to taste)
+            order = np.argsort(-(hi - lo), kind="stable")
+            axis = np.zeros(3)
+            axis[order[0]] = 1.0
+            centre = 0.5 * (lo + hi)
+            self.plane = (*(float(a) for a in axis), float(-axis @ centre))
+            blo, bhi = lo - 0.01 * pad, hi + 0.01 * pad
+            bhi[order[1]] = lo[order[1]] + 0.6 * (hi - lo)[order[1]]
+            self.box = tuple(float(b) for b in np.ravel(np.column_stack([blo, bhi])))
+            self.dart_name = unique_name("plane dart", (d.name for d in self.document.project.settings.darts))
+        self.dart: PlaneDart | None = None
+        self.curve = np.zeros((0, 3))
+
+    # -------------------------------------------------------------- state
+    def activate(self) -> None:
+        origin, normal = self._origin_normal()
+        self.view.show_plane_widget(origin, normal, self.bounds, self._plane_moved)
+        if self.box is not None:
+            self.view.show_box_widget(self.box, self._box_moved)
+        self._changed(from_widgets=False)
+        self.hint("Plane dart: drag the plane (its arrow turns it) and the box's faces, or type the numbers; "
+                  "Apply or Enter adds the dart, Esc cancels.")
+
+    def deactivate(self) -> None:
+        self.view.hide_plane_widget()
+        self.view.hide_box_widget()
+        self.view.set_preview()
+        self.window.dart_panel.show_plane_editor(None)
+
+    def _origin_normal(self):
+        p = np.asarray(self.plane, dtype=float)
+        n = p[:3] / np.linalg.norm(p[:3])
+        centre = 0.5 * (self.bounds[0::2] + self.bounds[1::2])
+        origin = centre - (p[:3] @ centre + p[3]) / np.linalg.norm(p[:3]) * n
+        return origin, n
+
+    def _plane_moved(self, origin, normal) -> None:
+        n = np.asarray(normal, dtype=float)
+        n = n / np.linalg.norm(n)
+        self.plane = (float(n[0]), float(n[1]), float(n[2]), float(-n @ np.asarray(origin, dtype=float)))
+        self._changed(from_widgets=True)
+
+    def _box_moved(self, bounds) -> None:
+        self.box = tuple(float(b) for b in bounds)
+        self._changed(from_widgets=True)
+
+    def set_values(self, plane, box) -> bool:
+        """Numbers typed in the panel: the plane (a, b, c, d) and the box (6) or None."""
+        try:
+            dart = PlaneDart(tuple(plane), None if box is None else tuple(box), name=self.dart_name)
+        except SettingsError as exc:
+            self.hint(str(exc))
+            self.window.dart_panel.show_plane_editor(self)
+            return False
+        self.plane, self.box = dart.plane, dart.box
+        origin, normal = self._origin_normal()
+        self.view.set_plane_widget(origin, normal)
+        if self.box is None:
+            self.view.hide_box_widget()
+        elif self.view.box_widget is None:
+            self.view.show_box_widget(self.box, self._box_moved)
+        else:
+            self.view.set_box_widget(self.box)
+        self._changed(from_widgets=False)
+        return True
+
+    def _changed(self, from_widgets: bool) -> None:
+        try:
+            self.dart = PlaneDart(self.plane, self.box, name=self.dart_name)
+        except SettingsError as exc:  # a box squeezed flat, say
+            self.dart = None
+            self.hint(str(exc))
+            return
+        s = self.surface
+        uv = self.dart.curve_uv(s, PREVIEW_GRID)
+        self.curve = s.points(uv) if len(uv) >= 2 else np.zeros((0, 3))
+        self.view.set_preview(self.curve if len(self.curve) else None)
+        if not len(self.curve):
+            self.hint("The plane does not meet the surface inside the box.")
+        self.window.dart_panel.show_plane_editor(self)
+
+    # -------------------------------------------------------------- commit
+    def finish(self) -> bool:
+        if self.dart is None or len(self.curve) < 2:
+            self.hint("The plane does not meet the surface inside the box: nothing to add.")
+            return False
+        doc = self.document
+        if self.index is None:
+            doc.add_dart(self.dart)
+        else:
+            old = doc.project.settings.darts[self.index]
+            doc.replace_dart(self.index, replace(self.dart, name=old.name, visible=old.visible),
+                             label=f"Move {old.name}")
+        self.window.set_tool(None)
+        return True
+
+    def cancel(self) -> None:
+        self.window.set_tool(None)
+
+
+# ---------------------------------------------------------------------- yarns
+@dataclass
+class PendingYarn:
+    """A yarn picked but not yet constrained.
+
+    node : the picked node (the anchor); kind, index : its weft row or warp column
+    base : the plane an angle of 0 means (the default plane, or the constraint's own)
+    angle_deg, k : the designer's choices; replaces : the constraint edited, or None
+    ij : the node's lattice position (to find it again in a new mesh)
+    """
+
+    node: int
+    kind: str
+    index: int
+    base: tuple | None
+    angle_deg: float = 0.0
+    k: float = DEFAULT_YARN_K
+    replaces: int | None = None
+    ij: tuple | None = None
+
+
+class YarnTool(Tool):
+    """Pick a constrained yarn: click a node of the solved mesh, choose its weft
+    row or warp column, the angle of its plane and its weight; Apply (or
+    Enter) adds the constraint. The default plane runs through the yarn's end
+    points and contains the surface normal at the picked node; the angle turns
+    it about that normal."""
+
+    name = "yarn"
+
+    def __init__(self, window):
+        super().__init__(window)
+        self.pending: PendingYarn | None = None
+        self.plane: tuple | None = None
+        self._tree = None
+        self._tree_of = None
+
+    @property
+    def result(self):
+        return self.document.project.result
+
+    def activate(self) -> None:
+        if self.result is None:
+            self.hint("Run a solve first: yarns are picked on the mesh's nodes.")
+        else:
+            self.hint("Yarn: click a node of the mesh, choose its weft row or warp column, then Apply.")
+
+    def deactivate(self) -> None:
+        self.pending = None
+        self.view.set_picked_yarn()
+        self.view.set_preview()
+        self.window.dart_panel.show_yarn_editor(None)
+
+    def press(self, x, y, double):
+        r = self.result
+        if r is None:
+            self.hint("Run a solve first: yarns are picked on the mesh's nodes.")
+            return False
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            self.hint("That click missed the surface: pick a node of the mesh.")
+            return False
+        if self._tree_of is not r:
+            self._tree, self._tree_of = cKDTree(r.xyz), r
+        dist, node = self._tree.query(hit[1])
+        if dist > float(np.hypot(r.mesh.r_weft, r.mesh.r_warp)):
+            self.hint("No node there: pick a node of the mesh.")
+            return False
+        kind = self.pending.kind if self.pending is not None and self.pending.replaces is None else "weft"
+        self.pick(int(node), kind)
+        return True
+
+    def result_changed(self) -> None:
+        """A new result (a solve ended, or undo): the picked node is found again
+        by its lattice position, or the pick is dropped if the mesh lost it."""
+        p, r = self.pending, self.result
+        if p is None:
+            return
+        if r is None or p.ij is None:
+            self.cancel()
+            return
+        same = np.flatnonzero(np.all(r.mesh.ij == np.asarray(p.ij), axis=1))
+        if not len(same):
+            self.cancel()
+            self.hint("The picked node is gone from the new mesh; pick again.")
+            return
+        p.node = int(same[0])
+        self.update()
+
+    def pick(self, node: int, kind: str = "weft") -> None:
+        """Pick ``node``'s weft row or warp column (with the default plane)."""
+        mesh = self.result.mesh
+        self.pending = PendingYarn(node, kind, yarn_index(mesh, node, kind), None, ij=tuple(mesh.ij[node]))
+        self.update()
+
+    def edit(self, index: int) -> None:
+        """Load constraint ``index`` for editing (its plane is the angle's zero)."""
+        y = self.document.project.settings.yarns[index]
+        r = self.result
+        if r is None:
+            self.hint("Run a solve first: the constraint's yarn is shown on the mesh.")
+            return
+        nodes = yarn_nodes(r.mesh, y.kind, y.index)
+        if not len(nodes):
+            self.hint(f"The mesh has no {y.kind} {y.index} now; remove the constraint or run again.")
+            return
+        anchor = int(nodes[len(nodes) // 2])
+        self.pending = PendingYarn(anchor, y.kind, y.index, tuple(y.plane), 0.0, y.k, index,
+                                   ij=tuple(r.mesh.ij[anchor]))
+        self.update()
+
+    def set_choice(self, kind: str | None = None, angle_deg: float | None = None, k: float | None = None) -> None:
+        p = self.pending
+        if p is None:
+            return
+        if kind is not None and kind != p.kind and p.replaces is None:
+            p.kind, p.index = kind, yarn_index(self.result.mesh, p.node, kind)
+        if angle_deg is not None:
+            p.angle_deg = float(angle_deg)
+        if k is not None:
+            p.k = float(k)
+        self.update()
+
+    def nodes(self) -> np.ndarray:
+        p = self.pending
+        return np.zeros(0, dtype=np.int64) if p is None else yarn_nodes(self.result.mesh, p.kind, p.index)
+
+    def update(self) -> None:
+        """Recompute the plane and the highlight for the current choices."""
+        p, r = self.pending, self.result
+        if p is None or r is None:
+            return
+        nodes = yarn_nodes(r.mesh, p.kind, p.index)
+        self.view.set_picked_yarn(r.xyz[nodes], r.xyz[p.node], render=False)
+        normal = self.surface.evaluate(r.uv[p.node:p.node + 1]).normal[0]
+        self.plane = None
+        try:
+            if len(nodes) < 2:
+                raise SettingsError(f"{p.kind} {p.index} has a single node: no direction to hold")
+            base = p.base if p.base is not None else yarn_plane(r.xyz[nodes[[0, -1]]], normal)
+            self.plane = turn_plane(base, r.xyz[p.node], normal, p.angle_deg)
+            uv = PlaneDart(self.plane).curve_uv(self.surface, PREVIEW_GRID)
+            self.view.set_preview(self.surface.points(uv) if len(uv) >= 2 else None)
+        except SettingsError as exc:
+            self.view.set_preview()
+            self.hint(str(exc))
+        self.window.dart_panel.show_yarn_editor(self)
+
+    def finish(self) -> bool:
+        p = self.pending
+        if p is None or self.plane is None:
+            self.hint("Pick a node first." if p is None else "This yarn has no plane to hold it to.")
+            return False
+        try:
+            yarn = YarnConstraint(p.kind, p.index, self.plane, p.k)
+        except SettingsError as exc:
+            self.hint(str(exc))
+            return False
+        if p.replaces is None:
+            self.document.add_yarn(yarn)
+        else:
+            self.document.replace_yarn(p.replaces, yarn)
+        self.pending = None
+        self.view.set_picked_yarn()
+        self.view.set_preview()
+        self.window.dart_panel.show_yarn_editor(None)
+        self.hint(f"Constrained {yarn.kind} {yarn.index}. Click another node, or Esc.")
+        return True
+
+    def cancel(self) -> None:
+        if self.pending is not None:
+            self.pending = None
+            self.view.set_picked_yarn()
+            self.view.set_preview()
+            self.window.dart_panel.show_yarn_editor(None)
+        else:
+            self.window.set_tool(None)
+
