@@ -120,6 +120,8 @@ def _newton(surface: NurbsSurface, uv0: np.ndarray, residual, tol: np.ndarray):
     lo, hi = dom[:, 0] - 0.5 * size, dom[:, 1] + 0.5 * size
     uv = np.array(uv0, dtype=float)
     k = uv.shape[0]
+    # residuals are lengths: they cannot fall below the rounding of the coordinates
+    tol = np.maximum(tol, 16 * np.finfo(float).eps * float(np.abs(surface.ctrlpts).max()))
     conv = np.zeros(k, dtype=bool)
     active = np.arange(k)
     max_step = 0.25 * size
