@@ -205,7 +205,8 @@ def test_spacing_larger_than_the_surface(spacing):
     assert_valid(s, flatten(s, FlattenSettings(0.95 * suggested)))
 
 
-def test_too_fine_is_refused_up_front_by_node_count():
+def test_too_fine_is_refused_up_front_by_node_count(monkeypatch):
+    monkeypatch.setattr(core.drape, "available_memory", lambda: 10 ** 12)  # 1 TB: max_nodes binds
     s = load_example("octant")
     msg = refused(lambda: flatten(s, FlattenSettings(1e-4, max_nodes=100_000)),
                   "157,079,633 nodes", "limit of 100,000 nodes", "smallest spacing that fits is about 0.00396")
