@@ -95,7 +95,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json",
                    help="cut a curve dart: a 3D polyline and a view direction (see README; repeatable)")
     f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
-                   help="refuse meshes estimated larger than N nodes (default 2,000,000)")
+                   help="refuse meshes estimated larger than N nodes, or than the available memory holds "
+                        "(default 2,000,000)")
     f.add_argument("--out", metavar="RESULT.json", help="result file to write")
     f.add_argument("--export", action="append", default=[], metavar="PATH",
                    help="write the pattern to PATH, the suffix picks the format: .dxf (AAMA layers, mm), "

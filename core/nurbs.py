@@ -21,7 +21,21 @@ import numpy as np
 
 from core.errors import SurfaceError
 
-__all__ = ["NurbsSurface", "SurfaceEval", "basis_functions"]
+__all__ = ["NurbsSurface", "SurfaceEval", "basis_functions", "MIN_SIZE", "MAX_SIZE", "MAX_WEIGHT_RATIO"]
+
+MIN_SIZE, MAX_SIZE = 1e-40, 1e40
+"""Smallest and largest control net (bounding-box diagonal) accepted, in model
+units. The pipeline squares lengths (energies, areas) and sums squared
+gradients (~ length^4); measured on the garment scaled by powers of ten, both
+solvers give the same pattern from 1e-60 to 1e75 and fail (underflow to zero
+areas, overflow in the normals) beyond 1e-80 and 1e80. The limits keep 20
+orders of magnitude from either failure."""
+
+MAX_WEIGHT_RATIO = 1e10
+"""Largest ratio of the largest to the smallest weight accepted. A weight far
+above its neighbours pulls a corner of the surface into a point: measured on
+the garment, a corner weight of 1e12 still gives a pattern, 1e20 leaves points
+whose normal is 0 / 0 even in the limit from the interior."""
 
 
 def _find_spans(knots: np.ndarray, degree: int, n_ctrl: int, x: np.ndarray) -> np.ndarray:
@@ -201,11 +215,25 @@ class NurbsSurface:
                 raise SurfaceError("weights contain NaN or infinity")
             if np.any(W <= 0):
                 raise SurfaceError("weights must be positive; found a weight <= 0")
+            ratio = float(W.max() / W.min())
+            if not ratio <= MAX_WEIGHT_RATIO:
+                raise SurfaceError(f"weights range from {W.min():.3g} to {W.max():.3g}, a ratio of {ratio:.3g} "
+                                   f"(at most {MAX_WEIGHT_RATIO:g}): the surface is numerically degenerate")
             self.rational = not np.all(W == W.flat[0])
         span = np.ptp(P.reshape(-1, 3), axis=0)
         scale = float(np.max(np.abs(P)))
-        if not np.max(span) > 1e-12 * max(scale, 1e-300):
+        if not np.max(span) > 0:
             raise SurfaceError("all control points are equal: the surface is a single point")
+        size = float(np.max(span) * np.linalg.norm(span / np.max(span)))  # no under- or overflow
+        if not np.max(span) > 1e-12 * scale:
+            raise SurfaceError(f"the control points differ by only {size:.3g} at coordinates up to {scale:.3g}: "
+                               f"too little for double precision; move the surface near the origin")
+        if size < MIN_SIZE:
+            raise SurfaceError(f"the surface is too small to use: its control net is {size:.3g} across "
+                               f"(at least {MIN_SIZE:g}), so it has no usable area; rescale the model")
+        if size > MAX_SIZE:
+            raise SurfaceError(f"the surface is too large to compute with: its control net is {size:.3g} across "
+                               f"(at most {MAX_SIZE:g}), where lengths and energies overflow; rescale the model")
         self.degree_u = int(degree_u)
         self.degree_v = int(degree_v)
         self.knots_u = ku

@@ -275,8 +275,9 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
         samples = boundary_samples(surface, spacing)
     buv, Q = samples
     frames = node_frames(mesh, xyz)
+    sheet = _same_sheet(surface, mesh, xyz, uv, buv, spacing) if uv is not None else None
     if darts is None or len(darts) == 0:
-        outline = map_points(Q, mesh, xyz, xy, frames=frames)
+        outline = map_points(Q, mesh, xyz, xy, frames=frames, valid=sheet)
         piece = _oriented(Piece(outline, Q, buv, np.ones(len(Q), dtype=bool), np.arange(mesh.n_nodes)))
         return Pattern(xy, piece.outline, piece.outline3d, piece.outline_uv, piece.on_boundary, (), (),
                        (piece,))
@@ -307,8 +308,10 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
             keep &= np.linalg.norm(Q - c3[-e], axis=1) >= spacing / 8
     buv, Q = buv[keep], Q[keep]
 
-    def visible(rows, nn):  # the node is on the point's side of every dart
-        return ~darts.crossing(buv[rows.ravel()], uv[nn.ravel()]).reshape(rows.shape)
+    sheet = _same_sheet(surface, mesh, xyz, uv, buv, spacing)
+
+    def visible(rows, nn):  # the node is on the point's side of every dart, and on its sheet
+        return ~darts.crossing(buv[rows.ravel()], uv[nn.ravel()]).reshape(rows.shape) & sheet(rows, nn)
 
     B2, near = map_points(Q, mesh, xyz, xy, valid=visible, frames=frames, nearest=True)
     comp = _components(mesh)
@@ -381,6 +384,34 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
     main = pieces[0]
     return Pattern(xy, main.outline, main.outline3d, main.outline_uv, main.on_boundary,
                    tuple(openings), main.holes, tuple(pieces))
+
+
+def _same_sheet(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, uv: np.ndarray,
+                buv: np.ndarray, spacing: float):
+    """``valid(rows, nodes)`` for :func:`map_points`: the nodes on boundary point's own sheet.
+
+    Where a surface closes on itself (a tube's seam) or folds back until two of
+    its parts touch, a boundary point's nearest nodes in 3D can lie on the
+    other part: near in space but far along the lattice, and blending them
+    puts the point halfway between the two. For each point the candidate
+    nearest to it in (u, v) (scaled to the unit square) is on its sheet; any
+    other candidate counts only if its lattice distance from that one is at
+    most what their 3D distance allows with threads near rest length and
+    cells sheared by up to 60 degrees (2 d / spacing), plus 1. On a surface
+    that does not touch itself every candidate passes and the outline is
+    unchanged.
+    """
+    dom = surface.domain
+    size = dom[:, 1] - dom[:, 0]
+
+    def valid(rows: np.ndarray, nn: np.ndarray) -> np.ndarray:
+        duv = np.linalg.norm((uv[nn] - buv[rows]) / size, axis=2)
+        anchor = nn[np.arange(len(nn)), np.argmin(duv, axis=1)][:, None]
+        steps = np.abs(mesh.ij[nn] - mesh.ij[anchor]).max(axis=2)
+        d = np.linalg.norm(xyz[nn] - xyz[anchor], axis=2)
+        return steps <= 2.0 * d / spacing + 1
+
+    return valid
 
 
 def _oriented(p: Piece) -> Piece:

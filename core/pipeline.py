@@ -14,6 +14,7 @@ import time
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 import core
 from core.darts import CurveDart, DartSet, PlaneDart
@@ -23,8 +24,8 @@ from core.errors import SettingsError
 from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
 from core.metrics import cell_shear_deg, deformation_summary, spring_lengths
 from core.nurbs import NurbsSurface
-from core.pattern import Pattern, make_pattern
-from core.quadrature import boundary_length, region_area
+from core.pattern import Pattern, make_pattern, node_frames
+from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
 from core.solver import Problem, SolveResult, SolverOptions, State, iterate
 
 __all__ = ["FlattenSettings", "FlattenResult", "flatten", "flatten_iter", "result_to_dict",
@@ -47,7 +48,8 @@ class FlattenSettings:
     tol, max_iter, max_seconds : stopping rule and budgets of the solver
     yarns : yarn constraints (directional energy)
     darts : plane and curve darts (:mod:`core.darts`)
-    max_nodes : refuse meshes estimated larger than this, up front
+    max_nodes : refuse meshes estimated larger than this (or than the available
+        memory holds, :func:`core.drape.node_limit`), up front
     """
 
     spacing: float
@@ -141,6 +143,64 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
     return Problem(surface, build, settings.yarns, refill_nodes, invalid)
 
 
+UNCOVERED_LIMIT = 0.10
+"""Largest share of the surface's area a new drape may leave farther than two
+spacings from every node. A complete drape leaves none (every point is within
+a cell diagonal of a node); on the bundled examples, seeds and angles tried,
+at most 2.1 % (corners a helical thread cannot reach); where the threads stop
+at a cusp or a pinch, 29 % and more."""
+
+
+def _check_area(surface: NurbsSurface, area: float) -> None:
+    """SettingsError unless the surface has an area the mesh can cover."""
+    size = surface.bbox_diagonal()
+    if not (math.isfinite(area) and area > 1e-12 * size * size):
+        raise SettingsError(f"the surface has no usable area (area {area:.3g} for a control net {size:.3g} "
+                            f"across): it is a curve or a point, not a sheet")
+
+
+def _uncovered_share(surface: NurbsSurface, xyz: np.ndarray, reach: float) -> float:
+    """Share of the surface's area farther than ``reach`` from every point of ``xyz``
+    (Gauss points of the domain, at most ~200,000 of them, weighted by area)."""
+    nu, nv = surface.shape
+    cells = max(1, (nu - surface.degree_u) * (nv - surface.degree_v))
+    uv, w = domain_gauss_rule(surface, int(np.clip(np.sqrt(200_000 / cells), 1, 8)))
+    S, su, sv = surface.derivatives(uv)
+    a = w * np.linalg.norm(np.cross(su, sv), axis=1)
+    far = cKDTree(xyz).query(S, distance_upper_bound=reach)[0] > reach
+    return float(a[far].sum() / a.sum())
+
+
+def _check_drape(surface: NurbsSurface, d, ds: DrapeSettings) -> None:
+    """SettingsError unless a new drape can give a pattern of the whole surface."""
+    r = max(ds.r_weft, ds.r_warp)
+    seed = f"({ds.seed[0]:g}, {ds.seed[1]:g})"
+    if not node_frames(d.mesh, d.xyz)[2].any():
+        n = d.mesh.n_nodes
+        placed = f"the drape placed {n:,} node{'s' if n != 1 else ''} but no complete cell of the mesh"
+        edge = cKDTree(boundary_polyline(surface, 1024)[1])
+        g = np.linspace(0.0, 1.0, 33)
+        dom = surface.domain
+        grid = np.column_stack([a.ravel() for a in np.meshgrid(*(lo + g * (hi - lo) for lo, hi in dom))])
+        inner = float(edge.query(surface.points(grid))[0].max())  # how far the surface reaches from its edge
+        if inner < r:
+            raise SettingsError(
+                f"{placed}: spacing {r:g} is too large for this surface (no point of it is more than "
+                f"{inner:.3g} from its edge); use a spacing below about {inner:.2g}")
+        i0 = int(np.flatnonzero((d.mesh.ij == 0).all(axis=1))[0])
+        dist = float(edge.query(d.xyz[i0])[0])
+        raise SettingsError(
+            f"{placed}: from the seed {seed}, {dist:.3g} from the surface's edge, the threads leave the "
+            f"surface (or stop) within a spacing; move the seed inward, away from poles, corners and edges")
+    share = _uncovered_share(surface, d.xyz, 2 * r)
+    if share > UNCOVERED_LIMIT:
+        raise SettingsError(
+            f"the drape from seed {seed} covers only {100 * (1 - share):.0f} % of the surface "
+            f"({100 * share:.0f} % of its area is over two spacings from every node): the threads stop "
+            f"at a cusp, pinch or fold they cannot cross, or a neck narrower than the spacing; split "
+            f"the surface there, or try another seed or a smaller spacing")
+
+
 def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
                  area: float | None = None):
     """Generator: drape (or warm-start from ``initial``), minimise, pattern.
@@ -152,9 +212,11 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         raise SettingsError(f"solver {settings.solver!r} is not one of {', '.join(SOLVERS)}")
     t0 = time.perf_counter()
     A3 = region_area(surface) if area is None else area
+    _check_area(surface, A3)
     problem = make_problem(surface, settings)
     if initial is None:
         d = drape(surface, settings.drape_settings(), settings.material, area=A3)
+        _check_drape(surface, d, settings.drape_settings())
         state, stats = State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
     else:
         uv = np.asarray(initial.uv, dtype=float)
@@ -164,6 +226,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         solve = yield from iterate(problem, state, settings.solver_options())
         state = State(solve.mesh, solve.uv)
     xyz = surface.points(state.uv)
+    if not node_frames(state.mesh, xyz)[2].any():
+        raise SettingsError(f"no complete cell of the mesh is left ({state.mesh.n_nodes:,} nodes): there is "
+                            f"nothing to make a pattern from; try a smaller spacing or another seed")
     darts = DartSet(surface, settings.darts)
     pattern = make_pattern(surface, state.mesh, xyz, darts=darts if len(darts) else None, uv=state.uv)
     metrics = compute_metrics(surface, state.mesh, xyz, pattern, settings.yarns, A3=A3)

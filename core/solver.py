@@ -742,7 +742,7 @@ def _line_search(f, alpha0: float, f0: float, max_eval: int = 60):
         b *= 0.1
         fb = f(b)
         evals += 1
-        if b < 1e-30 or evals > max_eval // 2:
+        if b < 1e-27 * alpha0 or evals > max_eval // 2:
             return 0.0, f0, evals
     c = b / _GOLD
     fc = f(c)

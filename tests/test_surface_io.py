@@ -6,6 +6,8 @@ import copy
 import json
 import math
 import os
+import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -81,6 +83,9 @@ BAD_FILES = {
     "weights_count_mismatch.json": "weight count",
     "degree_too_high.json": "too high",
     "all_points_equal.json": "equal",
+    "huge_surface.json": "too large",  # each number allowed, the net 4e60 across: overflow in evaluation
+    "tiny_coordinates.json": "no usable area",  # 1e-300 across: the area underflows to 0
+    "weights_ratio.json": "ratio",  # weights 1e-6 .. 1e6
 }
 
 
@@ -102,6 +107,18 @@ def test_bad_file_gives_one_line_surface_error(name):
     assert_one_line(msg)
     assert msg.startswith(str(path) + ": ")
     assert BAD_FILES[name] in msg.lower()
+
+
+@pytest.mark.parametrize("name", ["truncated.json", "binary_garbage.json", "nan_literal.json", "huge_surface.json",
+                                  "tiny_coordinates.json", "multi_surface.json"])
+def test_bad_file_through_the_cli_is_one_line_and_status_2(tmp_path, name):
+    out = tmp_path / "r.json"
+    p = subprocess.run([sys.executable, "-m", "core", "flatten", str(BAD / name), "--spacing", "0.1", "--out", str(out)],
+                       capture_output=True, text=True, timeout=120)
+    lines = [line for line in p.stderr.splitlines() if line.strip()]
+    assert p.returncode == 2 and len(lines) == 1, p.stderr
+    assert lines[0].startswith(f"flatweave: error: {BAD / name}: ") and BAD_FILES[name] in lines[0].lower()
+    assert "Traceback" not in p.stderr and not p.stdout and not out.exists()
 
 
 def test_not_json_names_line_and_column():
