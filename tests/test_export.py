@@ -292,7 +292,10 @@ def test_pdf_leaves_out_blank_tiles(tmp_path, octant_dart):
     rows, cols, _, _ = tile_grid(sheet.size, "a4")
     grid = tiles(sheet, "a4")
     printed = sum(t[2] for t in grid)
+    # The curved triangle spans several tiles but misses the grid's top-left
+    # corner: both bounds fail if blank tiles were printed or pieces dropped.
     assert 1 < printed < rows * cols
+    assert not grid[0][2]  # A1, beyond the octant's curved edge, is blank
     reader = PdfReader(export(octant_dart, tmp_path / "p.pdf"))
     assert len(reader.pages) == 2 + printed
 

@@ -31,6 +31,7 @@ import numpy as np
 
 from core.errors import SettingsError
 from core.mesh import WARP
+from core.pattern import polygon_area
 
 __all__ = ["UNITS", "Sheet", "SheetPiece", "build_sheet", "mm_per_unit", "warp_direction"]
 
@@ -143,15 +144,10 @@ def _offset(sew: np.ndarray, holes, width: float):
         grown = max(grown.geoms, key=lambda g: g.area)
     assert isinstance(grown, Polygon)
     cut = np.asarray(grown.exterior.coords)[:-1]
-    if _signed_area(cut) < 0:
+    if polygon_area(cut) < 0:
         cut = cut[::-1]
     hole_cuts = tuple(np.asarray(r.coords)[:-1] for r in grown.interiors)
     return cut, hole_cuts
-
-
-def _signed_area(p: np.ndarray) -> float:
-    x, y = p[:, 0], p[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
 def _chord(poly, through: np.ndarray, direction: np.ndarray, length_frac: float = 0.7) -> np.ndarray:
@@ -251,7 +247,7 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
     for k, src in enumerate(pieces_src):
         pname = f"{name} {k + 1}" if many else name
         sew = np.asarray(src.outline, dtype=float) * scale
-        if _signed_area(sew) < 0:
+        if polygon_area(sew) < 0:
             sew = sew[::-1]
         holes = tuple(np.asarray(h, dtype=float) * scale for h in src.holes)
         cut, hole_cuts = _offset(sew, holes, seam_allowance_mm)
