@@ -108,7 +108,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.size is not None:
         window.resize(*args.size)
     window.set_project(project, project_path)
+    window.confirm_close = not args.quit  # a scripted run never stops to ask
     window.show()
+    if not args.quit:  # offer back what a crashed flatweave autosaved
+        if window.recovery_problem:
+            window.statusBar().showMessage(window.recovery_problem, 15000)
+        QTimer.singleShot(0, window.check_recovery)
 
     status = {"code": 0}
 

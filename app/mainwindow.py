@@ -19,11 +19,17 @@ Structure (see docs/ARCHITECTURE.md):
   events through :class:`_ToolMouse`, one tool at a time (:meth:`set_tool`),
   and commit through the document's dart and yarn edits; the darts and yarns
   panel (:mod:`app.dartpanel`) reports list edits the same way.
+* work is never lost: a :class:`core.recovery.Session` autosaves the document
+  (every minute when it changed, and after every solve) on a background
+  thread; :meth:`check_recovery` offers back what a crashed session left;
+  saves keep the last few versions as backups; closing with unsaved work asks
+  first (when :attr:`MainWindow.confirm_close`, as the launcher sets it).
 """
 
 from __future__ import annotations
 
 import gc
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
@@ -40,7 +46,8 @@ from core.errors import FlatweaveError
 from core.export import ExportOptions
 from core.examples import example_info, example_path, list_examples
 from core.nurbs import NurbsSurface
-from core.project import PROJECT_SUFFIX, Project, load_project, new_project, save_project, warm_start
+from core.project import PROJECT_SUFFIX, Project, load_project, new_project, warm_start
+from core.recovery import Orphan, Session, find_orphans, save_with_backups
 from core.surface_io import load_surface
 
 from app.dartpanel import DartPanel
@@ -60,6 +67,7 @@ OPEN_FILTER = f"Projects and surfaces (*{PROJECT_SUFFIX} *.json);;Projects (*{PR
               "Surfaces (*.json);;All files (*)"
 PROJECT_FILTER = f"flatweave projects (*{PROJECT_SUFFIX})"
 RERUN_DELAY_MS = 250  # settings edits closer together than this make one re-run
+AUTOSAVE_MS = 60_000  # the document is autosaved this often when it has changed (and after each solve)
 
 
 _GC_FROZEN = False
@@ -135,8 +143,10 @@ class MainWindow(QMainWindow):
     run_failed = Signal(str)
     export_finished = Signal(object)  # list of the paths written
     export_failed = Signal(str)
+    autosave_failed = Signal(str)  # from the autosave thread
 
-    def __init__(self, parent: QWidget | None = None):
+    def __init__(self, parent: QWidget | None = None, recovery: bool = True):
+        """``recovery``: autosave to a recovery file (see :mod:`core.recovery`)."""
         super().__init__(parent)
         self.document: Document | None = None
         self.last_error: str | None = None  # the last error shown, one line
@@ -176,6 +186,22 @@ class MainWindow(QMainWindow):
         self.runner = Runner(self)
         self._rerun_timer = QTimer(self, singleShot=True, interval=RERUN_DELAY_MS)
         self._rerun_timer.timeout.connect(self.rerun)
+        self.confirm_close = False  # ask before closing with unsaved work (the launcher turns it on)
+        self.session: Session | None = None
+        self.recovery_box: QMessageBox | None = None
+        self.recovery_problem: str | None = None
+        if recovery:
+            try:
+                self.session = Session()
+            except (FlatweaveError, OSError) as exc:
+                self.recovery_problem = f"Autosave is off: {exc}"
+        self._autosaver = ThreadPoolExecutor(max_workers=1, thread_name_prefix="flatweave-autosave")
+        self._autosaved_revision: int | None = None
+        self.last_autosave: Future | None = None
+        self._autosave_timer = QTimer(self, interval=AUTOSAVE_MS)
+        self._autosave_timer.timeout.connect(self.autosave)
+        self._autosave_timer.start()
+        self.autosave_failed.connect(lambda m: self.statusBar().showMessage(m, 10000))
 
         self.actions = self._create_actions()
         self._build_layout()
@@ -459,17 +485,20 @@ class MainWindow(QMainWindow):
     def surface_name(self) -> str | None:
         return None if self.document is None else self.document.project.name
 
-    def set_project(self, project: Project, path: str | Path | None = None) -> None:
-        """Make ``project`` the document (a new history); any run is abandoned."""
+    def set_project(self, project: Project, path: str | Path | None = None, saved: bool = True) -> None:
+        """Make ``project`` the document (a new history); any run is abandoned.
+        ``saved=False``: it is not what ``path`` holds (a recovered autosave)."""
         self.runner.cancel()
         self._rerun_timer.stop()
         if self.document is None:
             self.document = Document(project, path)
+            if not saved:
+                self.document.reset(project, path, saved=False)
             self._unsubscribe = self.document.subscribe(self._on_document_changed)
             self._on_document_changed(project, Change("reset", frozenset(
                 ("surface", "settings", "display", "result", "name"))))
         else:
-            self.document.reset(project, path)
+            self.document.reset(project, path, saved=saved)
 
     def set_surface(self, surface: NurbsSurface, path: str | Path | None = None, spacing: float | None = None,
                     units: str = "m") -> None:
@@ -535,12 +564,95 @@ class MainWindow(QMainWindow):
         if path.suffix.lower() != PROJECT_SUFFIX:
             path = path.with_name(path.name + PROJECT_SUFFIX)
         try:
-            save_project(self.document.project, path)
+            save_with_backups(self.document.project, path)
         except FlatweaveError as exc:
             self.show_error(f"Cannot save: {exc}")
             return False
         self.document.mark_saved(path)
+        self.autosave()  # nothing left to recover
         self.statusBar().showMessage(f"Saved {path}", 5000)
+        return True
+
+    # ------------------------------------------------------------------ autosave and recovery
+    def autosave(self) -> Future | None:
+        """Write the document to this session's recovery file if it changed
+        since the last autosave (or clear the file when nothing is unsaved).
+        The write runs on the autosave thread; returns its Future (None if
+        there was nothing to do)."""
+        doc = self.document
+        if self.session is None or doc is None or doc.revision == self._autosaved_revision:
+            return None
+        self._autosaved_revision = doc.revision
+        if doc.unsaved_work:
+            self.last_autosave = self._autosaver.submit(self._write_recovery, doc.project, doc.path)
+        else:
+            self.last_autosave = self._autosaver.submit(self.session.clear)
+        return self.last_autosave
+
+    def _write_recovery(self, project: Project, path) -> None:  # on the autosave thread
+        try:
+            self.session.write(project, path)
+        except FlatweaveError as exc:
+            self._autosaved_revision = None  # try again at the next tick
+            self.autosave_failed.emit(f"Autosave failed: {exc}")
+
+    def check_recovery(self, folder: str | Path | None = None) -> Orphan | None:
+        """Offer back the newest document a crashed flatweave left (a
+        non-blocking question: Recover, Discard, or Later). Returns what is offered."""
+        if self.recovery_box is not None:
+            return None
+        if folder is None and self.session is None:
+            return None
+        orphans = find_orphans(self.session.folder if folder is None else folder)
+        if not orphans:
+            return None
+        offered, rest = orphans[0], orphans[1:]
+        for other in rest:  # offered one at a time: the others at the next check
+            other.release()
+        box = QMessageBox(QMessageBox.Icon.Question, "flatweave: recover unsaved work",
+                          f"flatweave did not close normally. Recover the work it autosaved?\n\n"
+                          f"{offered.describe()}", QMessageBox.StandardButton.NoButton, self)
+        recover = box.addButton("Recover", QMessageBox.ButtonRole.AcceptRole)
+        discard = box.addButton("Discard", QMessageBox.ButtonRole.DestructiveRole)
+        box.addButton("Later", QMessageBox.ButtonRole.RejectRole)
+        box.setDefaultButton(recover)
+        box.setWindowModality(Qt.WindowModality.NonModal)
+        box.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
+
+        def answered(_result):
+            clicked = box.clickedButton()
+            self.recovery_box = None
+            if clicked is recover:
+                self.recover(offered)
+            elif clicked is discard:
+                offered.discard()
+                self.statusBar().showMessage("Discarded the autosaved work.", 5000)
+            else:
+                offered.release()
+            if rest and clicked in (recover, discard):
+                QTimer.singleShot(0, lambda: self.check_recovery(folder))
+
+        box.finished.connect(answered)
+        self.recovery_box = box
+        box.show()
+        return offered
+
+    def recover(self, orphan: Orphan) -> bool:
+        """Open ``orphan``'s autosave as the document (unsaved; Save writes it
+        where it was saved before), then delete the recovery file once this
+        session's own autosave holds the work."""
+        try:
+            project = orphan.load()
+        except FlatweaveError as exc:
+            orphan.release()
+            self.show_error(f"Cannot recover {orphan.path}: {exc}")
+            return False
+        self.set_project(project, orphan.document_path, saved=False)
+        pending = self.autosave()
+        if pending is not None:
+            pending.result()
+        orphan.discard()
+        self.statusBar().showMessage(f"Recovered {orphan.describe()}; save it to keep it.", 10000)
         return True
 
     # ------------------------------------------------------------------ export
@@ -869,8 +981,7 @@ class MainWindow(QMainWindow):
                            r.metrics.get("area_3d")).from_result(r)
         self.pattern_view.request_fit()
         self._draw_frame(frame)
-        history = r.solve.history if r.solve is not None else []
-        self.energy_plot.set_history([(k + 1, e, False) for k, e in enumerate(history)])
+        self.energy_plot.set_history([(k + 1, e, False) for k, e in enumerate(r.history)])
 
     def _draw_frame(self, frame) -> None:
         self.frame = frame
@@ -968,6 +1079,7 @@ class MainWindow(QMainWindow):
             attached = self.document.attach_result(r, outcome.source, label=label)
             if attached:
                 self.energy_plot.set_history(self.runner.last_history)
+                self.autosave()
                 text = (f"{m.get('solver_status', 'done').capitalize()}: {m.get('iterations', 0)} iterations, "
                         f"{m.get('nodes', 0):,} nodes, EN {m.get('energy', 0):.6g}, "
                         f"{m.get('seconds', 0.0):.2f} s.")
@@ -1013,7 +1125,12 @@ class MainWindow(QMainWindow):
             QTimer.singleShot(0, self.view.reset_camera)
 
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt name)
+        if self.confirm_close and self.document is not None and self.document.unsaved_work \
+                and not self._close_confirmed():
+            event.ignore()
+            return
         self._rerun_timer.stop()
+        self._autosave_timer.stop()
         self.tool = None
         self.view.mouse_handler = None
         self.runner.shutdown()
@@ -1022,6 +1139,20 @@ class MainWindow(QMainWindow):
         if self.error_box is not None:
             self.error_box.close()
         # the render windows must go before the widgets holding them are destroyed
+        self._autosaver.shutdown(wait=True)
+        if self.session is not None:
+            self.session.close()  # a normal end: nothing to recover
+            self.session = None
         self.view.close()
         self.pattern_view.close()
         super().closeEvent(event)
+
+    def _close_confirmed(self) -> bool:
+        """Ask what to do with unsaved work: Save (and close if it saved), Discard, or Cancel."""
+        buttons = QMessageBox.StandardButton
+        answer = QMessageBox.question(
+            self, "flatweave", f"Save the changes to {self.document.project.name} before closing?",
+            buttons.Save | buttons.Discard | buttons.Cancel, buttons.Save)
+        if answer == buttons.Save:
+            return self.save()
+        return answer == buttons.Discard

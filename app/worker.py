@@ -234,6 +234,7 @@ class SolveThread(QThread):
         metrics.update({"iterations": snap.iteration, "energy_evaluations": snap.nfev,
                         "solver_status": f"stopped by the user at iteration {snap.iteration}",
                         "solve_seconds": snap.seconds})
-        result = replace(result, settings=p.settings, metrics=metrics)
+        result = replace(result, settings=p.settings, metrics=metrics,
+                         history=tuple(float(e) for _, e, _ in self.history))
         self._publish(maker.from_result(result))
         return result

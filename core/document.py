@@ -98,6 +98,7 @@ class Document:
         self.limit = int(limit)
         self.path = None if path is None else Path(path)
         self._saved: Project | None = project if path is not None else None
+        self._pristine = path is None  # a new document nobody has touched yet
         self.revision = 0
 
     # ------------------------------------------------------------------ state
@@ -108,6 +109,12 @@ class Document:
     @property
     def dirty(self) -> bool:
         return self._saved is not self._project
+
+    @property
+    def unsaved_work(self) -> bool:
+        """Something here would be lost if the program ended now: the document
+        differs from its file, or, never saved, has any edit or a result."""
+        return self.dirty and not self._pristine
 
     @property
     def can_undo(self) -> bool:
@@ -143,6 +150,8 @@ class Document:
     def _set(self, project: Project, cause: str, label: str = "") -> Change:
         old, self._project = self._project, project
         self.revision += 1
+        if cause in ("edit", "undo", "redo", "result"):
+            self._pristine = False
         change = Change(cause, changed_aspects(old, project), label)
         for listener in list(self._listeners):
             listener(project, change)
@@ -274,12 +283,17 @@ class Document:
         return True
 
     # ------------------------------------------------------------------ documents
-    def reset(self, project: Project, path: str | Path | None = None) -> None:
-        """Start over with ``project`` (opened from ``path``, if given): history cleared."""
+    def reset(self, project: Project, path: str | Path | None = None, saved: bool = True) -> None:
+        """Start over with ``project`` (opened from ``path``, if given): history cleared.
+
+        ``saved=False``: ``project`` is not what the file at ``path`` holds (a
+        recovered autosave): the document is dirty and Save writes to ``path``.
+        """
         self._undo.clear()
         self._redo.clear()
         self.path = None if path is None else Path(path)
-        self._saved = project if path is not None else None
+        self._saved = project if (path is not None and saved) else None
+        self._pristine = path is None and saved
         self._set(project, "reset")
 
     def mark_saved(self, path: str | Path) -> None:

@@ -83,6 +83,8 @@ class FlattenResult:
     pattern : the 2D pattern (nodes' xy and outline)
     metrics : dict (see :func:`compute_metrics`)
     drape_stats : dict from the drape; solve : SolveResult or None
+    history : the energy EN after each solver iteration (kept in project files,
+        so it outlives ``solve``, which is not saved)
     """
 
     surface: NurbsSurface
@@ -94,6 +96,7 @@ class FlattenResult:
     metrics: dict
     drape_stats: dict = field(default_factory=dict)
     solve: SolveResult | None = None
+    history: tuple = ()
 
     def state(self) -> State:
         """The mesh state, to warm-start another solve."""
@@ -243,7 +246,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "seconds": time.perf_counter() - t0,
         "pieces": len(pattern.pieces),
     })
-    return FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve)
+    return FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
+                         tuple(float(e) for e in solve.history) if solve else ())
 
 
 def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,

@@ -9,7 +9,7 @@ them (:mod:`core.document`) and an autosave writes one without locking.
 
 The file (``.flatweave``) is JSON::
 
-    {"format": "flatweave-project", "version": 1, "flatweave": "0.1.0",
+    {"format": "flatweave-project", "version": 2, "flatweave": "0.1.0",
      "name": "octant", "source": "resources/surfaces/octant.json",
      "surface": {geomdl JSON document},
      "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
@@ -19,11 +19,17 @@ The file (``.flatweave``) is JSON::
                    "handles": [[u, v], ...] (optional), "view_dir": [dx, dy, dz] (optional)}],
      "yarns": [{"kind": "weft" or "warp", "index", "plane": [a, b, c, d], "k"}],
      "display": {"units": "m", "shear_warning_deg": 15.0, "shear_limit_deg": 30.0},
-     "result": a result document (core.pipeline.result_to_dict) or null}
+     "result": a result document (core.pipeline.result_to_dict) with
+               "history": [EN after each iteration, ...], or null}
 
-A dart's ``visible``, ``handles`` and ``view_dir`` came after the first
-files of version 1 were written; they are optional (a dart without them is
-visible and has no drawn points), so every version-1 file still reads.
+Versions. Version 2 added the result's ``history`` (the energy trace, so the
+energy plot comes back with the project). A dart's ``visible``, ``handles``
+and ``view_dir`` came during version 1 and are optional (a dart without them
+is visible and has no drawn points). Older files are read by upgrading their
+document one version at a time (:data:`UPGRADES`) before it is read as the
+current version; ``tests/data/projects`` keeps frozen files of every older
+version, which must keep opening. A file from a newer version is refused
+with a message saying so.
 
 Floats are written with ``repr`` precision, so a project reads back
 bit-identical. The result is restored from its nodes' lattice positions and
@@ -62,10 +68,10 @@ __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSIO
            "DRAPE_KEYS", "settings_to_dict", "settings_from_dict", "settings_equal", "labels_equal",
            "validate_settings",
            "needs_new_drape", "warm_start", "project_to_dict", "project_from_dict", "save_project",
-           "load_project", "result_from_dict", "project_problems", "new_project"]
+           "load_project", "result_from_dict", "project_problems", "new_project", "UPGRADES"]
 
 PROJECT_FORMAT = "flatweave-project"
-PROJECT_VERSION = 1
+PROJECT_VERSION = 2
 PROJECT_SUFFIX = ".flatweave"
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
@@ -415,8 +421,27 @@ def project_to_dict(project: Project) -> dict:
         "yarns": _yarns_to_list(p.settings.yarns),
         "display": {"units": p.units, "shear_warning_deg": float(p.shear_warning_deg),
                     "shear_limit_deg": float(p.shear_limit_deg)},
-        "result": None if p.result is None else result_to_dict(p.result, p.source),
+        "result": None if p.result is None else _result_doc(p.result, p.source),
     }
+
+
+def _result_doc(result: FlattenResult, source: str | None) -> dict:
+    doc = result_to_dict(result, source)
+    doc["history"] = [float(e) for e in result.history]
+    return doc
+
+
+def _upgrade_1_to_2(d: dict) -> dict:
+    """Version 1 had no energy history in the result: an empty one."""
+    d = dict(d)
+    if isinstance(d.get("result"), dict):
+        d["result"] = {**d["result"], "history": []}
+    d["version"] = 2
+    return d
+
+
+UPGRADES = {1: _upgrade_1_to_2}
+"""Version -> the function that turns a document of that version into one of the next."""
 
 
 def result_from_dict(d: Any, surface: NurbsSurface, where: str = "project") -> FlattenResult:
@@ -456,7 +481,12 @@ def result_from_dict(d: Any, surface: NurbsSurface, where: str = "project") -> F
         rebuilt = done.value
     else:  # the pipeline never yields without a solver
         raise AssertionError("flatten_iter yielded with the solver off")
-    return replace(rebuilt, settings=settings, metrics=dict(metrics), drape_stats=dict(stats))
+    history = d.get("history", [])
+    if not (isinstance(history, list) and all(isinstance(e, (int, float)) and not isinstance(e, bool)
+                                               and math.isfinite(e) for e in history)):
+        raise f.fail("result.history must be a list of finite energies")
+    return replace(rebuilt, settings=settings, metrics=dict(metrics), drape_stats=dict(stats),
+                   history=tuple(float(e) for e in history))
 
 
 def project_from_dict(d: Any, where: str = "project") -> Project:
@@ -477,6 +507,9 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
                      f"{core.__version__} reads versions up to {PROJECT_VERSION})")
     if version < 1:
         raise f.fail(f"project version {version} is not a valid version")
+    while version < PROJECT_VERSION:
+        d = UPGRADES[version](d)
+        version = d["version"]
     surface_doc = f.get(d, "surface", "project")
     try:
         surface = surface_from_json_dict(surface_doc, source=f"{where}: surface")

@@ -11,6 +11,14 @@ def open_plotters() -> set[str]:
     return set(_ALL_PLOTTERS)
 
 
+@pytest.fixture(autouse=True)
+def recovery_dir(tmp_path_factory, monkeypatch):
+    """Every test autosaves into a folder of its own, never the user's."""
+    folder = tmp_path_factory.mktemp("recovery")
+    monkeypatch.setenv("FLATWEAVE_RECOVERY_DIR", str(folder))
+    return folder
+
+
 @pytest.fixture
 def make_window(qtbot):
     """A factory of shown, ready main windows; fails if a window's plotters outlive it."""
@@ -36,3 +44,4 @@ def make_window(qtbot):
     for win in made:
         win.close()
     assert open_plotters() <= before, "a window's plotter was not closed"
+    assert all(win.session is None for win in made), "a window's recovery session outlived it"
