@@ -9,7 +9,7 @@ from pathlib import Path
 
 from core.errors import FlatweaveError
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "write_json"]
+__all__ = ["atomic_write_bytes", "atomic_write_text", "json_bytes", "write_json"]
 
 
 def atomic_write_bytes(path, data: bytes) -> None:
@@ -57,6 +57,16 @@ def atomic_write_text(path, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def json_bytes(obj, path) -> bytes:
+    """``obj`` as compact JSON (UTF-8). NaN and infinity are refused with a
+    one-line FlatweaveError naming ``path`` (JSON has no such numbers)."""
+    try:
+        return json.dumps(obj, allow_nan=False, separators=(",", ":")).encode("utf-8")
+    except ValueError:
+        raise FlatweaveError(f"cannot write {path}: it would hold a number that is not finite "
+                             f"(NaN or infinity); nothing was written") from None
+
+
 def write_json(path, obj) -> None:
     """Write ``obj`` as JSON, atomically. NaN and infinity are refused."""
-    atomic_write_text(path, json.dumps(obj, allow_nan=False, separators=(",", ":")))
+    atomic_write_bytes(path, json_bytes(obj, path))

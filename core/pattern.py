@@ -30,6 +30,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from core.darts import _boundary_distance
+from core.errors import SettingsError
 from core.mesh import WARP, WEFT, SpringMesh
 from core.nurbs import NurbsSurface
 from core.quadrature import boundary_polyline, edge_lengths
@@ -84,6 +85,8 @@ class Pattern:
     darts : the darts' openings; holes : closed 2D polygons of darts inside the piece
     pieces : every piece (darts may cut the mesh apart); the fields above are
         the largest piece's
+    unmapped : outline and dart-leg points left out because no node lies on
+        their side of the darts (a mesh shredded by crossing darts); 0 normally
     """
 
     xy: np.ndarray
@@ -94,6 +97,7 @@ class Pattern:
     darts: tuple = ()
     holes: tuple = ()
     pieces: tuple = ()
+    unmapped: int = 0
 
     @property
     def perimeter(self) -> float:
@@ -163,7 +167,7 @@ def node_frames(mesh: SpringMesh, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
                usable: np.ndarray | None = None, k: int = BLEND_K, valid=None,
-               frames=None, nearest: bool = False):
+               frames=None, nearest: bool = False, _candidates: int | None = None):
     """Map 3D points Q (q, 3) near the mesh into the 2D pattern (q, 2).
 
     Each point is expressed in the lattice frames of its k nearest usable
@@ -172,7 +176,10 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
 
     ``valid(rows (q, c), nodes (q, c)) -> (q, c) bool``, if given, vetoes
     point-node pairs (darts: a node across a dart from the point); the k
-    nearest valid nodes are blended. Points with no valid node get NaN.
+    nearest valid nodes are blended. The 4 (k + 1) nearest nodes are the
+    candidates; for a point with no valid one among them (a mesh cut into
+    narrow strips by many darts) the search widens until it finds one or has
+    tried every node. Points with no valid node at all get NaN.
     """
     W, P, ok = frames if frames is not None else node_frames(mesh, xyz)
     if usable is not None:
@@ -180,7 +187,7 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
     idx = np.flatnonzero(ok)
     if idx.size == 0:
         raise ValueError("no node has both a weft and a warp neighbour")
-    c = min(idx.size, 4 * (k + 1) if valid is not None else k + 1)
+    c = min(idx.size, _candidates or (4 * (k + 1) if valid is not None else k + 1))
     dist, nn = cKDTree(xyz[idx]).query(Q, k=c)
     dist, nn = dist.reshape(len(Q), c), idx[nn.reshape(len(Q), c)]
     val = np.ones(dist.shape, dtype=bool)
@@ -195,7 +202,9 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
                       1.5 * np.max(np.where(sel, dist, 0.0), axis=1))
     # weights fall to zero at that radius, so the blend is continuous as Q
     # moves and nodes enter or leave the nearest set
-    w = np.where(sel, np.clip(1.0 - (dist / np.maximum(radius, 1e-300)[:, None]) ** 2, 0.0, None) ** 2, 0.0)
+    # (unselected entries may be inf, past the last node: kept out of the ratio)
+    ratio = np.where(sel, dist, 0.0) / np.maximum(radius, 1e-300)[:, None]
+    w = np.where(sel, np.clip(1.0 - ratio ** 2, 0.0, None) ** 2, 0.0)
     first = np.argmax(sel, axis=1)
     w[np.arange(len(Q)), first] += np.where(sel.any(axis=1), 1e-300, 0.0)
     total = w.sum(axis=1, keepdims=True)
@@ -215,8 +224,16 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
     b = (g11 * r2 - g12 * r1) / det
     cand = xy[nn] + np.stack([a * mesh.r_weft, b * mesh.r_warp], axis=-1)
     out = np.einsum("qk,qkc->qc", np.where(sel, w, 0.0), cand) + np.where(total > 0, 0.0, np.nan)
+    near = np.where(sel.any(axis=1), nn[np.arange(len(Q)), first], -1)
+    lost = np.flatnonzero(near < 0)
+    if lost.size and valid is not None and c < idx.size:  # widen the search for those points only
+        def valid_lost(rows, nodes):
+            return valid(lost[rows], nodes)
+        more, more_near = map_points(Q[lost], mesh, xyz, xy, usable, k, valid_lost, (W, P, ok), True,
+                                     _candidates=4 * c)
+        out[lost], near[lost] = more, more_near
     if nearest:
-        return out, np.where(sel.any(axis=1), nn[np.arange(len(Q)), first], -1)
+        return out, near
     return out
 
 
@@ -278,9 +295,13 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
     sheet = _same_sheet(surface, mesh, xyz, uv, buv, spacing) if uv is not None else None
     if darts is None or len(darts) == 0:
         outline = map_points(Q, mesh, xyz, xy, frames=frames, valid=sheet)
-        piece = _oriented(Piece(outline, Q, buv, np.ones(len(Q), dtype=bool), np.arange(mesh.n_nodes)))
+        piece, lost = _finite_piece(Piece(outline, Q, buv, np.ones(len(Q), dtype=bool), np.arange(mesh.n_nodes)))
+        if piece is None:
+            raise SettingsError("no point of the boundary maps into the pattern: the mesh is too broken "
+                                "to flatten; try a smaller spacing")
+        piece = _oriented(piece)
         return Pattern(xy, piece.outline, piece.outline3d, piece.outline_uv, piece.on_boundary, (), (),
-                       (piece,))
+                       (piece,), lost)
     uv = np.asarray(uv, dtype=float)
     # the darts: curves and both sides' legs
     openings, ends = [], []
@@ -380,10 +401,28 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
                     pieces[n_] = Piece(p.outline, p.outline3d, p.outline_uv, p.on_boundary, p.nodes,
                                        p.holes + (hole,))
                     break
-    pieces = sorted((_oriented(p) for p in pieces), key=lambda p: -abs(polygon_area(p.outline)))
+    # points no node maps (no node on their side of the darts) are left out
+    unmapped = 0
+    kept = []
+    for p in pieces:
+        p, lost = _finite_piece(p)
+        unmapped += lost
+        if p is not None:
+            kept.append(p)
+    if not kept:
+        raise SettingsError(f"the {len(darts)} darts leave no piece of fabric that can be flattened "
+                            f"({mesh.n_nodes} nodes); remove some darts or use a smaller spacing")
+    finite_openings = []
+    for o in openings:
+        good = np.isfinite(o.leg_a).all(axis=1) & np.isfinite(o.leg_b).all(axis=1)
+        unmapped += int((~good).sum())
+        if good.sum() >= 2:
+            finite_openings.append(DartOpening(o.name, o.kind, o.curve_uv[good], o.curve3d[good], o.leg_a[good],
+                                               o.leg_b[good], o.mouth))
+    pieces = sorted((_oriented(p) for p in kept), key=lambda p: -abs(polygon_area(p.outline)))
     main = pieces[0]
     return Pattern(xy, main.outline, main.outline3d, main.outline_uv, main.on_boundary,
-                   tuple(openings), main.holes, tuple(pieces))
+                   tuple(finite_openings), main.holes, tuple(pieces), unmapped)
 
 
 def _same_sheet(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, uv: np.ndarray,
@@ -412,6 +451,21 @@ def _same_sheet(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, uv: np
         return steps <= 2.0 * d / spacing + 1
 
     return valid
+
+
+def _finite_piece(p: Piece) -> tuple[Piece | None, int]:
+    """The piece without outline points that did not map (NaN) and holes'
+    NaN points; None if fewer than 3 outline points are left. Also the count
+    of outline points left out."""
+    good = np.isfinite(p.outline).all(axis=1)
+    holes = tuple(h[np.isfinite(h).all(axis=1)] for h in p.holes)
+    holes = tuple(h for h in holes if len(h) >= 3)
+    lost = int((~good).sum())
+    if good.sum() < 3:
+        return None, lost
+    if lost == 0 and len(holes) == len(p.holes):
+        return p, 0
+    return Piece(p.outline[good], p.outline3d[good], p.outline_uv[good], p.on_boundary[good], p.nodes, holes), lost
 
 
 def _oriented(p: Piece) -> Piece:

@@ -245,6 +245,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "solve_seconds": solve.seconds if solve else 0.0,
         "seconds": time.perf_counter() - t0,
         "pieces": len(pattern.pieces),
+        "unmapped_points": pattern.unmapped,
     })
     return FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
                          tuple(float(e) for e in solve.history) if solve else ())

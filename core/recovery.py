@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from core.errors import FlatweaveError
-from core.fileio import atomic_write_bytes
+from core.fileio import atomic_write_bytes, json_bytes
 from core.project import PROJECT_SUFFIX, Project, load_project, project_to_dict
 
 try:  # POSIX; elsewhere a session is alive while its pid is
@@ -110,7 +110,7 @@ class Session:
         doc = project_to_dict(project)
         doc["recovery"] = {"document_path": None if document_path is None else os.fspath(document_path),
                            "saved_at": time.time(), "pid": os.getpid()}
-        atomic_write_bytes(self.path, json.dumps(doc, allow_nan=False, separators=(",", ":")).encode())
+        atomic_write_bytes(self.path, json_bytes(doc, self.path))
         self.writes += 1
         return self.path
 
@@ -207,7 +207,7 @@ def save_with_backups(project: Project, path: str | os.PathLike, backups: int = 
     new file, so a crash at any point leaves the previous save whole: at
     ``path``, or at backup 1. One-line FlatweaveError on failure."""
     path = Path(path)
-    data = json.dumps(project_to_dict(project), allow_nan=False, separators=(",", ":")).encode()
+    data = json_bytes(project_to_dict(project), path)
     try:
         old = path.read_bytes() if backups > 0 and path.is_file() else None
     except OSError:

@@ -62,6 +62,16 @@ class Soak:
         self.errors: Counter = Counter()
         self.max_threads = 0
         self.saved: Path | None = None
+        self.outcomes: Counter = Counter()
+        self.with_result = 0
+        win.run_finished.connect(self._finished)
+        win.run_failed.connect(lambda _m: self.outcomes.update(["failed"]))
+
+    def _finished(self, outcome) -> None:
+        if outcome.result is None:
+            self.outcomes["stopped before a result"] += 1
+        else:
+            self.outcomes["stopped" if outcome.stopped else "converged or on a budget"] += 1
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -148,8 +158,12 @@ class Soak:
             win.edit_display("Shear angles", {"shear_warning_deg": w, "shear_limit_deg": w + rng.uniform(5, 20)})
         elif kind == "run":
             win.run()
+            if rng.random() < 0.5:  # half the runs are left to finish, half are cut short by what follows
+                self.settle()
         elif kind == "rerun":
             win.rerun()
+            if rng.random() < 0.5:
+                self.settle()
         elif kind == "stop":
             win.stop()
         elif kind == "pause":
@@ -186,6 +200,7 @@ class Soak:
         problems = []
         win, doc = self.win, self.doc
         p = doc.project
+        self.with_result += p.result is not None
         problems += project_problems(p)
         if p.result is not None and p.result_is_current and not settings_equal(p.result.settings, p.settings):
             problems.append("a result marked current was made with other settings")
@@ -284,7 +299,10 @@ def main(argv=None) -> int:
         f"{mem.max():.0f} MB |",
         f"| memory trend over the second half | {slope:+.2f} MB per 100 edits (limit {args.max_growth:g}) |",
         f"| solve threads alive at once (sampled) | at most {soak.max_threads} |",
-        f"| runs started | {win.runner.runs_started} |",
+        f"| runs started | {win.runner.runs_started} (ended: "
+        + ", ".join(f"{k} {v}" for k, v in soak.outcomes.most_common()) + "; the rest were replaced by "
+        "a newer run or cancelled by an undo) |",
+        f"| edits after which the document held a result | {soak.with_result} |",
         f"| undo stack at the end | {len(win.document.history)} (limit {win.document.limit}) |",
         "",
         "Edits made: " + ", ".join(f"{k} {v}" for k, v in sorted(soak.counts.items())) + ".",

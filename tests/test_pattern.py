@@ -1,5 +1,8 @@
 """The 2D pattern (paper 3.5) and the paper's Examples I to III."""
 
+from dataclasses import replace
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -114,3 +117,31 @@ def test_example_3_yarn_direction_changes_the_woven_pattern():
         outlines.append(r.pattern.outline)
     A, B = rigid_align(*outlines)
     assert hausdorff(A, B) > 0.01 * diameter(A)
+
+
+def test_a_mesh_shredded_by_crossing_darts_still_gives_a_finite_pattern(tmp_path):
+    """Eleven crossing darts on a coarse octant (found by the soak test):
+    legs with no node on their side used to put NaN into the outline, and the
+    project could then not be saved. Now such points are left out and counted."""
+    from core.project import load_project, project_problems, save_project
+
+    p = load_project(Path(__file__).parent / "data" / "shredded-by-darts.flatweave")
+    assert len(p.settings.darts) == 11
+    r = flatten(p.surface, replace(p.settings, solver="none"))
+    pat = r.pattern
+    assert pat.unmapped > 0 and r.metrics["unmapped_points"] == pat.unmapped
+    for piece in pat.pieces:
+        assert np.isfinite(piece.outline).all() and len(piece.outline) >= 3
+        assert len(piece.outline) == len(piece.outline3d) == len(piece.on_boundary)
+        assert all(np.isfinite(h).all() for h in piece.holes)
+    for o in pat.darts:
+        assert np.isfinite(o.leg_a).all() and np.isfinite(o.leg_b).all() and len(o.leg_a) == len(o.curve_uv)
+    assert all(np.isfinite(v) for v in r.metrics.values() if isinstance(v, float))
+    solved = p.with_result(r)
+    assert project_problems(solved) == []
+    assert load_project(save_project(solved, tmp_path / "x.flatweave")).result.pattern.unmapped == pat.unmapped
+
+
+def test_an_ordinary_pattern_leaves_nothing_out():
+    r = flatten(load_example("octant"), FlattenSettings(spacing=0.1))
+    assert r.pattern.unmapped == 0 and r.metrics["unmapped_points"] == 0

@@ -336,3 +336,14 @@ def test_unsaved_work(octant, solved, tmp_path):
     never_saved = Document(solved)
     never_saved.reset(solved, None, saved=False)
     assert never_saved.unsaved_work
+
+
+def test_a_non_finite_number_is_refused_before_anything_is_written(tmp_path):
+    from core.fileio import write_json
+
+    target = tmp_path / "x.json"
+    target.write_text("old")
+    with pytest.raises(FlatweaveError, match="not finite") as info:
+        write_json(target, {"a": [1.0, float("nan")]})
+    assert "\n" not in str(info.value) and str(target) in str(info.value)
+    assert target.read_text() == "old" and list(tmp_path.iterdir()) == [target]
