@@ -67,21 +67,22 @@ class SurfaceFault:
     good) gives ``value`` in one row of the homogeneous derivative ``order``
     ((0, 0): the point, (1, 0): S_u, ...), at the middle point. Installed with
     pytest's monkeypatch, so it ends with the test. Armed by :meth:`arm_after`,
-    it acts only in the thread of that solve and only while it runs."""
+    it acts only inside the solver (not in what its caller does between
+    iterations, such as a live pattern) and only until that solve ends."""
 
     def __init__(self, monkeypatch, order=(0, 0), value=float("nan")):
         from core.nurbs import NurbsSurface
 
         real = NurbsSurface._homogeneous
         self.armed = False
-        self.thread: int | None = None  # the only thread it acts in (None: any)
+        self.inside: threading.local | None = None  # set by arm_after: act only inside its solver
         self.hits = 0
         fault = self
 
         def homogeneous(surface, uv, max_order):
             out = real(surface, uv, max_order)
             if (fault.armed and len(uv) > 1 and order in out
-                    and fault.thread in (None, threading.get_ident())):
+                    and (fault.inside is None or getattr(fault.inside, "now", False))):
                 out[order][len(uv) // 2] = value
                 fault.hits += 1
             return out
@@ -91,19 +92,23 @@ class SurfaceFault:
     def arm_after(self, k: int, iterate):
         """Wrap a solver generator function (``core.solver.iterate``'s signature):
         the fault arms once a snapshot of iteration ``k`` has been yielded, and
-        disarms when that solve ends (by its error or otherwise)."""
+        disarms when that solve ends (by its error or otherwise). Every solve
+        through the wrapper arms it again."""
         fault = self
+        fault.inside = threading.local()
 
         def armed(*args, **kw):
             gen = iterate(*args, **kw)
             try:
                 while True:
+                    fault.inside.now = True
                     try:
                         snap = next(gen)
                     except StopIteration as done:
                         return done.value
-                    if snap.iteration >= k and not fault.armed:
-                        fault.thread, fault.armed = threading.get_ident(), True
+                    finally:
+                        fault.inside.now = False
+                    fault.armed = fault.armed or snap.iteration >= k
                     yield snap
             finally:
                 fault.armed = False
