@@ -29,6 +29,8 @@ Structure (see docs/ARCHITECTURE.md):
 from __future__ import annotations
 
 import gc
+import sys
+import traceback
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -430,6 +432,7 @@ class MainWindow(QMainWindow):
         r.started.connect(self._run_started)
         r.finished.connect(self._run_finished)
         r.failed.connect(self._run_failed)
+        r.cancelled.connect(self._run_cancelled)
         r.state_changed.connect(lambda _s: self._update_actions())
 
     # ------------------------------------------------------------------ actions
@@ -565,8 +568,10 @@ class MainWindow(QMainWindow):
             path = path.with_name(path.name + PROJECT_SUFFIX)
         try:
             save_with_backups(self.document.project, path)
-        except FlatweaveError as exc:
-            self.show_error(f"Cannot save: {exc}")
+        except Exception as exc:  # any failure is said, in one line; the document stays unsaved (dirty)
+            if not isinstance(exc, FlatweaveError):  # a bug, not a user error: keep its traceback
+                traceback.print_exc(file=sys.stderr)
+            self.show_error(f"Cannot save: {one_line(exc)}")
             return False
         self.document.mark_saved(path)
         self.autosave()  # nothing left to recover
@@ -1098,6 +1103,15 @@ class MainWindow(QMainWindow):
             self.show_result(self.project)  # back to the document's own state
         self._update_actions()
         self.run_failed.emit(message)
+
+    def _run_cancelled(self) -> None:
+        """A run was abandoned (undo, another document, ``Runner.cancel``) and none
+        follows: nothing of it is kept, and views still showing its live frames
+        go back to the document."""
+        self.progress.setText("The run was cancelled; nothing of it was kept.")
+        if self.project is not None and self.frame is not None and not self.frame.final:
+            self.show_result(self.project)
+        self._update_actions()
 
     # ------------------------------------------------------------------ errors
     def show_error(self, message: str) -> None:

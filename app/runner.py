@@ -26,13 +26,16 @@ FRAME_INTERVAL_MS = 30
 
 class Runner(QObject):
     """Signals: ``frame(Frame)`` to draw; ``started(Project)``; ``finished(RunOutcome)``;
-    ``failed(str)`` (one line); ``state_changed(str)`` with "idle", "running",
-    "paused" or "stopping"."""
+    ``failed(str)`` (one line); ``cancelled()`` when an abandoned run has ended
+    and no other follows; ``state_changed(str)`` with "idle", "running",
+    "paused" or "stopping". Every run that is not replaced ends with exactly one
+    of ``finished``, ``failed`` and ``cancelled``."""
 
     frame = Signal(object)
     started = Signal(object)
     finished = Signal(object)
     failed = Signal(str)
+    cancelled = Signal()
     state_changed = Signal(str)
 
     def __init__(self, parent=None):
@@ -188,11 +191,15 @@ class Runner(QObject):
             self.failed.emit(error)
         elif outcome is not None:
             self.finished.emit(outcome)
+        elif not abandoned:  # the thread died without a word (not an Exception): still say so
+            self.failed.emit("the solve ended without a result or an error message (an internal error)")
         if self._pending is not None:
             project, initial = self._pending
             self._pending = None
             self._launch(project, initial)
         else:
+            if abandoned and error is None and outcome is None:
+                self.cancelled.emit()
             self.state_changed.emit(self.state)
 
     def _cleanup(self) -> None:

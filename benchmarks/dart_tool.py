@@ -17,7 +17,7 @@ designer does, and measures:
 
 Each repeat undoes the dart first (undo restores the earlier result without a
 solve), so every row answers the same edit. The rows are run twice: with the
-solve thread at the app's lower OS priority (nice 10, so the GUI thread wins
+solve thread at the app's lower OS priority (``app.worker.SOLVE_NICENESS``, so the GUI thread wins
 the CPU), and at normal priority, which shows how much of the time goes to
 other processes on a shared machine. Not a test: numbers depend on the machine
 (software OpenGL under Xvfb here) and its load (reported).
@@ -135,7 +135,7 @@ def main() -> int:
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for row in rows:
-        lines.append(f"| {'nice 10' if row['nice'] else 'normal'} | {row['load']:.1f} | {row['nodes']:,} | "
+        lines.append(f"| {f'nice {solve_worker.SOLVE_NICENESS}' if row['nice'] else 'normal'} | {row['load']:.1f} | {row['nodes']:,} | "
                      f"{row['click_ms']:.0f} | {row['first_s']:.2f} | {row['total_s']:.2f} | {row['iterations']} | {row['frames']} | {row['gap_ms']:.0f} | "
                      f"{row['energy'][0]:.4g} -> {row['energy'][1]:.4g} |")
     lines += ["", "Load: the one-minute load average when the re-solve ended (this benchmark included; the "

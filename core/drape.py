@@ -37,7 +37,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from core.errors import SettingsError
+from core.errors import SettingsError, SolverError
 from core.mesh import DIAG, Material, SpringMesh, build_mesh
 from core.nurbs import NurbsSurface
 
@@ -326,6 +326,11 @@ class _Builder:
     # -- bookkeeping
     def add(self, ij, uv, how) -> None:
         ev = self.surface.evaluate(uv)
+        bad = ~(np.isfinite(ev.xyz).all(axis=1) & np.isfinite(ev.normal).all(axis=1))
+        if bad.any():  # a NaN in the k-d trees would fail obscurely later
+            n = int(bad.sum())
+            raise SolverError(f"the surface evaluation returned a non-finite point or normal at {n:,} "
+                              f"node{'s' if n != 1 else ''} while draping; the solve stopped and nothing was changed")
         n0 = self.uv.shape[0]
         self.uv = np.concatenate([self.uv, uv])
         self.xyz = np.concatenate([self.xyz, ev.xyz])

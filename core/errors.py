@@ -16,3 +16,10 @@ class SurfaceError(FlatweaveError, ValueError):
 
 class SettingsError(FlatweaveError, ValueError):
     """A setting (spacing, seed, angle, material, ...) is invalid."""
+
+
+class SolverError(FlatweaveError, ArithmeticError):
+    """A solve cannot go on: a value became NaN or infinite (the energy, its
+    gradient, a node's position, or the surface evaluated at a point of its
+    domain). The message names what, at which iteration and why; no result
+    is made, so nothing the user has is changed."""

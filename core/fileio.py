@@ -9,7 +9,7 @@ from pathlib import Path
 
 from core.errors import FlatweaveError
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "json_bytes", "write_json"]
+__all__ = ["atomic_write_bytes", "atomic_write_many", "atomic_write_text", "json_bytes", "write_json"]
 
 
 def atomic_write_bytes(path, data: bytes) -> None:
@@ -19,7 +19,44 @@ def atomic_write_bytes(path, data: bytes) -> None:
     and the file is renamed over ``path``. On any failure the temporary file
     is removed and a one-line FlatweaveError names the path and the reason.
     """
-    path = Path(path)
+    atomic_write_many([(path, data)])
+
+
+def atomic_write_many(items) -> None:
+    """Write several files, all or nothing: ``items`` is (path, bytes) pairs.
+
+    Every file is first written in full to a temporary file beside its target
+    and flushed to disk (where a full disk or a refused folder shows); only
+    when all are there are they renamed into place. A failure before the
+    renames removes every temporary file and leaves every target as it was.
+    A rename that fails (rare: the folder was writable a moment before)
+    leaves the targets renamed before it new, the rest as they were, and the
+    one-line FlatweaveError names the files already written.
+    """
+    staged: list[tuple[Path, str]] = []
+    try:
+        for path, data in items:
+            path = Path(path)
+            staged.append((path, _stage(path, data)))
+    except FlatweaveError:
+        for _, tmp in staged:
+            _remove(tmp)
+        raise
+    done: list[Path] = []
+    for k, (path, tmp) in enumerate(staged):
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            for _, rest in staged[k:]:
+                _remove(rest)
+            already = f" ({', '.join(map(str, done))} already written)" if done else ""
+            raise FlatweaveError(f"cannot write {path}: {exc.strerror or exc}{already}") from None
+        done.append(path)
+
+
+def _stage(path: Path, data: bytes) -> str:
+    """Write ``data`` to a new temporary file beside ``path``, flushed to disk;
+    its name. On failure nothing is left and a one-line FlatweaveError says why."""
     folder = path.parent if str(path.parent) else Path(".")
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
@@ -31,13 +68,17 @@ def atomic_write_bytes(path, data: bytes) -> None:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
     except OSError as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
+        _remove(tmp)
         raise FlatweaveError(f"cannot write {path}: {exc.strerror or exc}") from None
+    return tmp
+
+
+def _remove(tmp: str) -> None:
+    try:
+        os.unlink(tmp)
+    except OSError:
+        pass
 
 
 def _file_mode(path: Path) -> int:

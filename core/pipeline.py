@@ -20,7 +20,7 @@ import core
 from core.darts import CurveDart, DartSet, PlaneDart
 from core.drape import DrapeSettings, drape, refill
 from core.energy import Energy, YarnConstraint
-from core.errors import SettingsError
+from core.errors import SettingsError, SolverError
 from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
 from core.metrics import cell_shear_deg, deformation_summary, spring_lengths
 from core.nurbs import NurbsSurface
@@ -29,7 +29,7 @@ from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rul
 from core.solver import Problem, SolveResult, SolverOptions, State, iterate
 
 __all__ = ["FlattenSettings", "FlattenResult", "flatten", "flatten_iter", "result_to_dict",
-           "make_problem", "compute_metrics", "state_from_dict", "SOLVERS"]
+           "make_problem", "compute_metrics", "state_from_dict", "check_result_finite", "SOLVERS"]
 
 SOLVERS = ("fast", "paper", "none")
 
@@ -204,12 +204,42 @@ def _check_drape(surface: NurbsSurface, d, ds: DrapeSettings) -> None:
             f"the surface there, or try another seed or a smaller spacing")
 
 
+def _check_finite(what: str, arr, unit: str) -> None:
+    """SolverError unless every row of ``arr`` is finite."""
+    arr = np.asarray(arr, dtype=float)
+    bad = ~np.isfinite(arr.reshape(len(arr), -1)).all(axis=1) if arr.size else np.zeros(0, dtype=bool)
+    if bad.any():
+        word = "NaN" if np.isnan(arr).any() else "infinite"
+        raise SolverError(f"the result's {what} {'is' if bad.sum() == 1 else 'are'} {word} at {int(bad.sum()):,} of "
+                          f"{len(arr):,} {unit}; the solve stopped and nothing was changed")
+
+
+def check_result_finite(uv: np.ndarray, xyz: np.ndarray, pattern: Pattern | None = None,
+                        metrics: dict | None = None) -> None:
+    """SolverError unless a result's nodes, pattern and numeric metrics are all
+    finite: a result is never made from NaN or infinite numbers."""
+    _check_finite("(u, v)", uv, "nodes")
+    _check_finite("points on the surface", xyz, "nodes")
+    if pattern is not None:
+        _check_finite("pattern positions", pattern.xy, "nodes")
+        _check_finite("outline", pattern.outline, "outline points")
+        for k, piece in enumerate(pattern.pieces):
+            _check_finite(f"outline of piece {k + 1}", piece.outline, "outline points")
+    if metrics is not None:
+        bad = sorted(k for k, v in metrics.items() if isinstance(v, (float, np.floating)) and not math.isfinite(v))
+        if bad:
+            raise SolverError(f"the result's {', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not finite; "
+                              f"the solve stopped and nothing was changed")
+
+
 def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
                  area: float | None = None):
     """Generator: drape (or warm-start from ``initial``), minimise, pattern.
 
     Yields the solver's :class:`core.solver.Snapshot` s; returns the
-    :class:`FlattenResult`. Closing it stops the solve at once.
+    :class:`FlattenResult`. Closing it stops the solve at once. A NaN or
+    infinity anywhere (solver, nodes, pattern, metrics) raises
+    :class:`~core.errors.SolverError`: no result holds a non-finite number.
     """
     if settings.solver not in SOLVERS:
         raise SettingsError(f"solver {settings.solver!r} is not one of {', '.join(SOLVERS)}")
@@ -229,6 +259,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         solve = yield from iterate(problem, state, settings.solver_options())
         state = State(solve.mesh, solve.uv)
     xyz = surface.points(state.uv)
+    check_result_finite(state.uv, xyz)
     if not node_frames(state.mesh, xyz)[2].any():
         raise SettingsError(f"no complete cell of the mesh is left ({state.mesh.n_nodes:,} nodes): there is "
                             f"nothing to make a pattern from; try a smaller spacing or another seed")
@@ -247,6 +278,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "pieces": len(pattern.pieces),
         "unmapped_points": pattern.unmapped,
     })
+    check_result_finite(state.uv, xyz, pattern, metrics)
     return FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
                          tuple(float(e) for e in solve.history) if solve else ())
 

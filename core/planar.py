@@ -99,8 +99,9 @@ from scipy.spatial import cKDTree
 
 import core
 from core.darts import _boundary_distance
-from core.errors import SettingsError
+from core.errors import SettingsError, SolverError
 from core.nurbs import NurbsSurface
+from core.pipeline import check_result_finite
 from core.pattern import DartOpening, Pattern, Piece, _resample_uv, polygon_area
 from core.quadrature import boundary_length, edge_lengths, region_area
 
@@ -217,6 +218,7 @@ def tessellate(surface: NurbsSurface, spacing: float, max_nodes: int = 2_000_000
     rg = np.linspace(r0, r1, mr)
     S_grid, R_grid = np.meshgrid(sg, rg, indexing="ij")
     _, Su, Sv = surface.derivatives(_grid_uv(S_grid.ravel(), R_grid.ravel(), s_axis))
+    _check_points(np.hstack([Su, Sv]), "derivative samples", "triangulating", "derivative")
     dr = (Sv if r_axis == 1 else Su)
     ds = (Su if s_axis == 0 else Sv)
     speed_r = np.linalg.norm(dr, axis=1).reshape(ms, mr)
@@ -242,6 +244,7 @@ def tessellate(surface: NurbsSurface, spacing: float, max_nodes: int = 2_000_000
     mfine = int(min(max(65, 8 * math.ceil(width / h) + 1), 20001))
     sf = np.linspace(s0, s1, mfine)
     P = surface.points(_grid_uv(np.tile(sf, n_rows), np.repeat(r_rows, mfine), s_axis)).reshape(n_rows, mfine, 3)
+    _check_points(P, "row samples", "triangulating")
     C = np.concatenate([np.zeros((n_rows, 1)), np.cumsum(np.linalg.norm(np.diff(P, axis=1), axis=2), axis=1)],
                        axis=1)
     L_rows = C[:, -1]
@@ -280,8 +283,17 @@ def tessellate(surface: NurbsSurface, spacing: float, max_nodes: int = 2_000_000
     if s_axis == 1:  # (s, r) = (v, u) is a reflection of (u, v): make them counter-clockwise in (u, v)
         tri = tri[:, [0, 2, 1]]
     xyz = surface.points(uv)
+    _check_points(xyz, "vertices", "triangulating")
     on_b = (_boundary_distance(surface, uv) < 1e-12)
     return _weld(Tessellation(uv, xyz, tri, on_b), tiny)
+
+
+def _check_points(xyz: np.ndarray, what: str, when: str, kind: str = "point") -> None:
+    """SolverError unless every point (or derivative) of the surface is finite."""
+    bad = ~np.isfinite(xyz.reshape(-1, xyz.shape[-1])).all(axis=1)
+    if bad.any():
+        raise SolverError(f"the surface evaluation returned a non-finite {kind} at {int(bad.sum()):,} of {len(bad):,} "
+                          f"{what} while {when}; the solve stopped and nothing was changed")
 
 
 def _weld(t: Tessellation, tol: float) -> Tessellation:
@@ -664,13 +676,19 @@ def relax(xy0: np.ndarray, edges: np.ndarray, rest: np.ndarray, k: np.ndarray | 
     gain ratio (Nielsen's rule). Stops when an accepted step lowers the energy
     by less than ``tol`` times the energy, or the energy is negligible
     (1e-24 of sum k L^2). "lbfgs": scipy's L-BFGS-B with the same gradient.
-    "none": no relaxation.
+    "none": no relaxation. A start whose energy or gradient is not finite
+    raises :class:`~core.errors.SolverError`.
     """
     t0 = time.perf_counter()
     xy = np.asarray(xy0, dtype=float).copy()
     n = len(xy)
     kk = np.broadcast_to(np.asarray(k, dtype=float), rest.shape).astype(float)
     E0, g = spring_energy(xy, edges, rest, kk)
+    if not (math.isfinite(E0) and np.isfinite(g).all()):
+        what = "energy" if not math.isfinite(E0) else "energy's gradient"
+        word = "NaN" if np.isnan(E0) or np.isnan(g).any() else "infinite"
+        raise SolverError(f"the planar {what} became {word} in the unfolded start (non-finite positions or rest "
+                          f"lengths); the solve stopped and nothing was changed")
     floor = 1e-24 * float(np.sum(kk * rest * rest))
     if solver == "none" or E0 <= floor or max_iter == 0:
         return RelaxResult(xy, E0, E0, 0, 1, "no relaxation" if solver == "none" else "converged",
@@ -726,6 +744,8 @@ def relax(xy0: np.ndarray, edges: np.ndarray, rest: np.ndarray, k: np.ndarray | 
                 step = -lu.solve(grad)
             except RuntimeError:  # singular: damp harder
                 lam *= 10.0
+                if lam > 1e16:
+                    break
                 continue
             xn = xy + step.reshape(-1, 2)
             En, gn = spring_energy(xn, edges, rest, kk)
@@ -796,6 +816,7 @@ def flatten_planar(surface: NurbsSurface, settings: PlanarSettings, area: float 
     tess = tessellate(surface, h, settings.max_nodes)
     if settings.darts:
         tess = cut_darts(surface, tess, settings.darts, h)
+        _check_points(tess.xyz, "vertices", "cutting the darts")
     t_tess = time.perf_counter() - t0
     edges = triangle_edges(tess.tri)
     rest = np.linalg.norm(tess.xyz[edges[:, 0]] - tess.xyz[edges[:, 1]], axis=1)
@@ -814,6 +835,7 @@ def flatten_planar(surface: NurbsSurface, settings: PlanarSettings, area: float 
         "tessellate_seconds": t_tess, "unfold_seconds": t_unf, "solve_seconds": rr.seconds,
         "seconds": time.perf_counter() - t0,
     })
+    check_result_finite(tess.uv, tess.xyz, pattern, metrics)
     return PlanarResult(surface, settings, tess, edges, rest, unf, rr, xy, pattern, metrics,
                         {"seeds": list(unf.seeds)})
 

@@ -25,6 +25,14 @@ solve goes on until the population stops changing. A lattice position deleted
 twice is never refilled, and the seed node is held at its (u, v) (an anchor
 that removes the sliding of the whole mesh over the surface, along which the
 energy barely changes).
+
+Non-finite values stop a solve (:class:`~core.errors.SolverError`): the energy,
+its gradient or Hessian, or a node's (u, v) at the current iterate, or the
+surface evaluated to NaN or infinity at a point inside its domain. The message
+names what, the iteration and the cause. A trial step whose energy is not
+finite only because nodes stepped out of the domain (where the surface's
+polynomial extension can overflow) is rejected like any step that does not
+lower the energy.
 """
 
 from __future__ import annotations
@@ -38,7 +46,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from core.energy import Energy
-from core.errors import SettingsError
+from core.errors import SettingsError, SolverError
 from core.mesh import SpringMesh
 from core.metrics import spring_strain
 
@@ -299,6 +307,57 @@ def _anchors(problem: Problem, mesh: SpringMesh, uv: np.ndarray, options: Solver
                     return None, _PlanePin(surface, (0, 0), chord, p0)
             return None, None
     return (0, 0), None
+
+
+# ------------------------------------------------------------------ non-finite values
+def _word(x) -> str:
+    """'NaN' if any of ``x`` is NaN, else 'infinite'."""
+    return "NaN" if np.isnan(np.asarray(x, dtype=float)).any() else "infinite"
+
+
+def _nodes(n: int) -> str:
+    return f"{n:,} node{'s' if n != 1 else ''}"
+
+
+def _surface_cause(surface, uv: np.ndarray, ev=None) -> str | None:
+    """What is not finite in the surface's evaluation at ``uv`` (None: nothing)."""
+    uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+    bad_uv = ~np.isfinite(uv).all(axis=1)
+    if bad_uv.any():
+        return f"{_nodes(int(bad_uv.sum()))} had a non-finite (u, v)"
+    if ev is None or ev.suu is None:
+        ev = surface.evaluate(uv, second=True)
+    for name, arrays in (("point", (ev.xyz,)), ("first derivative", (ev.su, ev.sv)),
+                         ("second derivative", (ev.suu, ev.suv, ev.svv))):
+        bad = np.zeros(len(uv), dtype=bool)
+        for arr in arrays:
+            bad |= ~np.isfinite(arr).all(axis=1)
+        if bad.any():
+            inside = int((bad & surface.in_domain(uv)).sum())
+            where = f", {inside:,} of them inside its domain" if inside < bad.sum() else ""
+            return f"the surface evaluation returned a non-finite {name} at {_nodes(int(bad.sum()))}{where}"
+    return None
+
+
+def _cause(surface, uv: np.ndarray, ev=None) -> str:
+    """Why a value computed at ``uv`` is not finite: the first non-finite input found."""
+    return _surface_cause(surface, uv, ev) or "an overflow in the arithmetic, with every input finite"
+
+
+def _not_finite(what: str, value, iteration: int, cause: str) -> SolverError:
+    """The one-line error of a solve stopped by a non-finite ``value``."""
+    when = f"at iteration {iteration}" if iteration > 0 else "in the starting mesh"
+    return SolverError(f"{what} became {_word(value)} {when} ({cause}); the solve stopped and nothing was changed")
+
+
+def _broken_inside(surface, uv: np.ndarray, xyz: np.ndarray, *derivs) -> bool:
+    """True if the surface gave a non-finite point (or derivative) at a node
+    inside its domain: the surface cannot be evaluated there, so no smaller step
+    will help (outside the domain the extension may overflow: a step too long)."""
+    bad = ~np.isfinite(xyz).all(axis=1)
+    for d in derivs:
+        bad |= ~np.isfinite(d).all(axis=1)
+    return bool((bad & surface.in_domain(uv)).any())
 
 
 # ------------------------------------------------------------------ Levenberg-Marquardt
@@ -643,10 +702,13 @@ def _iterate_fast(run: _Run):
         rd_ = _Round(run)
         ev_ = surface.evaluate(rd_.uv, second=True)
         run.nfev += 1
-        return rd_, ev_, _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv)
+        res = _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv)
+        E_ = 0.5 * (res[0] @ res[0] + res[2] @ res[2])
+        if not math.isfinite(E_):
+            raise _not_finite("the energy", E_, run.nit, _cause(surface, rd_.uv, ev_))
+        return rd_, ev_, res, E_
 
-    rnd, ev, (rs, Q, rd, Jd) = start()
-    E = 0.5 * (rs @ rs + rd @ rd)
+    rnd, ev, (rs, Q, rd, Jd), E = start()
     while True:
         converged = E <= rnd.floor
         if not converged and not run.budget_left():
@@ -655,6 +717,9 @@ def _iterate_fast(run: _Run):
         if not converged:
             energy, normal = rnd.energy, rnd.normal
             Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
+            if not (np.isfinite(Hs).all() and np.isfinite(Hn).all()):
+                bad = Hs if not np.isfinite(Hs).all() else Hn
+                raise _not_finite("the energy's Hessian", bad, run.nit + 1, _cause(surface, rnd.uv, ev))
             big = max(float(np.abs(Hs).max(initial=0.0)), 1e-300)
             if not rnd.alive.all():  # switched-off nodes keep still
                 Hn[~rnd.alive] = eye * big
@@ -667,8 +732,12 @@ def _iterate_fast(run: _Run):
                 Hn[pinned] += 1e8 * big * np.outer(off, off) - mu * ch_
             A, damp = normal.assemble(Hs, Jd, Hn, lam)
             g = normal.gradient(Q, rs, Jd, rd, energy)
+            if not np.isfinite(g).all():
+                raise _not_finite("the energy's gradient", g, run.nit + 1, _cause(surface, rnd.uv, ev))
             try:
                 step = rnd.solve(A, g)
+                if not np.isfinite(step).all():
+                    raise RuntimeError("non-finite step")
             except RuntimeError:  # singular: damp harder
                 lam *= 10
                 run.nit += 1
@@ -681,12 +750,18 @@ def _iterate_fast(run: _Run):
         if not converged:
             uv_try = rnd.uv + normal.scatter(step, energy.n)
             if pinned is not None:
+                before = uv_try[pinned].copy()
                 run.pin.retract(uv_try, pinned)
+                if not np.isfinite(uv_try[pinned]).all():
+                    raise _not_finite("the (u, v) of the node held to the weft plane", uv_try[pinned], run.nit + 1,
+                                      _surface_cause(surface, before) or "its retraction onto the plane diverged")
             ev2 = surface.evaluate(uv_try, second=True)
             run.nfev += 1
             rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
             E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
             run.nit += 1
+            if not np.isfinite(E2) and _broken_inside(surface, uv_try, ev2.xyz, ev2.su, ev2.sv):
+                raise _not_finite("the energy", E2, run.nit, _cause(surface, uv_try, ev2))
             rho = (E - E2) / pred if pred > 0 else -1.0
             if np.isfinite(E2) and rho > 1e-4:
                 decrease = E - E2
@@ -700,6 +775,8 @@ def _iterate_fast(run: _Run):
                     rnd.switch_off(bad)
                     rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
                     E = 0.5 * (rs @ rs + rd @ rd)
+                    if not math.isfinite(E):
+                        raise _not_finite("the energy", E, run.nit, _cause(surface, rnd.uv[rnd.alive]))
                     yield run.snapshot(E, ev.xyz[rnd.alive], True)
                     continue
                 rs, Q, rd, Jd, E = rs2, Q2, rd2, Jd2, E2
@@ -713,8 +790,7 @@ def _iterate_fast(run: _Run):
                 converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
         if converged:
             if run.try_refill():
-                rnd, ev, (rs, Q, rd, Jd) = start()
-                E = 0.5 * (rs @ rs + rd @ rd)
+                rnd, ev, (rs, Q, rd, Jd), E = start()
                 yield run.snapshot(E, ev.xyz, True)
                 continue
             if not rnd.settled and E > rnd.floor:
@@ -794,6 +870,7 @@ def _iterate_paper(run: _Run):
 
         E, g = energy.value_and_grad(run.uv)
         run.nfev += 1
+        _check_value_and_grad(surface, run.uv, E, g, run.nit)
         g = constrain(g)
         D = -g  # steepest descent first, and after every change of population
         gg = float(np.sum(g * g))
@@ -813,11 +890,21 @@ def _iterate_paper(run: _Run):
             def moved(t):
                 uv_t = uv0 + t * D
                 if pinned is not None:
+                    before = uv_t[pinned].copy()
                     run.pin.retract(uv_t, pinned)
+                    if not np.isfinite(uv_t[pinned]).all():
+                        raise _not_finite("the (u, v) of the node held to the weft plane", uv_t[pinned],
+                                          run.nit + 1, _surface_cause(surface, before)
+                                          or "its retraction onto the plane diverged")
                 return uv_t
 
             def f(t):
-                return energy.value(moved(t))
+                uv_t = moved(t)
+                S = surface.points(uv_t)
+                e = energy.value_xyz(S)
+                if not math.isfinite(e) and _broken_inside(surface, uv_t, S):
+                    raise _not_finite("the energy", e, run.nit + 1, _cause(surface, uv_t))
+                return e
 
             t, E2, ev = _line_search(f, alpha, E)
             run.nfev += ev
@@ -838,8 +925,10 @@ def _iterate_paper(run: _Run):
                 yield run.snapshot(Energy(surface, run.mesh, run.terms).value_xyz(S), S, True)
                 break  # new population: restart with steepest descent
             E = E2
-            g_new = constrain(energy.value_and_grad(run.uv)[1])
+            E_check, g_new = energy.value_and_grad(run.uv)
             run.nfev += 1
+            _check_value_and_grad(surface, run.uv, E_check, g_new, run.nit)
+            g_new = constrain(g_new)
             gg_new = float(np.sum(g_new * g_new))
             beta = gg_new / gg if gg > 0 else 0.0  # Fletcher-Reeves
             D = -g_new + beta * D
@@ -859,9 +948,18 @@ def _iterate_paper(run: _Run):
             return
 
 
+def _check_value_and_grad(surface, uv: np.ndarray, E: float, g: np.ndarray, iteration: int) -> None:
+    """SolverError unless the energy and its gradient at ``uv`` are finite."""
+    if not math.isfinite(E):
+        raise _not_finite("the energy", E, iteration, _cause(surface, uv))
+    if not np.isfinite(g).all():
+        raise _not_finite("the energy's gradient", g, iteration, _cause(surface, uv))
+
+
 def iterate(problem: Problem, state: State, options: SolverOptions = SolverOptions()):
     """Generator of :class:`Snapshot` s; its return value (``StopIteration.value``)
-    is the :class:`SolveResult`. Closing it early stops the solve."""
+    is the :class:`SolveResult`. Closing it early stops the solve. A value that
+    becomes NaN or infinite raises :class:`~core.errors.SolverError`."""
     run = _Run(problem, state, options)
     inner = _iterate_fast(run) if options.method == "fast" else _iterate_paper(run)
     try:
@@ -870,7 +968,10 @@ def iterate(problem: Problem, state: State, options: SolverOptions = SolverOptio
         inner.close()
         raise
     S = problem.surface.points(run.uv)
-    return run.result(Energy(problem.surface, run.mesh, problem.yarns).value_xyz(S))
+    E = Energy(problem.surface, run.mesh, problem.yarns).value_xyz(S)
+    if not (math.isfinite(E) and np.isfinite(S).all()):
+        raise _not_finite("the energy", E, run.nit, _cause(problem.surface, run.uv))
+    return run.result(E)
 
 
 def minimize(problem: Problem, state: State, options: SolverOptions = SolverOptions(),

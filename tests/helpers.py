@@ -1,5 +1,9 @@
 """Shared helpers for the numeric tests (not a test module)."""
 
+import errno
+import os
+import threading
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -55,3 +59,111 @@ def fit_circle(p: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
     centre = c[:2]
     r = np.sqrt(c[2] + centre @ centre)
     return centre, r, np.linalg.norm(p - centre, axis=1)
+
+
+class SurfaceFault:
+    """Once ``armed``, every evaluation of a NurbsSurface at more than one point
+    (the solvers' whole-mesh evaluations; the one-point ones of the anchor stay
+    good) gives ``value`` in one row of the homogeneous derivative ``order``
+    ((0, 0): the point, (1, 0): S_u, ...), at the middle point. Installed with
+    pytest's monkeypatch, so it ends with the test. Armed by :meth:`arm_after`,
+    it acts only inside the solver (not in what its caller does between
+    iterations, such as a live pattern) and only until that solve ends."""
+
+    def __init__(self, monkeypatch, order=(0, 0), value=float("nan")):
+        from core.nurbs import NurbsSurface
+
+        real = NurbsSurface._homogeneous
+        self.armed = False
+        self.inside: threading.local | None = None  # set by arm_after: act only inside its solver
+        self.hits = 0
+        fault = self
+
+        def homogeneous(surface, uv, max_order):
+            out = real(surface, uv, max_order)
+            if (fault.armed and len(uv) > 1 and order in out
+                    and (fault.inside is None or getattr(fault.inside, "now", False))):
+                out[order][len(uv) // 2] = value
+                fault.hits += 1
+            return out
+
+        monkeypatch.setattr(NurbsSurface, "_homogeneous", homogeneous)
+
+    def arm_after(self, k: int, iterate):
+        """Wrap a solver generator function (``core.solver.iterate``'s signature):
+        the fault arms once a snapshot of iteration ``k`` has been yielded, and
+        disarms when that solve ends (by its error or otherwise). Every solve
+        through the wrapper arms it again."""
+        fault = self
+        fault.inside = threading.local()
+
+        def armed(*args, **kw):
+            gen = iterate(*args, **kw)
+            try:
+                while True:
+                    fault.inside.now = True
+                    try:
+                        snap = next(gen)
+                    except StopIteration as done:
+                        return done.value
+                    finally:
+                        fault.inside.now = False
+                    fault.armed = fault.armed or snap.iteration >= k
+                    yield snap
+            finally:
+                fault.armed = False
+                gen.close()
+
+        return armed
+
+
+NO_SPACE = os.strerror(errno.ENOSPC)
+"""The system's words for ENOSPC: "No space left on device"."""
+
+
+class FullDisk:
+    """os.fdopen's file object on a disk that fills up: ``write`` puts down half
+    the bytes and fails (how="write"), or the bytes go down and ``os.fsync``
+    fails (how="fsync", a file system that allocates late), on the ``fail_on``-th
+    file opened (counting from 1) and every one after it."""
+
+    def __init__(self, monkeypatch, how: str, fail_on: int = 1):
+        self.opened = 0
+        self.failing = False
+        real_fdopen, real_fsync = os.fdopen, os.fsync
+        disk = self
+
+        class File:
+            def __init__(self, fh):
+                self.fh = fh
+
+            def __enter__(self):
+                return self
+
+            def __exit__(self, *exc):
+                self.fh.close()
+
+            def fileno(self):
+                return self.fh.fileno()
+
+            def flush(self):
+                self.fh.flush()
+
+            def write(self, data):
+                if disk.failing and how == "write":
+                    self.fh.write(data[: len(data) // 2])
+                    raise OSError(errno.ENOSPC, NO_SPACE)
+                return self.fh.write(data)
+
+        def fdopen(fd, mode):
+            disk.opened += 1
+            disk.failing = disk.opened >= fail_on
+            return File(real_fdopen(fd, mode))
+
+        def fsync(fd):
+            if disk.failing and how == "fsync":
+                raise OSError(errno.ENOSPC, NO_SPACE)
+            real_fsync(fd)
+
+        monkeypatch.setattr(os, "fdopen", fdopen)
+        monkeypatch.setattr(os, "fsync", fsync)

@@ -434,6 +434,15 @@ def test_undo_mid_run_cancels_it_and_shows_the_earlier_result(make_window, qtbot
     assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(first.xyz, first.mesh))).max() <= 1
     qtbot.waitUntil(lambda: win.runner.state == "idle", timeout=10000)
     assert win.project.result is first and win.document.redo_label == "Solver"
+    # the document is consistent, the panel does not show the cancelled run's progress,
+    # and the app goes on: Run solves the restored settings again
+    assert project_problems(win.project) == [] and win.project.result_is_current
+    assert win.progress.text() == "The run was cancelled; nothing of it was kept."
+    assert win.frame.final and len(shown_rgb(win.view)[0]) == first.mesh.n_springs
+    win.settings_panel.auto_rerun.setChecked(False)
+    outcome = run_to_end(qtbot, win)
+    assert win.project.result is outcome.result and outcome.result.metrics["solver_status"] == "converged"
+    assert project_problems(win.project) == [] and win.document.undo_label == "Solve"
 
 
 # ---------------------------------------------------------------------- export

@@ -11,6 +11,7 @@ from core.cli import main
 from core.examples import example_path
 from core.nurbs import NurbsSurface
 from core.surface_io import save_surface
+from tests.helpers import SurfaceFault
 
 REQUIRED_METRICS = {"energy", "max_thread_strain_pct", "max_shear_deg", "mean_shear_deg", "nodes", "springs",
                     "seconds", "boundary_error_pct", "area_error_pct", "iterations", "energy_evaluations"}
@@ -141,3 +142,26 @@ def test_bad_exports_fail_before_the_solve(tmp_path, args, words):
     assert len(lines) == 1 and lines[0].startswith("flatweave: error:"), err
     assert all(w in lines[0] for w in words)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("method, expected", [
+    ("spring", "flatweave: error: the energy became NaN at iteration 4 (the surface evaluation returned a "
+               "non-finite point at 1 node); the solve stopped and nothing was changed"),
+    ("planar", "flatweave: error: the surface evaluation returned a non-finite derivative at 1 of 16,705 "
+               "derivative samples while triangulating; the solve stopped and nothing was changed")])
+def test_a_nan_in_the_solve_is_one_line_and_status_2(tmp_path, monkeypatch, capsys, method, expected):
+    # in this process, so the surface can be made to fail: after iteration 3 of
+    # the spring method's solve, from the start of the planar method's triangulation
+    import core.pipeline
+
+    fault = SurfaceFault(monkeypatch)
+    if method == "spring":
+        monkeypatch.setattr(core.pipeline, "iterate", fault.arm_after(3, core.pipeline.iterate))
+    else:
+        fault.armed = True
+    out = tmp_path / "r.json"
+    code = main(["flatten", "octant", "--spacing", "0.1", "--method", method, "--quiet", "--out", str(out)])
+    captured = capsys.readouterr()
+    assert code == 2 and captured.out == ""
+    assert captured.err.splitlines() == [expected]
+    assert not out.exists() and fault.hits >= 1

@@ -1,8 +1,12 @@
 """Exports read back by other programs' readers: ezdxf for DXF, an XML parser
 for SVG, pypdf for PDF, pyvista for VTP, a plain parser for OBJ."""
 
+import errno
 import math
+import os
+import tempfile
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +17,8 @@ from core.examples import load_example
 from core.export import FORMATS, ExportOptions, build_sheet, check_target, export, export_all
 from core.export.pdf import OVERLAP_MM, PAGE_MARGIN_MM, SHEET_MARGIN_MM
 from core.export.svg import MARGIN_MM as SVG_MARGIN
+from core.fileio import atomic_write_bytes
+from tests.helpers import NO_SPACE, FullDisk
 from core.mesh import WARP
 from core.metrics import cell_shear_deg, spring_strain
 from core.pattern import polygon_area, polygon_perimeter
@@ -406,3 +412,98 @@ def test_export_all_writes_every_format(tmp_path, octant_dart):
     assert [p.suffix for p in paths] == list(FORMATS)
     assert all(p.stat().st_size > 0 for p in paths)
     assert all(p.stat().st_mode & 0o044 for p in paths)  # readable by others, as the umask allows
+
+
+# ---------------------------------------------------------------- full disk, refused folders, several targets
+@pytest.mark.parametrize("how", ["write", "fsync"])
+@pytest.mark.parametrize("suffix", list(FORMATS))
+def test_a_full_disk_leaves_every_target_as_it_was(tmp_path, octant_dart, monkeypatch, suffix, how):
+    old = tmp_path / f"old{suffix}"
+    old.write_bytes(b"previous export")
+    new = tmp_path / f"new{suffix}"
+    FullDisk(monkeypatch, how)
+    for target, write in ((old, export), (new, lambda r, p: export_all(r, [p]))):
+        with pytest.raises(FlatweaveError) as info:
+            write(octant_dart, target)
+        assert str(info.value) == f"cannot write {target}: {NO_SPACE}"
+    monkeypatch.undo()
+    assert old.read_bytes() == b"previous export"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [old.name]  # no new file, no temporary file
+
+
+def test_an_unwritable_folder_leaves_nothing_behind(tmp_path, octant_dart, monkeypatch):
+    # a "folder" that is a regular file: refused by the target check, and by the writer itself
+    (tmp_path / "file.txt").write_text("x")
+    target = tmp_path / "file.txt" / "out.dxf"
+    with pytest.raises(SettingsError) as info:
+        export(octant_dart, target)
+    assert str(info.value) == f"cannot export {target}: {tmp_path / 'file.txt'} is not a folder"
+    with pytest.raises(FlatweaveError) as info:
+        atomic_write_bytes(target, b"data")
+    assert str(info.value) == f"cannot write {target}: {os.strerror(errno.ENOTDIR)}"
+    # a folder without write permission
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    target = locked / "p.dxf"
+    try:
+        if os.access(locked, os.W_OK):
+            # running as root, whom permissions do not stop: the writer is then told
+            # what the system tells anyone else, and must say so
+            real_mkstemp = tempfile.mkstemp
+
+            def mkstemp(*args, dir=None, **kw):
+                if dir is not None and Path(dir) == locked:
+                    raise PermissionError(errno.EACCES, os.strerror(errno.EACCES))
+                return real_mkstemp(*args, dir=dir, **kw)
+
+            monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+            with pytest.raises(FlatweaveError) as info:
+                export_all(octant_dart, [tmp_path / "fine.svg", target])
+            assert str(info.value) == f"cannot write {target}: {os.strerror(errno.EACCES)}"
+        else:
+            with pytest.raises(SettingsError) as info:
+                export_all(octant_dart, [tmp_path / "fine.svg", target])
+            assert str(info.value) == f"cannot export {target}: folder {locked} is not writable"
+        assert list(locked.iterdir()) == []
+    finally:
+        locked.chmod(0o700)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt", "locked"]  # fine.svg was not written either
+
+
+def test_export_all_is_all_or_nothing(tmp_path, octant_dart, monkeypatch):
+    """Every target is checked and built, and written to a temporary file, before
+    any is renamed into place: one failure leaves all of them as they were."""
+    targets = [tmp_path / f"p{s}" for s in FORMATS]  # .dxf, .svg, .pdf, .vtp, .obj
+    targets[0].write_bytes(b"previous dxf")
+    # a bad target among good ones: refused before anything is built or written
+    with pytest.raises(SettingsError, match="does not exist"):
+        export_all(octant_dart, targets + [tmp_path / "nowhere" / "p.svg"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.dxf"]
+    # the disk fills up at the third file (the PDF)
+    FullDisk(monkeypatch, "write", fail_on=3)
+    with pytest.raises(FlatweaveError) as info:
+        export_all(octant_dart, targets)
+    assert str(info.value) == f"cannot write {targets[2]}: {NO_SPACE}"
+    monkeypatch.undo()
+    assert targets[0].read_bytes() == b"previous dxf"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.dxf"]
+    # a rename that fails after the first: the first is new, the rest as they were, and the message says so
+    real_replace = os.replace
+    calls = []
+
+    def replace(src, dst):
+        calls.append(dst)
+        if len(calls) == 2:
+            raise OSError(errno.EIO, os.strerror(errno.EIO))
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(FlatweaveError) as info:
+        export_all(octant_dart, targets)
+    monkeypatch.undo()
+    assert str(info.value) == f"cannot write {targets[1]}: {os.strerror(errno.EIO)} ({targets[0]} already written)"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.dxf"] and b"SECTION" in targets[0].read_bytes()[:200]
+    # and with room on the disk every file is written
+    assert export_all(octant_dart, targets) == targets
+    assert all(p.stat().st_size > 100 for p in targets)

@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 
 from core.darts import PlaneDart
+from core.errors import SolverError
 from core.examples import load_example
 from core.nurbs import NurbsSurface
 from core.planar import (PlanarSettings, _uv_area, flatten_planar, relax, spring_energy, tessellate,
                          triangle_edges, unfold)
-from tests.helpers import fit_circle
+from tests.helpers import SurfaceFault, fit_circle
 
 COLLAR = PlaneDart((1, 0, 0, -0.02), (-1, 1, 0.42, 1, -1, 1), name="collar dart")
 
@@ -221,6 +222,25 @@ def test_relax_budget_and_no_relaxation():
 
 
 # ----------------------------------------------------------------------------- darts
+
+def test_non_finite_values_stop_the_planar_method_in_one_line(monkeypatch):
+    # a relaxation from a NaN start used to reject every step and call that converged
+    xy = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    edges = np.array([[0, 1], [1, 2], [2, 0]])
+    for bad_xy, rest, word in ((xy, np.array([1.0, np.nan, 1.0]), "NaN"),
+                               (np.where(xy == 1.0, np.inf, xy), np.ones(3), "NaN")):
+        with pytest.raises(SolverError) as info:
+            relax(bad_xy, edges, rest)
+        assert str(info.value).startswith(f"the planar energy became {word} in the unfolded start")
+    # the surface failing at one sample: the triangulation says so (it used to fail
+    # converting a NaN row length to an integer)
+    fault = SurfaceFault(monkeypatch)
+    fault.armed = True
+    with pytest.raises(SolverError, match=r"^the surface evaluation returned a non-finite (point|derivative) at 1 of "
+                                          r"[\d,]+ [a-z ]+ while triangulating; the solve stopped and nothing was "
+                                          r"changed$"):
+        flatten_planar(load_example("octant"), PlanarSettings(spacing=0.1))
+
 
 def test_plane_dart_cuts_the_triangulation_and_opens():
     s = load_example("garment")

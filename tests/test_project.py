@@ -21,6 +21,7 @@ from core.pipeline import FlattenSettings, flatten
 from core.project import (PROJECT_VERSION, Project, ProjectError, load_project, needs_new_drape,
                           project_from_dict, project_problems, project_to_dict, save_project,
                           settings_equal, warm_start)
+from tests.helpers import NO_SPACE, FullDisk
 
 
 @pytest.fixture(scope="module")
@@ -142,6 +143,20 @@ def test_save_is_atomic(solved, tmp_path, monkeypatch):
         save_project(solved, path)
     assert "\n" not in str(err.value) and "job.flatweave" in str(err.value)
     assert path.read_bytes() == before  # the old file is intact
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["job.flatweave"]  # no temporary left behind
+
+
+@pytest.mark.parametrize("how", ["write", "fsync"])
+def test_save_on_a_full_disk_keeps_the_previous_file(solved, tmp_path, monkeypatch, how):
+    path = tmp_path / "job.flatweave"
+    save_project(Project(solved.surface, FlattenSettings(spacing=0.2), name="first"), path)
+    before = path.read_bytes()
+    FullDisk(monkeypatch, how)
+    with pytest.raises(FlatweaveError) as err:
+        save_project(solved, path)
+    monkeypatch.undo()
+    assert str(err.value) == f"cannot write {path}: {NO_SPACE}"
+    assert path.read_bytes() == before and load_project(path).name == "first"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["job.flatweave"]  # no temporary left behind
 
 

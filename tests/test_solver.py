@@ -1,5 +1,8 @@
 """Minimisation (paper 3.2, 3.3): the two solvers, population control,
-streaming, cancellation, warm start, directional energy."""
+streaming, cancellation, warm start, directional energy, non-finite values."""
+
+import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -7,11 +10,12 @@ from scipy.spatial import cKDTree
 
 from core.drape import DrapeSettings, drape
 from core.energy import Energy, YarnConstraint
-from core.errors import SettingsError
+from core.errors import FlatweaveError, SettingsError, SolverError
 from core.examples import load_example
 from core.mesh import MATERIALS
-from core.pipeline import FlattenSettings, flatten, make_problem
+from core.pipeline import FlattenSettings, check_result_finite, flatten, make_problem
 from core.solver import SolverOptions, State, _Normal, _residuals, iterate, minimize
+from tests.helpers import SurfaceFault
 from tests.test_drape import dense_points
 
 
@@ -157,3 +161,72 @@ def test_solver_options_are_checked():
         SolverOptions(tol=0.0)
     with pytest.raises(SettingsError, match="iterations"):
         SolverOptions(max_iter=-1)
+
+
+# ---------------------------------------------------------------------- non-finite values
+def solve_until_fault(problem, state, method, fault, k=3):
+    """Iterate, arming ``fault`` after iteration ``k``; returns (snapshots, the SolverError)."""
+    snaps = []
+    with pytest.raises(SolverError) as info:
+        for snap in iterate(problem, state, SolverOptions(method)):
+            snaps.append(snap)
+            fault.armed = fault.armed or snap.iteration >= k
+    return snaps, info.value
+
+
+@pytest.mark.parametrize("method", ["fast", "paper"])
+def test_a_nan_surface_point_mid_solve_stops_with_one_line(method, monkeypatch):
+    # Before the guard the fast solver rejected every step until its damping
+    # passed 1e16, called that converged, and the refill failed in a k-d tree;
+    # the paper's line search found no descent and did the same.
+    s, settings, st = drape_state("octant", 0.1)
+    fault = SurfaceFault(monkeypatch)
+    snaps, err = solve_until_fault(make_problem(s, settings), st, method, fault)
+    assert str(err) == ("the energy became NaN at iteration 4 (the surface evaluation returned a non-finite point "
+                        "at 1 node); the solve stopped and nothing was changed")
+    assert isinstance(err, FlatweaveError) and fault.hits >= 1
+    assert snaps[-1].iteration == 3 and all(np.isfinite(sn.energy) and np.isfinite(sn.uv).all() for sn in snaps)
+
+
+# numpy warns of inf - inf in the surface's quotient rule, downstream of the
+# injected infinity; what the test checks is what the solver does next
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+@pytest.mark.parametrize("method, what", [("fast", "the energy's Hessian"), ("paper", "the energy's gradient")])
+def test_an_infinite_surface_derivative_mid_solve_stops_with_one_line(method, what, monkeypatch):
+    # S_u infinite at one node: the energy (points only) stays finite, so the
+    # step is taken; the next Hessian (fast) or gradient (paper) is not finite
+    s, settings, st = drape_state("octant", 0.1)
+    fault = SurfaceFault(monkeypatch, order=(1, 0), value=np.inf)
+    snaps, err = solve_until_fault(make_problem(s, settings), st, method, fault)
+    m = re.fullmatch(rf"{what} became (NaN|infinite) at iteration (\d+) \(the surface evaluation returned a "
+                     r"non-finite first derivative at 1 node\); the solve stopped and nothing was changed", str(err))
+    assert m, str(err)
+    assert int(m.group(2)) == snaps[-1].iteration + 1 and snaps[-1].iteration >= 3
+
+
+@pytest.mark.parametrize("solver, message", [
+    ("fast", "the energy became NaN in the starting mesh (1 node had a non-finite (u, v)); "
+             "the solve stopped and nothing was changed"),
+    ("paper", "the energy became NaN in the starting mesh (1 node had a non-finite (u, v)); "
+              "the solve stopped and nothing was changed"),
+    ("none", "the result's (u, v) is NaN at 1 of {n} nodes; the solve stopped and nothing was changed")])
+def test_a_nan_start_never_gives_a_result(solver, message):
+    s = load_example("octant")
+    settings = FlattenSettings(0.1, solver="none")
+    first = flatten(s, settings)
+    uv = first.uv.copy()
+    uv[np.flatnonzero((first.mesh.ij == (2, 3)).all(axis=1))[0]] = np.nan  # not an anchor
+    with pytest.raises(SolverError) as info:
+        flatten(s, replace(settings, solver=solver), initial=State(first.mesh, uv))
+    assert str(info.value) == message.format(n=first.mesh.n_nodes)
+
+
+def test_a_result_with_a_non_finite_number_is_refused():
+    r = flatten(load_example("octant"), FlattenSettings(0.1, solver="none"))
+    check_result_finite(r.uv, r.xyz, r.pattern, r.metrics)  # a good result passes
+    with pytest.raises(SolverError, match=r"^the result's max_shear_deg is not finite; "):
+        check_result_finite(r.uv, r.xyz, r.pattern, {**r.metrics, "max_shear_deg": float("nan")})
+    xy = r.pattern.xy.copy()
+    xy[:2] = np.inf
+    with pytest.raises(SolverError, match=rf"^the result's pattern positions are infinite at 2 of {r.mesh.n_nodes} "):
+        check_result_finite(r.uv, r.xyz, replace(r.pattern, xy=xy), r.metrics)

@@ -6,8 +6,11 @@ makers (DXF, SVG, tiled 1:1 PDF) and the 3D result for other tools (VTP, OBJ).
 
 The file's suffix picks the format (:data:`FORMATS`). Every writer builds
 the whole file in memory and writes it atomically, so a failed export leaves
-no partial file and an existing file untouched. Check targets with
-:func:`check_target` before a long solve.
+no partial file and an existing file untouched (a full disk, a folder that
+refuses the file: a one-line FlatweaveError naming the file and the reason).
+:func:`export_all` is all or nothing: it checks every target, builds every
+file, writes each to a temporary file and renames them only when all are
+written. Check targets with :func:`check_target` before a long solve.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from pathlib import Path
 from core.errors import SettingsError
 from core.export.pdf import PAPERS
 from core.export.sheet import UNITS, Sheet, build_sheet, mm_per_unit
-from core.fileio import atomic_write_bytes
+from core.fileio import atomic_write_bytes, atomic_write_many
 
 __all__ = ["ExportOptions", "FORMATS", "UNITS", "PAPERS", "export", "export_all", "export_bytes", "check_target",
            "build_sheet", "Sheet",
@@ -115,9 +118,16 @@ def export(result, path, options: ExportOptions = ExportOptions(), sheet: Sheet 
 
 
 def export_all(result, paths, options: ExportOptions = ExportOptions()) -> list[Path]:
-    """Write several formats, building the 2D sheet once."""
+    """Write several formats, building the 2D sheet once; returns the paths.
+
+    All or nothing: every target is checked and every file built before any is
+    written, and the files are renamed into place only when all of them are on
+    disk, so a failure (a bad target, a full disk) leaves every target as it
+    was (see :func:`core.fileio.atomic_write_many` for a failed rename).
+    """
     paths = [check_target(p) for p in paths]
     sheet = None
     if any(p.suffix.lower() in (".dxf", ".svg", ".pdf") for p in paths):
         sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
-    return [export(result, p, options, sheet) for p in paths]
+    atomic_write_many([(p, export_bytes(result, p.suffix, options, sheet)) for p in paths])
+    return paths
