@@ -278,22 +278,34 @@ class DartSet:
     def __len__(self) -> int:
         return len(self.darts)
 
-    def crossing(self, uva, uvb) -> np.ndarray:
-        """(m,) bool: segments (in uv; their 3D ends for plane darts) crossing any dart."""
+    def crossing(self, uva, uvb, xa=None, xb=None) -> np.ndarray:
+        """(m,) bool: segments (in uv; their 3D ends for plane darts) crossing any dart.
+
+        xa, xb : the segments' ends on the surface, S(uva) and S(uvb), if the
+        caller has them (plane darts need them; they are evaluated otherwise).
+        """
         out = np.zeros(len(uva), dtype=bool)
         if not self.darts or len(uva) == 0:
             return out
-        xa = xb = None
         if any(d.kind == "plane" for d in self.darts):
-            xa, xb = self.surface.points(uva), self.surface.points(uvb)
+            xa = self.surface.points(uva) if xa is None else xa
+            xb = self.surface.points(uvb) if xb is None else xb
         for d in self.darts:
             out |= d.crosses(uva, uvb, xa, xb)
         return out
 
-    def keep_springs(self, uv: np.ndarray):
-        """A ``keep(ends, kind)`` for :func:`core.mesh.build_mesh`: drop crossing springs."""
+    def keep_springs(self, uv: np.ndarray, xyz: np.ndarray | None = None):
+        """A ``keep(ends, kind)`` for :func:`core.mesh.build_mesh`: drop crossing springs.
+
+        The nodes are put on the surface once (``xyz``, if not given, and only
+        for plane darts), not once per spring end."""
+        if xyz is None and any(d.kind == "plane" for d in self.darts):
+            xyz = self.surface.points(uv)
+
         def keep(ends, kind):
-            return ~self.crossing(uv[ends[:, 0]], uv[ends[:, 1]])
+            a, b = ends[:, 0], ends[:, 1]
+            xa, xb = (xyz[a], xyz[b]) if xyz is not None else (None, None)
+            return ~self.crossing(uv[a], uv[b], xa, xb)
         return keep
 
     def dart_nodes(self, curves3d, uv: np.ndarray, xyz: np.ndarray, reach: float) -> list[dict]:
