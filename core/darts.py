@@ -27,6 +27,7 @@ projected along (``view_dir``), so it can be edited and rebuilt
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -125,8 +126,21 @@ class PlaneDart:
         Zero crossings of F(S(u, v)) on the edges of an n x n parameter grid,
         refined by Newton onto F = 0, kept inside the box, chained into a
         polyline (the longest chain when the plane cuts the surface more than
-        once).
+        once). Remembered per surface (the grid costs about 60 ms; every
+        pattern of a piece with the dart needs the curve again).
         """
+        per = _curve_cache.get(surface)
+        if per is None:
+            per = _curve_cache[surface] = {}
+        key = (tuple(float(x) for x in self.plane), None if self.box is None else tuple(self.box), int(n))
+        hit = per.get(key)
+        if hit is None:
+            if len(per) >= 64:
+                per.clear()
+            hit = per[key] = self._curve_uv(surface, n)
+        return hit.copy()
+
+    def _curve_uv(self, surface: NurbsSurface, n: int) -> np.ndarray:
         dom = surface.domain
         u = np.linspace(dom[0, 0], dom[0, 1], n)
         v = np.linspace(dom[1, 0], dom[1, 1], n)
@@ -148,6 +162,9 @@ class PlaneDart:
         P = _newton_onto_level(surface, self.F, P)
         P = P[self.in_box(surface.points(P))]
         return _chain(P, 3.0 * np.max(np.ptp(dom, axis=1)) / n, surface)
+
+
+_curve_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # NurbsSurface -> {(plane, box, n): uv}
 
 
 def _check_labels(dart) -> None:

@@ -700,7 +700,7 @@ def _iterate_fast(run: _Run):
 
     def start():
         rd_ = _Round(run)
-        ev_ = surface.evaluate(rd_.uv, second=True)
+        ev_ = surface.evaluate(rd_.uv, second=True, normals=False)
         run.nfev += 1
         return rd_, ev_, _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv)
 
@@ -741,7 +741,7 @@ def _iterate_fast(run: _Run):
             uv_try = rnd.uv + normal.scatter(step, energy.n)
             if pinned is not None:
                 run.pin.retract(uv_try, pinned)
-            ev2 = surface.evaluate(uv_try, second=True)
+            ev2 = surface.evaluate(uv_try, second=True, normals=False)
             run.nfev += 1
             rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
             E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
