@@ -11,7 +11,9 @@
    script only; nothing in ``core`` is changed to measure), and the minimum
    over the repeats is reported for every stage, with iterations,
    factorisations, nodes deleted / refilled, final energy and the metrics
-   against a cold solve with the dart.
+   against a cold solve with the dart. The first repeat is also shown: a
+   plane dart's curve is remembered per surface (as after the app's preview
+   of it), so later repeats find it.
 2. The 2,500- and 10,000-node woven octant solved from the drape (fast,
    population control; and on a fixed population), with the same stages.
 
@@ -118,6 +120,7 @@ def best_of(runs) -> dict:
         out[s] = min(r["times"].get(s, 0.0) for r in runs)
     fastest = min(runs, key=lambda r: r["times"]["total"])
     out["counts"] = fastest["counts"]
+    out["first"] = runs[0]["times"]["total"]
     return out
 
 
@@ -149,6 +152,7 @@ def stage_table(cols: dict[str, dict]) -> str:
             c = cols[n]["counts"].get(s)
             cells.append(f"{v:.3f}" + (f" ({c})" if c and s not in ("total", "solver") else ""))
         lines.append(f"| {s} | " + " | ".join(cells) + " |")
+    lines.append("| total, first repeat | " + " | ".join(f"{cols[n]['first']:.3f}" for n in names) + " |")
     return "\n".join(lines)
 
 
