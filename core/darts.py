@@ -27,6 +27,7 @@ projected along (``view_dir``), so it can be edited and rebuilt
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -125,8 +126,21 @@ class PlaneDart:
         Zero crossings of F(S(u, v)) on the edges of an n x n parameter grid,
         refined by Newton onto F = 0, kept inside the box, chained into a
         polyline (the longest chain when the plane cuts the surface more than
-        once).
+        once). Remembered per surface (the grid costs about 60 ms; every
+        pattern of a piece with the dart needs the curve again).
         """
+        per = _curve_cache.get(surface)
+        if per is None:
+            per = _curve_cache[surface] = {}
+        key = (tuple(float(x) for x in self.plane), None if self.box is None else tuple(self.box), int(n))
+        hit = per.get(key)
+        if hit is None:
+            if len(per) >= 64:
+                per.clear()
+            hit = per[key] = self._curve_uv(surface, n)
+        return hit.copy()
+
+    def _curve_uv(self, surface: NurbsSurface, n: int) -> np.ndarray:
         dom = surface.domain
         u = np.linspace(dom[0, 0], dom[0, 1], n)
         v = np.linspace(dom[1, 0], dom[1, 1], n)
@@ -148,6 +162,9 @@ class PlaneDart:
         P = _newton_onto_level(surface, self.F, P)
         P = P[self.in_box(surface.points(P))]
         return _chain(P, 3.0 * np.max(np.ptp(dom, axis=1)) / n, surface)
+
+
+_curve_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # NurbsSurface -> {(plane, box, n): uv}
 
 
 def _check_labels(dart) -> None:
@@ -278,22 +295,34 @@ class DartSet:
     def __len__(self) -> int:
         return len(self.darts)
 
-    def crossing(self, uva, uvb) -> np.ndarray:
-        """(m,) bool: segments (in uv; their 3D ends for plane darts) crossing any dart."""
+    def crossing(self, uva, uvb, xa=None, xb=None) -> np.ndarray:
+        """(m,) bool: segments (in uv; their 3D ends for plane darts) crossing any dart.
+
+        xa, xb : the segments' ends on the surface, S(uva) and S(uvb), if the
+        caller has them (plane darts need them; they are evaluated otherwise).
+        """
         out = np.zeros(len(uva), dtype=bool)
         if not self.darts or len(uva) == 0:
             return out
-        xa = xb = None
         if any(d.kind == "plane" for d in self.darts):
-            xa, xb = self.surface.points(uva), self.surface.points(uvb)
+            xa = self.surface.points(uva) if xa is None else xa
+            xb = self.surface.points(uvb) if xb is None else xb
         for d in self.darts:
             out |= d.crosses(uva, uvb, xa, xb)
         return out
 
-    def keep_springs(self, uv: np.ndarray):
-        """A ``keep(ends, kind)`` for :func:`core.mesh.build_mesh`: drop crossing springs."""
+    def keep_springs(self, uv: np.ndarray, xyz: np.ndarray | None = None):
+        """A ``keep(ends, kind)`` for :func:`core.mesh.build_mesh`: drop crossing springs.
+
+        The nodes are put on the surface once (``xyz``, if not given, and only
+        for plane darts), not once per spring end."""
+        if xyz is None and any(d.kind == "plane" for d in self.darts):
+            xyz = self.surface.points(uv)
+
         def keep(ends, kind):
-            return ~self.crossing(uv[ends[:, 0]], uv[ends[:, 1]])
+            a, b = ends[:, 0], ends[:, 1]
+            xa, xb = (xyz[a], xyz[b]) if xyz is not None else (None, None)
+            return ~self.crossing(uv[a], uv[b], xa, xb)
         return keep
 
     def dart_nodes(self, curves3d, uv: np.ndarray, xyz: np.ndarray, reach: float) -> list[dict]:

@@ -140,14 +140,15 @@ def basis_functions(knots: np.ndarray, degree: int, spans: np.ndarray, x: np.nda
 class SurfaceEval:
     """Surface quantities at n parameter points.
 
-    xyz, su, sv, normal : (n, 3) float
+    xyz, su, sv : (n, 3) float
+    normal : (n, 3) float, or None when normals were not asked for
     suu, suv, svv : (n, 3) float, or None when second derivatives were not asked for
     """
 
     xyz: np.ndarray
     su: np.ndarray
     sv: np.ndarray
-    normal: np.ndarray
+    normal: np.ndarray | None
     suu: np.ndarray | None = None
     suv: np.ndarray | None = None
     svv: np.ndarray | None = None
@@ -319,16 +320,17 @@ class NurbsSurface:
         """(S, S_u, S_v), each (n, 3), at uv : (n, 2), without normals (the cheap path)."""
         return self._rational(np.asarray(uv, dtype=float).reshape(-1, 2), False)[:3]
 
-    def evaluate(self, uv, second: bool = False) -> SurfaceEval:
+    def evaluate(self, uv, second: bool = False, normals: bool = True) -> SurfaceEval:
         """Points, partial derivatives and unit normals at uv : (n, 2).
 
         With ``second=True`` the second derivatives are filled in too. Where
         the surface is degenerate (a pole, where S_u or S_v vanishes) the normal
-        is the limit normal from the interior.
+        is the limit normal from the interior. ``normals=False`` leaves them
+        out (``normal`` is None), for callers that need only derivatives.
         """
         uv = np.asarray(uv, dtype=float).reshape(-1, 2)
         S, Su, Sv, Suu, Suv, Svv = self._rational(uv, second)
-        return SurfaceEval(S, Su, Sv, self._normals(uv, Su, Sv), Suu, Suv, Svv)
+        return SurfaceEval(S, Su, Sv, self._normals(uv, Su, Sv) if normals else None, Suu, Suv, Svv)
 
     def _normals(self, uv: np.ndarray, Su: np.ndarray, Sv: np.ndarray) -> np.ndarray:
         n = np.cross(Su, Sv)

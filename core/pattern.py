@@ -24,6 +24,7 @@ sample. The map from each 2D outline point to its 3D boundary point (and its
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -243,7 +244,18 @@ def boundary_samples(surface: NurbsSurface, spacing: float, per_spacing: int = 4
     about ``per_spacing`` points per mesh spacing (at least ``minimum`` per edge)."""
     lengths = edge_lengths(surface)
     n_edge = tuple(int(max(minimum, np.ceil(L / spacing * per_spacing))) for L in lengths)
-    return boundary_polyline(surface, n_edge)
+    per = _samples_cache.get(surface)
+    if per is None:
+        per = _samples_cache[surface] = {}
+    hit = per.get(n_edge)
+    if hit is None:  # the arc-length solve costs about 40 ms; every pattern of the piece needs it
+        if len(per) >= 16:
+            per.clear()
+        hit = per[n_edge] = boundary_polyline(surface, n_edge)
+    return hit[0].copy(), hit[1].copy()
+
+
+_samples_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # NurbsSurface -> {counts: (uv, xyz)}
 
 
 @dataclass(frozen=True)

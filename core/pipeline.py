@@ -143,7 +143,7 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
 
     # a node whose step would carry it through a dart is deleted (3.3)
     invalid = darts.crossing if len(darts) else None
-    return Problem(surface, build, settings.yarns, refill_nodes, invalid)
+    return Problem(surface, build, settings.yarns, refill_nodes, invalid, cut=invalid)
 
 
 UNCOVERED_LIMIT = 0.10
