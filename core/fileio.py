@@ -12,17 +12,20 @@ from core.errors import FlatweaveError
 __all__ = ["atomic_write_bytes", "atomic_write_many", "atomic_write_text", "json_bytes", "write_json"]
 
 
-def atomic_write_bytes(path, data: bytes) -> None:
+def atomic_write_bytes(path, data: bytes, before_replace=None) -> None:
     """Write ``data`` to ``path`` so readers see the old file or the whole new one.
 
     The bytes go to a temporary file in the same folder, are flushed to disk,
     and the file is renamed over ``path``. On any failure the temporary file
     is removed and a one-line FlatweaveError names the path and the reason.
+    ``before_replace()``, if given, runs once the new file is safely on disk,
+    just before the rename (to keep a backup of the old file only when the new
+    one is sure to replace it); if it raises, nothing is renamed.
     """
-    atomic_write_many([(path, data)])
+    atomic_write_many([(path, data)], before_replace)
 
 
-def atomic_write_many(items) -> None:
+def atomic_write_many(items, before_replace=None) -> None:
     """Write several files, all or nothing: ``items`` is (path, bytes) pairs.
 
     Every file is first written in full to a temporary file beside its target
@@ -38,6 +41,8 @@ def atomic_write_many(items) -> None:
         for path, data in items:
             path = Path(path)
             staged.append((path, _stage(path, data)))
+        if before_replace is not None:
+            before_replace()
     except FlatweaveError:
         for _, tmp in staged:
             _remove(tmp)

@@ -203,16 +203,19 @@ def backup_paths(path: str | os.PathLike, count: int = BACKUPS) -> list[Path]:
 def save_with_backups(project: Project, path: str | os.PathLike, backups: int = BACKUPS) -> Path:
     """Save ``project`` to ``path`` atomically, first keeping the file already
     there as backup 1 (backup k becomes k + 1; the oldest beyond ``backups``
-    goes). An unchanged file makes no new backup. Every step is a rename or a
-    new file, so a crash at any point leaves the previous save whole: at
-    ``path``, or at backup 1. One-line FlatweaveError on failure."""
+    goes). An unchanged file makes no new backup. The new file is written in
+    full first, then the backups rotate, then it is renamed over ``path``:
+    every step is a rename or a new file, so a crash at any point leaves the
+    previous save whole (at ``path``, or at backup 1), and a failed write (a
+    full disk) changes nothing. One-line FlatweaveError on failure."""
     path = Path(path)
     data = json_bytes(project_to_dict(project), path)
     try:
         old = path.read_bytes() if backups > 0 and path.is_file() else None
     except OSError:
         old = None
-    if old is not None and old != data:
+
+    def keep_backup():  # the new file is on disk by now: a failed save rotates nothing
         chain = backup_paths(path, backups)
         try:
             for newer, older in zip(chain[-2::-1], chain[:0:-1]):
@@ -220,11 +223,12 @@ def save_with_backups(project: Project, path: str | os.PathLike, backups: int = 
                     os.replace(newer, older)
             tmp = chain[0].with_name(f".{chain[0].name}.tmp")
             try:
-                os.link(path, tmp)  # the old inode: the save below replaces path, not it
+                os.link(path, tmp)  # the old inode: the save replaces path, not it
             except OSError:
                 shutil.copy2(path, tmp)
             os.replace(tmp, chain[0])
         except OSError as exc:
             raise FlatweaveError(f"cannot keep a backup of {path}: {exc.strerror or exc}") from None
-    atomic_write_bytes(path, data)
+
+    atomic_write_bytes(path, data, keep_backup if old is not None and old != data else None)
     return path

@@ -188,6 +188,7 @@ def test_export_on_a_full_disk_leaves_no_partial_file(make_window, qtbot, tmp_pa
     old.write_bytes(b"previous export")
     paths = [tmp_path / f"piece{s}" for s in FORMATS]
     before = snapshot(win)
+    win.last_autosave.result(timeout=30)  # the solve's autosave: done before the disk fills up
     FullDisk(monkeypatch, "write", fail_on=2)  # room for the DXF, not for the SVG
     with qtbot.waitSignal(win.export_failed, timeout=60000) as blocker:
         assert win.export_to(paths, ExportOptions())
@@ -238,7 +239,7 @@ def test_an_unexpected_save_failure_is_still_a_one_line_error(make_window, monke
     def failing(project, path):
         raise error
 
-    monkeypatch.setattr(app.mainwindow, "save_project", failing)
+    monkeypatch.setattr(app.mainwindow, "save_with_backups", failing)
     assert not win.save_to("x.flatweave")
     assert win.last_error == f"Cannot save: {type(error).__name__}: {str(error).splitlines()[0]}"
     assert win.document.dirty and win.document.path is None

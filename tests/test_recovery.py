@@ -145,7 +145,7 @@ def test_a_failed_save_leaves_the_old_file_and_says_so(octant, tmp_path, monkeyp
         save_with_backups(Project(octant, FlattenSettings(spacing=0.1), name="lost"), path)
     assert "\n" not in str(info.value) and str(path) in str(info.value)
     assert path.read_bytes() == before
-    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["piece.flatweave"]  # no backup rotated, no temp file
 
 
 WRITER = textwrap.dedent("""
