@@ -47,6 +47,7 @@ class Frame:
     stats : nodes, springs, max thread strain %, max shear, and the pattern's
         boundary and area errors % when a pattern is known
     final : this is a finished result (not a live snapshot)
+    draping (property) : a frame of the drape (the mesh being laid; no energy yet)
     status : the solver's message (final frames)
     """
 
@@ -68,6 +69,10 @@ class Frame:
     stats: dict = field(default_factory=dict)
     final: bool = False
     status: str = ""
+
+    @property
+    def draping(self) -> bool:
+        return not self.final and math.isnan(self.energy)
 
 
 class FrameMaker:

@@ -1022,12 +1022,16 @@ class MainWindow(QMainWindow):
     def _show_progress(self, frame) -> None:
         hist = self.runner.history
         n = frame.stats.get("nodes", 0)
+        paused = " - paused" if self.runner.paused else ""
+        if frame.draping:
+            self.progress.setText(f"Draping{paused}: {n:,} nodes laid")
+            self._info_label.setText(f"draping  {n:,} nodes")
+            return
         if self._first_nodes is None:
             self._first_nodes = n
         delta = ""
         if len(hist) >= 2 and hist[-2][1] > 0:
             delta = f" (change {hist[-1][1] - hist[-2][1]:+.3g})"
-        paused = " - paused" if self.runner.paused else ""
         text = (f"{self.runner.stage.capitalize()}{paused}: iteration {frame.iteration}, "
                 f"EN {frame.energy:.6g}{delta}, {n:,} nodes ({n - self._first_nodes:+,d} since the drape)")
         self.progress.setText(text)

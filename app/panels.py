@@ -284,7 +284,7 @@ class MetricsPanel(QWidget):
     def show_frame(self, frame, project: Project, stale: bool = False) -> None:
         st = frame.stats
         u = project.units
-        self.labels["energy"].setText(f"{frame.energy:.6g}")
+        self.labels["energy"].setText("- (draping)" if frame.draping else f"{frame.energy:.6g}")
         for key, name in (("boundary", "boundary_error_pct"), ("area", "area_error_pct")):
             self.labels[key].setText(f"{st[name]:.3f} %" if name in st else "- (pattern pending)")
         shear = st.get("max_shear_deg", math.nan)
@@ -299,7 +299,7 @@ class MetricsPanel(QWidget):
             self.labels["size"].setText(f"{ext[0]:.4g} x {ext[1]:.4g} {u}")
         self.labels["nodes"].setText(f"{st.get('nodes', 0):,} / {st.get('springs', 0):,}")
         self.labels["iterations"].setText(str(frame.iteration))
-        status = frame.status if frame.final else "solving..."
+        status = frame.status if frame.final else "draping..." if frame.draping else "solving..."
         if stale:
             status += " (settings changed since; Run to update)"
         self.labels["status"].setText(status)

@@ -26,6 +26,7 @@ consistent result.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import threading
@@ -87,6 +88,10 @@ def _lower_priority(niceness: int = SOLVE_NICENESS) -> None:
             os.setpriority(os.PRIO_PROCESS, tid, max(os.getpriority(os.PRIO_PROCESS, tid), niceness))
         except OSError:
             pass
+
+
+class _DrapeStopped(Exception):
+    """Raised from the drape's progress report to end a drape on Stop."""
 
 
 @dataclass(frozen=True)
@@ -190,26 +195,40 @@ class SolveThread(QThread):
         if outcome is not None and not self._abandon.is_set():
             self.succeeded.emit(outcome)
 
+    def _wait_if_paused(self) -> None:
+        if not self._running.is_set():
+            self._waiting = True
+            self.paused_changed.emit(True)
+            self._running.wait()
+            self._waiting = False
+            self.paused_changed.emit(False)
+
     def _solve(self) -> RunOutcome | None:
         p = self.project
         surface, settings = p.surface, p.settings
         maker = FrameMaker(surface, settings)
         self.stage = "draping" if self.initial is None else "starting from the last result"
-        gen = flatten_iter(surface, settings, self.initial, area=maker.A3)
+        t0 = time.perf_counter()
+
+        def drape_frame(mesh, uv, xyz):  # the mesh laid so far; Stop and Pause work here too
+            self._wait_if_paused()
+            if self._stop.is_set():
+                raise _DrapeStopped
+            if mesh.n_springs:
+                self._publish(maker.frame(mesh, uv, xyz, 0, math.nan, time.perf_counter() - t0))
+
+        gen = flatten_iter(surface, settings, self.initial, area=maker.A3, drape_progress=drape_frame)
         last = None
         next_pattern = time.perf_counter() + PATTERN_INTERVAL
         try:
             while True:
-                if not self._running.is_set():
-                    self._waiting = True
-                    self.paused_changed.emit(True)
-                    self._running.wait()
-                    self._waiting = False
-                    self.paused_changed.emit(False)
+                self._wait_if_paused()
                 if self._stop.is_set():
                     break
                 try:
                     snap = next(gen)
+                except _DrapeStopped:
+                    break
                 except StopIteration as done:
                     result: FlattenResult = done.value
                     self.stage = "done"

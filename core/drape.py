@@ -318,6 +318,7 @@ class _Builder:
         self.how = np.zeros(0, dtype=np.int8)  # 0 seed, 1 path, 2 two-neighbour, 3 filling
         self.tree, self.tree_n = None, 0
         self.separated = None  # callable(uv_a, uv_b) -> bool: a dart lies between
+        self.on_add = None  # callable() after every batch of new nodes (progress reports)
         self.rmin = min(settings.r_weft, settings.r_warp)
         dom = surface.domain
         self.dom = dom
@@ -338,6 +339,8 @@ class _Builder:
         self.ij = np.concatenate([self.ij, ij])
         self.how = np.concatenate([self.how, np.full(len(uv), how, dtype=np.int8)])
         self.lat.set(ij, np.arange(n0, n0 + len(uv)))
+        if self.on_add is not None:
+            self.on_add()
 
     def accept_uv(self, uv: np.ndarray, conv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Converged and inside the domain (to round-off); returns (ok, clipped uv)."""
@@ -533,11 +536,16 @@ class _Builder:
 
 
 def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
-          area: float | None = None) -> DrapeResult:
+          area: float | None = None, progress=None, progress_interval: float = 0.06) -> DrapeResult:
     """Lay the spring mesh onto the surface (paper section 3.1).
 
     ``area`` (the region's area, if known) lets an oversize mesh be refused up
     front with an estimate of its node count.
+
+    ``progress(ij, uv, xyz)``, if given, is called with copies of the nodes laid
+    so far, at most every ``progress_interval`` seconds (a live view of the
+    drape). An exception it raises ends the drape there and propagates (how a
+    caller stops a drape).
     """
     t0 = time.perf_counter()
     s = settings
@@ -561,6 +569,15 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
             raise SettingsError(f"spacing {s.r_weft:g} needs {need}, {over}; the smallest spacing "
                                 f"that fits is about {smallest:.3g}")
     b = _Builder(surface, s)
+    if progress is not None:
+        last = [time.perf_counter()]
+
+        def on_add():
+            now = time.perf_counter()
+            if now - last[0] >= progress_interval:
+                progress(b.ij.copy(), b.uv.copy(), b.xyz.copy())
+                last[0] = time.perf_counter()  # the report's own time is not drape time
+        b.on_add = on_add
     b.seed_and_paths()
     while True:
         b.two_neighbour_fill()

@@ -233,11 +233,14 @@ def check_result_finite(uv: np.ndarray, xyz: np.ndarray, pattern: Pattern | None
 
 
 def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
-                 area: float | None = None):
+                 area: float | None = None, drape_progress=None):
     """Generator: drape (or warm-start from ``initial``), minimise, pattern.
 
     Yields the solver's :class:`core.solver.Snapshot` s; returns the
-    :class:`FlattenResult`. Closing it stops the solve at once. A NaN or
+    :class:`FlattenResult`. Closing it stops the solve at once.
+    ``drape_progress(mesh, uv, xyz)``, if given, sees the mesh laid so far
+    during the drape, a few times a second, built as the solver will build it
+    (springs across darts cut); an exception it raises ends the drape. A NaN or
     infinity anywhere (solver, nodes, pattern, metrics) raises
     :class:`~core.errors.SolverError`: no result holds a non-finite number.
     """
@@ -248,7 +251,14 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     _check_area(surface, A3)
     problem = make_problem(surface, settings)
     if initial is None:
-        d = drape(surface, settings.drape_settings(), settings.material, area=A3)
+        progress = None
+        if drape_progress is not None:
+            def progress(ij, uv, xyz):
+                if len(ij) < 3:
+                    return
+                order = np.lexsort((ij[:, 1], ij[:, 0]))
+                drape_progress(problem.build(ij[order], uv[order]), uv[order], xyz[order])
+        d = drape(surface, settings.drape_settings(), settings.material, area=A3, progress=progress)
         _check_drape(surface, d, settings.drape_settings())
         state, stats = State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
     else:

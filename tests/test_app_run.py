@@ -16,6 +16,7 @@ from PySide6.QtCore import QTimer
 
 from app.colours import ramp, strain_range, strain_stops
 from app.view2d import nice_length
+from core.drape import drape
 from core.examples import example_path, load_example
 from core.metrics import spring_strain
 from core.pipeline import flatten
@@ -145,10 +146,55 @@ def test_pause_and_resume(make_window, qtbot):
         win.stop()
 
 
+def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatch):
+    """The mesh is drawn as it is laid, and Stop (or Pause) acts during the drape."""
+    import core.drape
+
+    slow_add = core.drape._Builder.add
+
+    laid = [0]
+
+    def add(self, *args):  # a slow drape, so the test can act in the middle of it
+        slow_add(self, *args)
+        laid[0] = max(laid[0], len(self.ij))
+        time.sleep(0.01)
+
+    monkeypatch.setattr(core.drape._Builder, "add", add)
+    win = make_window(small_project(0.05))
+    frames = []
+    win.runner.frame.connect(frames.append)
+    win.run()
+    qtbot.waitUntil(lambda: sum(f.draping for f in frames) >= 3, timeout=RUN_TIMEOUT_MS)
+    assert win.progress.text().startswith("Draping") and "nodes laid" in win.progress.text()
+    assert win.metrics.text("status") == "draping..."
+    shown = win.view.layer.spring_colours()[0]
+    assert len(shown) == frames[-1].mesh.n_springs > 0  # the partial mesh is on screen
+    win.actions["pause"].trigger()
+    qtbot.waitUntil(lambda: win.runner.thread.paused, timeout=5000)
+    n = len(frames)
+    qtbot.wait(300)
+    assert len(frames) == n, "the drape went on while paused"
+    win.actions["pause"].trigger()
+    qtbot.waitUntil(lambda: len(frames) > n, timeout=5000)
+    counts = [f.stats["nodes"] for f in frames if f.draping]
+    assert counts == sorted(counts) and counts[-1] > counts[0]
+    with qtbot.waitSignal(win.run_finished, timeout=10000) as blocker:
+        win.stop()
+    outcome = blocker.args[0]
+    assert outcome.stopped and outcome.result is None and not any(not f.draping for f in frames)
+    monkeypatch.undo()
+    full = drape(win.project.surface, win.project.settings.drape_settings(), win.project.settings.material)
+    assert laid[0] < full.mesh.n_nodes  # the drape was stopped in the middle, not run to its end
+    assert win.project.result is None and project_problems(win.project) == []
+    assert win.runner.state == "idle" and win.actions["run"].isEnabled()
+
+
 def test_the_event_loop_runs_during_a_solve(make_window, qtbot):
     """Ticks of a 10 ms timer during a run: the longest gap stays under 250 ms,
     frames arrive, and the camera moves when dragged mid-run."""
-    win = make_window(small_project(0.05))  # ~650 nodes: a run of a second or two
+    # ~650 nodes and the paper's scheme for 25 iterations: a run of a few seconds on any machine
+    # (a fast solve can end in under a second on a quiet one, before a 7-event drag is through)
+    win = make_window(small_project(0.05, solver="paper", max_iter=25))
     qtbot.wait(500)  # let the new window finish its first paints (GL shader compilation) before timing
     ticks = []
     timer = QTimer()
@@ -203,8 +249,8 @@ def test_a_worker_exception_reaches_a_dialog(make_window, qtbot, monkeypatch):
 
     real = worker.flatten_iter
 
-    def exploding(surface, settings, initial=None, area=None):
-        gen = real(surface, settings, initial, area)
+    def exploding(surface, settings, initial=None, area=None, drape_progress=None):
+        gen = real(surface, settings, initial, area, drape_progress)
         yield next(gen)
         yield next(gen)
         raise RuntimeError("the solver exploded\nsecond line")

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from core.drape import DrapeSettings, drape, refill
 from core.errors import SettingsError
 from core.examples import example_names, load_example
-from core.mesh import DIAG, MATERIALS
+from core.mesh import DIAG, MATERIALS, build_mesh
 from core.quadrature import region_area
 
 
@@ -119,3 +119,53 @@ def test_oversize_mesh_is_refused_up_front(monkeypatch):
     with pytest.raises(SettingsError, match="nodes") as err:
         drape(s, DrapeSettings(1e-4, max_nodes=100_000), MATERIALS["woven"], area=region_area(s))
     assert "157,079,633" in str(err.value) and "0.00396" in str(err.value)
+
+
+def test_progress_reports_the_mesh_as_it_grows_and_can_stop_the_drape():
+    surface = load_example("octant")
+    s = DrapeSettings(0.05, 0.05)
+    plain = drape(surface, s, MATERIALS["woven"])
+    seen = []
+    watched = drape(surface, s, MATERIALS["woven"],
+                    progress=lambda ij, uv, xyz: seen.append((ij.copy(), uv.copy(), xyz.copy())),
+                    progress_interval=0.0)
+    # watching changes nothing, and every report is a growing prefix of the drape
+    np.testing.assert_array_equal(watched.mesh.ij, plain.mesh.ij)
+    np.testing.assert_array_equal(watched.uv, plain.uv)
+    counts = [len(ij) for ij, _, _ in seen]
+    assert len(seen) >= 5 and counts == sorted(counts) and counts[-1] == plain.mesh.n_nodes
+    final = {tuple(p): k for k, p in enumerate(plain.mesh.ij)}
+    for ij, uv, xyz in seen:
+        rows = [final[tuple(p)] for p in ij]  # every reported node is in the finished drape, where it stays
+        np.testing.assert_allclose(uv, plain.uv[rows], atol=0)
+        np.testing.assert_allclose(xyz, surface.points(uv), atol=1e-12)
+
+    class Stop(Exception):
+        pass
+
+    def stop_at_100(ij, uv, xyz):
+        if len(ij) >= 100:
+            raise Stop
+
+    with pytest.raises(Stop):
+        drape(surface, s, MATERIALS["woven"], progress=stop_at_100, progress_interval=0.0)
+
+
+def test_the_pipeline_shows_the_drape_as_the_solver_will_build_it():
+    from core.darts import PlaneDart
+    from core.pipeline import FlattenSettings, flatten_iter, make_problem
+
+    surface = load_example("octant")
+    s = FlattenSettings(spacing=0.08, solver="none", darts=(PlaneDart((1.0, 0.0, 0.0, -0.5)),))
+    meshes = []
+    gen = flatten_iter(surface, s, drape_progress=lambda mesh, uv, xyz: meshes.append((mesh, uv)))
+    with pytest.raises(StopIteration):
+        next(gen)
+    assert meshes
+    problem = make_problem(surface, s)
+    cut = 0
+    for mesh, uv in meshes:
+        built = problem.build(mesh.ij, uv)  # the same springs: those across the dart are cut
+        np.testing.assert_array_equal(mesh.ends, built.ends)
+        cut += build_mesh(mesh.ij, mesh.r_weft, mesh.r_warp, s.material).n_springs - mesh.n_springs
+    assert cut > 0  # the dart did cut springs in what was shown
