@@ -45,6 +45,14 @@ from app.frames import Frame, FrameMaker
 
 __all__ = ["SolveThread", "RunOutcome", "one_line"]
 
+DRAPE_FRAME_INTERVAL = 0.5
+"""Seconds between frames of the drape (the mesh laid so far), and so the
+longest wait for Stop or Pause during a drape. Each such frame has a new mesh
+(the views rebuild their geometry), so they are dear: measured with
+benchmarks/gui_fps.py at 2,525 nodes (quiet machine), Run to result took
+2.9-3.1 s with no drape frames, 3.2-3.8 s with one every 0.2 s and 3.8-4.2 s
+every 0.1 s, and frames/s over the run did not rise. Every 0.5 s costs little
+and still shows a long drape (about 3 s at 10,000 nodes) growing."""
 PATTERN_INTERVAL = 0.25
 """Seconds between live patterns at least (more when a pattern is slow: at most
 about a seventh of the run goes into them)."""
@@ -217,7 +225,8 @@ class SolveThread(QThread):
             if mesh.n_springs:
                 self._publish(maker.frame(mesh, uv, xyz, 0, math.nan, time.perf_counter() - t0))
 
-        gen = flatten_iter(surface, settings, self.initial, area=maker.A3, drape_progress=drape_frame)
+        gen = flatten_iter(surface, settings, self.initial, area=maker.A3, drape_progress=drape_frame,
+                           drape_interval=DRAPE_FRAME_INTERVAL)
         last = None
         next_pattern = time.perf_counter() + PATTERN_INTERVAL
         try:

@@ -233,13 +233,13 @@ def check_result_finite(uv: np.ndarray, xyz: np.ndarray, pattern: Pattern | None
 
 
 def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
-                 area: float | None = None, drape_progress=None):
+                 area: float | None = None, drape_progress=None, drape_interval: float = 0.2):
     """Generator: drape (or warm-start from ``initial``), minimise, pattern.
 
     Yields the solver's :class:`core.solver.Snapshot` s; returns the
     :class:`FlattenResult`. Closing it stops the solve at once.
     ``drape_progress(mesh, uv, xyz)``, if given, sees the mesh laid so far
-    during the drape, a few times a second, built as the solver will build it
+    during the drape, at most every ``drape_interval`` seconds, built as the solver will build it
     (springs across darts cut); an exception it raises ends the drape. A NaN or
     infinity anywhere (solver, nodes, pattern, metrics) raises
     :class:`~core.errors.SolverError`: no result holds a non-finite number.
@@ -258,7 +258,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
                     return
                 order = np.lexsort((ij[:, 1], ij[:, 0]))
                 drape_progress(problem.build(ij[order], uv[order]), uv[order], xyz[order])
-        d = drape(surface, settings.drape_settings(), settings.material, area=A3, progress=progress)
+        d = drape(surface, settings.drape_settings(), settings.material, area=A3, progress=progress,
+                  progress_interval=drape_interval)
         _check_drape(surface, d, settings.drape_settings())
         state, stats = State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
     else:
