@@ -206,7 +206,8 @@ class Soak:
             problems.append("a result marked current was made with other settings")
         if len(doc.history) > doc.limit:
             problems.append(f"the undo stack holds {len(doc.history)} > {doc.limit} edits")
-        alive = [o for o in gc.get_objects() if isinstance(o, SolveThread) and o.isRunning()] \
+        from shiboken6 import isValid  # a finished thread's C++ side may be gone already (deleteLater)
+        alive = [o for o in gc.get_objects() if isinstance(o, SolveThread) and isValid(o) and o.isRunning()] \
             if self.counts.total() % 25 == 0 else []
         self.max_threads = max(self.max_threads, len(alive))
         if len(alive) > 1:
