@@ -249,8 +249,8 @@ def test_a_worker_exception_reaches_a_dialog(make_window, qtbot, monkeypatch):
 
     real = worker.flatten_iter
 
-    def exploding(surface, settings, initial=None, area=None, drape_progress=None):
-        gen = real(surface, settings, initial, area, drape_progress)
+    def exploding(surface, settings, initial=None, area=None, **options):
+        gen = real(surface, settings, initial, area, **options)
         yield next(gen)
         yield next(gen)
         raise RuntimeError("the solver exploded\nsecond line")

@@ -158,7 +158,8 @@ def test_the_pipeline_shows_the_drape_as_the_solver_will_build_it():
     surface = load_example("octant")
     s = FlattenSettings(spacing=0.08, solver="none", darts=(PlaneDart((1.0, 0.0, 0.0, -0.5)),))
     meshes = []
-    gen = flatten_iter(surface, s, drape_progress=lambda mesh, uv, xyz: meshes.append((mesh, uv)))
+    gen = flatten_iter(surface, s, drape_progress=lambda mesh, uv, xyz: meshes.append((mesh, uv)),
+                       drape_interval=0.0)
     with pytest.raises(StopIteration):
         next(gen)
     assert meshes
