@@ -9,7 +9,7 @@ from pathlib import Path
 
 from core.errors import FlatweaveError
 
-__all__ = ["atomic_write_bytes", "atomic_write_many", "atomic_write_text", "json_bytes", "write_json"]
+__all__ = ["atomic_write_bytes", "atomic_write_many", "json_bytes", "write_json"]
 
 
 def atomic_write_bytes(path, data: bytes, before_replace=None) -> None:
@@ -96,11 +96,6 @@ def _file_mode(path: Path) -> int:
     mask = os.umask(0o022)
     os.umask(mask)
     return 0o666 & ~mask
-
-
-def atomic_write_text(path, text: str) -> None:
-    """UTF-8 text version of :func:`atomic_write_bytes`."""
-    atomic_write_bytes(path, text.encode("utf-8"))
 
 
 def json_bytes(obj, path) -> bytes:

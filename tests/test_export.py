@@ -374,29 +374,10 @@ def test_unknown_suffix_and_bad_folder_are_refused(tmp_path):
 
 
 def test_a_failed_write_leaves_no_partial_file_and_the_old_one_intact(tmp_path, octant_dart, monkeypatch):
-    import errno
-    import os
-
     old = tmp_path / "p.dxf"
     old.write_bytes(b"previous export")
     new = tmp_path / "q.svg"
-    real_fdopen = os.fdopen
-
-    class FullDisk:
-        def __init__(self, fh):
-            self.fh = fh
-
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            self.fh.close()
-
-        def write(self, data):
-            self.fh.write(data[: len(data) // 2])
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-
-    monkeypatch.setattr(os, "fdopen", lambda fd, mode: FullDisk(real_fdopen(fd, mode)))
+    FullDisk(monkeypatch, "write")
     for target in (old, new):
         with pytest.raises(FlatweaveError, match="No space left on device") as info:
             export(octant_dart, target)

@@ -24,6 +24,7 @@ from core.pipeline import FlattenSettings, flatten
 from core.project import (PROJECT_VERSION, UPGRADES, Project, load_project, project_problems, project_to_dict,
                           save_project)
 from core.recovery import Session, backup_paths, find_orphans, recovery_dir, save_with_backups
+from tests.helpers import FullDisk
 
 REPO = Path(__file__).resolve().parents[1]
 OLD = REPO / "tests" / "data" / "projects"
@@ -129,18 +130,11 @@ def test_a_backup_is_the_old_file_not_a_link_to_the_new_one(octant, tmp_path):
 
 
 def test_a_failed_save_leaves_the_old_file_and_says_so(octant, tmp_path, monkeypatch):
-    import errno
-
-    import core.fileio
-
     path = tmp_path / "piece.flatweave"
     save_with_backups(Project(octant, FlattenSettings(spacing=0.1), name="kept"), path)
     before = path.read_bytes()
 
-    def full(_fd):
-        raise OSError(errno.ENOSPC, "No space left on device")
-
-    monkeypatch.setattr(core.fileio.os, "fsync", full)
+    FullDisk(monkeypatch, "fsync")
     with pytest.raises(FlatweaveError, match="No space left on device") as info:
         save_with_backups(Project(octant, FlattenSettings(spacing=0.1), name="lost"), path)
     assert "\n" not in str(info.value) and str(path) in str(info.value)
