@@ -8,20 +8,20 @@ and measures, over the solve (first snapshot to result):
 
 * run s: from pressing Run to the result, drape included; seconds: from the
   first frame on screen to the result (the span the rates below are over);
+* drape s / solve s: Run to the first solver frame, and from there to the result;
 * snapshots/s: solver iterations per second (what there is to show);
 * frames/s: new states handed to the views per second (the frame pump takes
-  the newest snapshot at most every 30 ms);
-* 3D and pattern repaints/s: renders of each view (a live frame repaints one
-  view at once and the other one pump period later, in a paint pass of its
-  own; final frames repaint both);
+  the newest snapshot at most every 30 ms); solve frames/s: the same over the
+  solve alone (the drape sends a frame every 0.5 s, see app/worker.py);
+* 3D and pattern repaints/s: renders of each view (both views repaint in
+  one paint pass);
 * draw ms: the window's Python work per frame (copying arrays into the views);
 * paint ms: one view's render inside Qt's paint (median);
 * longest event-loop gap: between ticks of a 10 ms timer, whole run.
 
 A "replay" row feeds the frames of a recorded solve to the window as fast as
 the event loop takes them, with no solver competing for the CPU: the GUI's own
-ceiling. Rows "both views" repaint the two views in the same paint pass (the
-app's behaviour with ``MainWindow.alternate_live_views = False``). Not a timed test: numbers depend on the machine (software OpenGL under
+ceiling. Not a timed test: numbers depend on the machine (software OpenGL under
 Xvfb here).
 """
 
@@ -108,8 +108,12 @@ def live_run(probe, win, project, label):
     first = {}
     done = {}
 
-    def on_frame(_f):
+    solve_frames = []
+
+    def on_frame(f):
         first.setdefault("t", time.perf_counter())
+        if not f.draping:
+            solve_frames.append(time.perf_counter())
     win.runner.frame.connect(on_frame)
     win.run_finished.connect(lambda o: done.setdefault("o", (o, time.perf_counter())))
     win.run_failed.connect(lambda m: done.setdefault("o", (m, time.perf_counter())))
@@ -131,6 +135,10 @@ def live_run(probe, win, project, label):
     row["gap ms"] = 1000 * float(np.diff(np.concatenate([[t_start], inside, [t1]])).max())
     row["iterations"] = r.metrics["iterations"]
     row["run s"] = t1 - t_start  # Run pressed to result, drape included
+    if solve_frames:
+        row["drape s"] = solve_frames[0] - t_start
+        row["solve s"] = t1 - solve_frames[0]
+        row["solve frames/s"] = (len(solve_frames) - 1) / max(t1 - solve_frames[0], 1e-9)
     return row
 
 
@@ -176,8 +184,8 @@ class _FakeBusy:
 
 
 def markdown(rows) -> str:
-    cols = ["case", "nodes", "springs", "iterations", "run s", "seconds", "snapshots/s", "frames/s", "3D repaints/s",
-            "pattern repaints/s", "draw ms", "paint ms", "gap ms"]
+    cols = ["case", "nodes", "springs", "iterations", "run s", "drape s", "solve s", "seconds", "snapshots/s",
+            "frames/s", "solve frames/s", "3D repaints/s", "pattern repaints/s", "draw ms", "paint ms", "gap ms"]
     out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
         cells = []
@@ -192,6 +200,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--spacing", type=float, default=0.025)
     ap.add_argument("--paper-iterations", type=int, default=60, help="iteration budget of the paper solver row")
+    ap.add_argument("--repeat", type=int, default=3, help="fast-solver runs (one row each)")
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / "gui_fps.md")
     args = ap.parse_args(argv)
 
@@ -206,14 +215,13 @@ def main(argv=None) -> int:
     probe.wait(lambda: win.view.is_ready() and win.pattern_view.is_ready(), 30)
 
     rows = []
-    for alternate in (True, False):
-        win.alternate_live_views = alternate
-        tag = "" if alternate else ", both views"
-        rows.append(live_run(probe, win, project, f"fast solver{tag}"))
-        rows.append(live_run(probe, win, project.with_settings(solver="paper", max_iter=args.paper_iterations),
-                             f"paper solver ({args.paper_iterations} it.){tag}"))
-        rows.append(replay(probe, win, project, f"replay, no solver{tag}"))
-        print(markdown(rows[-3:]), flush=True)
+    for _ in range(args.repeat):
+        rows.append(live_run(probe, win, project, "fast solver"))
+        print(markdown(rows[-1:]), flush=True)
+    rows.append(live_run(probe, win, project.with_settings(solver="paper", max_iter=args.paper_iterations),
+                         f"paper solver ({args.paper_iterations} it.)"))
+    rows.append(replay(probe, win, project, "replay, no solver"))
+    print(markdown(rows[-2:]), flush=True)
     win.close()
 
     table = markdown(rows)
@@ -227,7 +235,7 @@ def main(argv=None) -> int:
             "Columns: see the script's docstring. frames/s counts new states handed to the views; "
             "repaints/s counts renders of each view, which is what a user sees move. "
             "Live, the views keep up with the solver (repaints/s close to snapshots/s); "
-            "the replay rows are the ceiling of the GUI itself on this machine.\n")
+            "the replay row is the ceiling of the GUI itself on this machine.\n")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text, encoding="utf-8")
     print(f"\nwritten to {args.out}")
