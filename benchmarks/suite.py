@@ -269,8 +269,10 @@ def report(results: list[dict], dart: dict, budget: float, gui: str | None,
     if gui:
         fps = _gui_fps(gui)
         if fps is not None:
-            row("GUI live updates at ~2,500 nodes (software OpenGL)", f"{fps:.1f} frames/s", ">= 20",
-                fps >= TARGETS["gui_fps"])
+            run_fps, solve_fps = fps
+            during = f" ({solve_fps:.1f} while solving, after the drape)" if solve_fps is not None else ""
+            row("GUI live updates at ~2,500 nodes (software OpenGL), median of the runs",
+                f"{run_fps:.1f} frames/s{during}", ">= 20", run_fps >= TARGETS["gui_fps"])
     stamp = f"{_dt.date.today()}, {_machine()}"
     headline = (f"Measured {stamp} by `python benchmarks/suite.py --readme`:\n\n"
                 + table(["measure", "flatweave", "target", "met"], hl))
@@ -284,19 +286,24 @@ def report(results: list[dict], dart: dict, budget: float, gui: str | None,
     return text, headline
 
 
-def _gui_fps(text: str) -> float | None:
-    """The live frames/s of the fast-solver row of benchmarks/results/gui_fps.md."""
-    head = None
+def _gui_fps(text: str) -> tuple[float, float | None] | None:
+    """(frames/s over the run, frames/s over the solve alone), medians of the
+    fast-solver rows of benchmarks/results/gui_fps.md, or None."""
+    head, runs, solves = None, [], []
     for line in text.splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if "frames/s" in cells:
             head = cells
         elif head and cells and cells[0] == "fast solver":
             try:
-                return float(cells[head.index("frames/s")].replace(",", ""))
+                runs.append(float(cells[head.index("frames/s")].replace(",", "")))
+                if "solve frames/s" in head:
+                    solves.append(float(cells[head.index("solve frames/s")].replace(",", "")))
             except (ValueError, IndexError):
-                return None
-    return None
+                continue
+    if not runs:
+        return None
+    return float(np.median(runs)), (float(np.median(solves)) if solves else None)
 
 
 def _size_class(n: int) -> int:
