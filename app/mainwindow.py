@@ -990,8 +990,8 @@ class MainWindow(QMainWindow):
         # for every pass (about 20 ms at 1600 x 1000 with software GL, whatever
         # changed), so one pass for both views is cheaper than a pass each
         # (measured with benchmarks/gui_fps.py: 16 frames/s against 9 replayed).
-        self.view.show_frame(frame, opts, render=True)
-        self.pattern_view.show_frame(frame, opts, render=True)
+        self.view.show_frame(frame, opts)
+        self.pattern_view.show_frame(frame, opts)
         project = self.project
         if project is not None and project.settings.yarns:
             self._show_yarns(project, frame)

@@ -98,7 +98,7 @@ class PatternView(ViewBase):
         """Frame the pattern when the next frame is drawn."""
         self._fit_pending = True
 
-    def show_frame(self, frame, options: ViewOptions, render: bool = True) -> None:
+    def show_frame(self, frame, options: ViewOptions) -> None:
         self.options = options
         new_topology = frame.topology != self.layer.topology
         spacing = float(min(frame.mesh.r_weft, frame.mesh.r_warp))
@@ -113,17 +113,15 @@ class PatternView(ViewBase):
         if self._fit_pending:
             self._fit_pending = False
             self.fit(render=False)
-        if render:
-            self.render()
+        self.render()
 
-    def restyle(self, options: ViewOptions, render: bool = True) -> None:
+    def restyle(self, options: ViewOptions) -> None:
         units_changed = options.units != self.options.units
         self.options = options
         self.layer.restyle(options)
         if units_changed and self.layer.frame is not None:
             self._draw_guides(self.layer.frame)
-        if render:
-            self.render()
+        self.render()
 
     def fit(self, render: bool = True) -> None:
         """Fit the camera to the pattern and its scale bar, looking down z, +y up.

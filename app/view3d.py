@@ -214,21 +214,19 @@ class SurfaceView(ViewBase):
         self.layer.clear()
         self._bar.SetVisibility(False)
 
-    def show_frame(self, frame, options: ViewOptions, render: bool = True) -> None:
+    def show_frame(self, frame, options: ViewOptions) -> None:
         self.options = options
         self.layer.show(frame, frame.xyz, options)
         self._update_bar()
         self._apply_surface_visibility()
-        if render:
-            self.render()
+        self.render()
 
-    def restyle(self, options: ViewOptions, render: bool = True) -> None:
+    def restyle(self, options: ViewOptions) -> None:
         self.options = options
         self.layer.restyle(options)
         self._update_bar()
         self._apply_surface_visibility()
-        if render:
-            self.render()
+        self.render()
 
     def _apply_surface_visibility(self) -> None:
         for actor in self._surface_actors[:1]:
