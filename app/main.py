@@ -2,6 +2,7 @@
 
     flatweave [FILE] [--spacing R] [--solver fast|paper] [--run]
               [--screenshot OUT.png] [--quit] [--size WxH] [--timeout S]
+              [--view auto|gl|canvas]
 
 FILE is a project (``.flatweave``) or a surface (geomdl JSON); with none the
 app opens the sphere-octant example. ``--run`` starts a solve once the window
@@ -12,18 +13,21 @@ make the scripted mode used for documentation and smoke tests::
     flatweave SURFACE.json --run --screenshot OUT.png --quit
 
 which exits 0, or 1 with a one-line message when the solve fails or takes
-longer than ``--timeout``; a file that cannot be read exits 2.
+longer than ``--timeout``; a file that cannot be read exits 2. ``--view``
+(or ``FLATWEAVE_VIEW``) picks the views' render widget, see :mod:`app.canvas`.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
 DEFAULT_EXAMPLE = "octant"
 READY_POLL_MS = 50
 READY_TIMEOUT_MS = 10000
+VIEW_KINDS = ("auto", "gl", "canvas")  # as app.canvas.VIEW_KINDS (not imported: that loads VTK and Qt)
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -53,6 +57,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--size", type=_size, default=None, metavar="WxH", help="window size in pixels")
     parser.add_argument("--timeout", type=float, default=600.0, metavar="S",
                         help="with --run --quit: give up (status 1) after S seconds (default 600)")
+    parser.add_argument("--view", choices=VIEW_KINDS, default=None,
+                        help="render widget of the views: pyvistaqt's OpenGL widget (gl), a raster canvas "
+                             "(canvas), or by the OpenGL renderer (auto: canvas on a software renderer); "
+                             "default: $FLATWEAVE_VIEW or auto")
     return parser
 
 
@@ -87,6 +95,13 @@ def load_start_project(args):
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    view = (args.view or os.environ.get("FLATWEAVE_VIEW", "auto")).strip().lower() or "auto"
+    if view not in VIEW_KINDS:
+        print(f"flatweave: error: FLATWEAVE_VIEW must be one of {', '.join(VIEW_KINDS)}, not {view!r}",
+              file=sys.stderr)
+        return 2
+    if args.view:
+        os.environ["FLATWEAVE_VIEW"] = view
 
     # Load before any Qt work: a bad file is a one-line error, status 2.
     from core.errors import FlatweaveError

@@ -19,12 +19,12 @@ from typing import Callable
 
 import numpy as np
 import pyvista as pv
-from pyvistaqt import QtInteractor
 from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
 from vtkmodules.vtkCommonCore import vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray
 from vtkmodules.vtkRenderingCore import vtkCellPicker, vtkColorTransferFunction
 
+from app.canvas import make_plotter
 from app.colours import YELLOW, ramp, shear_stops, strain_range, strain_stops
 
 __all__ = ["ViewOptions", "ColourScale", "MeshLayer", "ViewBase", "KINDS", "scale_stops"]
@@ -173,7 +173,7 @@ class MeshLayer:
     ``z`` lifts (or sinks) the layer along z, for the flat pattern's stacking.
     """
 
-    def __init__(self, plotter: QtInteractor, line_width: float = 2.0, point_size: float = 9.0):
+    def __init__(self, plotter, line_width: float = 2.0, point_size: float = 9.0):
         self.plotter = plotter
         self.line_width = line_width
         self.strain_scale = ColourScale()
@@ -337,7 +337,8 @@ class ViewBase:
         # a render of the 3D view took (octant, 2,525 nodes, 640 x 930 pixels;
         # 17 ms with both changes). A headlight also lights whatever side faces
         # the user, which suits a surface turned every way.
-        self._plotter = QtInteractor(parent, auto_update=False, multi_samples=0, lighting="none")
+        # The widget is pyvistaqt's or a raster canvas, by the renderer: see app.canvas.
+        self._plotter = make_plotter(parent)
         self._plotter.add_light(pv.Light(light_type="headlight"))
         self._plotter.set_background(BACKGROUND)
         self._closed = False
@@ -357,13 +358,12 @@ class ViewBase:
         return self._plotter.interactor
 
     @property
-    def plotter(self) -> QtInteractor:
+    def plotter(self):
         return self._plotter
 
     def is_ready(self) -> bool:
         """True once the GL window can render (wait for this before screenshots)."""
-        rw = self._plotter.render_window
-        return bool(rw is not None and rw.GetReadyForRendering())
+        return self._plotter.is_ready()
 
     def render(self) -> None:
         """Schedule a redraw. pyvistaqt's widget renders the scene in its paintGL,
@@ -376,7 +376,7 @@ class ViewBase:
     def render_now(self) -> None:
         """Render at once (before reading pixels back from VTK)."""
         if not self._closed:
-            self._plotter.render()
+            self._plotter.render_now()
 
     def screenshot(self, path) -> None:
         self._plotter.screenshot(str(path))

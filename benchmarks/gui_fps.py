@@ -1,22 +1,26 @@
 """Live-update frame rate of the app: the woven octant at about 2,500 nodes.
 
     xvfb-run -s '-screen 0 1600x1000x24' .venv/bin/python benchmarks/gui_fps.py \
-        [--spacing 0.025] [--out benchmarks/results/gui_fps.md]
+        [--spacing 0.025] [--view auto|gl|canvas] [--out benchmarks/results/gui_fps.md]
 
-Opens the main window (1600x1000), runs solves exactly as the Run button does
-and measures, over the solve (first snapshot to result):
+Opens the main window (1600x1000) with the views' render widget the app
+chooses (or ``--view``'s, see app/canvas.py), runs solves exactly as the Run
+button does and measures:
 
 * run s: from pressing Run to the result, drape included; seconds: from the
   first frame on screen to the result (the span the rates below are over);
 * drape s / solve s: Run to the first solver frame, and from there to the result;
 * snapshots/s: solver iterations per second (what there is to show);
-* frames/s: new states handed to the views per second (the frame pump takes
-  the newest snapshot at most every 30 ms); solve frames/s: the same over the
-  solve alone (the drape sends a frame every 0.5 s, see app/worker.py);
+* run frames/s: new states handed to the views (the frame pump takes the
+  newest at most every 30 ms) per second from pressing Run to the result: the
+  live update rate a user sees; frames/s: the same from the first frame on;
+  solve frames/s: over the solve alone (the drape sends a frame every 0.1 s,
+  see app/worker.py);
 * 3D and pattern repaints/s: renders of each view (both views repaint in
   one paint pass);
 * draw ms: the window's Python work per frame (copying arrays into the views);
-* paint ms: one view's render inside Qt's paint (median);
+* paint ms: one view's paint (the render, and for the canvas reading its
+  pixels back and drawing them), median;
 * longest event-loop gap: between ticks of a 10 ms timer, whole run.
 
 A "replay" row feeds the frames of a recorded solve to the window as fast as
@@ -43,6 +47,7 @@ os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 from PySide6.QtCore import QTimer  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
+from app.canvas import view_kind  # noqa: E402
 from app.frames import FrameMaker  # noqa: E402
 from app.mainwindow import MainWindow  # noqa: E402
 from core.examples import example_path, load_example  # noqa: E402
@@ -58,14 +63,15 @@ class Probe:
         self.ticks: list[float] = []
         self.paints = {"3d": [], "2d": []}
         for key, view in (("3d", win.view), ("2d", win.pattern_view)):
-            widget = view.plotter.interactor
-            original = widget.paintGL
+            widget = view.widget
+            name = "paintGL" if hasattr(widget, "paintGL") else "paintEvent"  # pyvistaqt's widget or the canvas
+            original = getattr(widget, name)
 
-            def paint(original=original, key=key):
+            def paint(*args, original=original, key=key):
                 t = time.perf_counter()
-                original()
+                original(*args)
                 self.paints[key].append((t, time.perf_counter() - t))
-            widget.paintGL = paint
+            setattr(widget, name, paint)
         self.timer = QTimer()
         self.timer.setInterval(10)
         self.timer.timeout.connect(lambda: self.ticks.append(time.perf_counter()))
@@ -135,6 +141,7 @@ def live_run(probe, win, project, label):
     row["gap ms"] = 1000 * float(np.diff(np.concatenate([[t_start], inside, [t1]])).max())
     row["iterations"] = r.metrics["iterations"]
     row["run s"] = t1 - t_start  # Run pressed to result, drape included
+    row["run frames/s"] = win.runner.frames_shown / max(t1 - t_start, 1e-9)
     if solve_frames:
         row["drape s"] = solve_frames[0] - t_start
         row["solve s"] = t1 - solve_frames[0]
@@ -175,6 +182,10 @@ def replay(probe, win, project, label):
                          frames[-1].stats["springs"])
 
 
+WIDGETS = {"gl": "pyvistaqt's OpenGL widget (FLATWEAVE_VIEW=gl)",
+           "canvas": "the raster canvas (FLATWEAVE_VIEW=canvas)"}
+
+
 class _FakeBusy:
     """Stands in for a running solve thread during the replay."""
     stopping = False
@@ -185,7 +196,7 @@ class _FakeBusy:
 
 def markdown(rows) -> str:
     cols = ["case", "nodes", "springs", "iterations", "run s", "drape s", "solve s", "seconds", "snapshots/s",
-            "frames/s", "solve frames/s", "3D repaints/s", "pattern repaints/s", "draw ms", "paint ms", "gap ms"]
+            "run frames/s", "frames/s", "solve frames/s", "3D repaints/s", "pattern repaints/s", "draw ms", "paint ms", "gap ms"]
     out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
         cells = []
@@ -201,10 +212,15 @@ def main(argv=None) -> int:
     ap.add_argument("--spacing", type=float, default=0.025)
     ap.add_argument("--paper-iterations", type=int, default=60, help="iteration budget of the paper solver row")
     ap.add_argument("--repeat", type=int, default=3, help="fast-solver runs (one row each)")
+    ap.add_argument("--view", choices=("auto", "gl", "canvas"), default=None,
+                    help="the views' render widget (FLATWEAVE_VIEW; default: as the app chooses)")
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / "gui_fps.md")
     args = ap.parse_args(argv)
 
+    if args.view:
+        os.environ["FLATWEAVE_VIEW"] = args.view
     app = QApplication.instance() or QApplication(["gui_fps"])
+    kind = view_kind()
     win = MainWindow()
     win.resize(1600, 1000)
     surface = load_example("octant")
@@ -230,7 +246,8 @@ def main(argv=None) -> int:
     text = (f"# Live-update frame rate of the app\n\n"
             f"`python benchmarks/gui_fps.py --spacing {args.spacing:g}` under Xvfb (1600x1000 window), {stamp}, "
             f"{platform.python_implementation()} {platform.python_version()}, {os.cpu_count()} cores, "
-            f"load average {load[0]:.2f} at the end, Mesa software OpenGL (llvmpipe). "
+            f"load average {load[0]:.2f} at the end, Mesa software OpenGL (llvmpipe), "
+            f"views drawn by {WIDGETS[kind]}. "
             f"Woven octant, spacing {args.spacing:g}.\n\n{table}\n\n"
             "Columns: see the script's docstring. frames/s counts new states handed to the views; "
             "repaints/s counts renders of each view, which is what a user sees move. "

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 
@@ -17,6 +19,25 @@ def recovery_dir(tmp_path_factory, monkeypatch):
     folder = tmp_path_factory.mktemp("recovery")
     monkeypatch.setenv("FLATWEAVE_RECOVERY_DIR", str(folder))
     return folder
+
+
+@pytest.fixture(params=["canvas", "gl"])
+def each_widget(request, monkeypatch):
+    """Run a test with each of the views' render widgets (app.canvas): the
+    raster canvas (what this machine's software OpenGL gets) and pyvistaqt's
+    OpenGL widget (what a GPU gets). Ask for it before any window fixture."""
+    monkeypatch.setenv("FLATWEAVE_VIEW", request.param)
+    return request.param
+
+
+def check_widget_kind(win) -> None:
+    """The views use the render widget FLATWEAVE_VIEW names (if it names one)."""
+    from app.canvas import CanvasPlotter, GLPlotter
+
+    want = {"canvas": CanvasPlotter, "gl": GLPlotter}.get(os.environ.get("FLATWEAVE_VIEW", ""))
+    if want is not None:
+        for view in (win.view, win.pattern_view):
+            assert isinstance(view.plotter, want), f"{type(view.plotter).__name__}, not {want.__name__}"
 
 
 @pytest.fixture
@@ -37,6 +58,7 @@ def make_window(qtbot):
         win.show()
         qtbot.waitExposed(win)
         qtbot.waitUntil(lambda: win.view.is_ready() and win.pattern_view.is_ready(), timeout=10000)
+        check_widget_kind(win)
         made.append(win)
         return win
 

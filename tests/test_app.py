@@ -123,7 +123,7 @@ def test_bad_file_shows_an_error_and_keeps_the_surface(window, qtbot, tmp_path, 
     np.testing.assert_array_equal(window.view.surface_points, old_points)
 
 
-def test_window_grab_is_not_blank(window):
+def test_window_grab_is_not_blank(each_widget, window):
     window.view.render()
     img = window.grab().toImage().convertToFormat(QImage.Format.Format_RGB888)
     assert img.width() > 400 and img.height() > 300
@@ -170,10 +170,11 @@ def test_missing_surface_file_exits_2(tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
 
 
-def test_scripted_run_writes_a_screenshot_of_the_solved_piece(tmp_path):
+@pytest.mark.parametrize("view", ["auto", "gl", "canvas"])
+def test_scripted_run_writes_a_screenshot_of_the_solved_piece(tmp_path, view):
     out = tmp_path / "run.png"
     proc = run_app("resources/surfaces/octant.json", "--spacing", "0.1", "--run", "--screenshot", out,
-                   "--quit", "--size", "1200x800")
+                   "--quit", "--size", "1200x800", "--view", view)
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr
     pixels = image_array(out).astype(int)

@@ -51,7 +51,7 @@ def expected_rgb(strain):
 
 
 # ---------------------------------------------------------------------- run
-def test_run_converges_and_matches_the_core(make_window, qtbot):
+def test_run_converges_and_matches_the_core(each_widget, make_window, qtbot):
     win = make_window(small_project(0.1))
     outcome = run_to_end(qtbot, win)
     assert not outcome.stopped
@@ -189,7 +189,7 @@ def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatc
     assert win.runner.state == "idle" and win.actions["run"].isEnabled()
 
 
-def test_the_event_loop_runs_during_a_solve(make_window, qtbot):
+def test_the_event_loop_runs_during_a_solve(each_widget, make_window, qtbot):
     """Ticks of a 10 ms timer during a run: the longest gap stays under 250 ms,
     frames arrive, and the camera moves when dragged mid-run."""
     # ~650 nodes and the paper's scheme for 25 iterations: a run of a few seconds on any machine
@@ -383,7 +383,7 @@ def test_kind_toggles_and_the_colour_range(make_window, qtbot):
     assert not any(a.GetVisibility() for a in win.view.layer.node_actors)
 
 
-def test_hover_shows_the_spring_or_cell_value(make_window, qtbot):
+def test_hover_shows_the_spring_or_cell_value(each_widget, make_window, qtbot):
     win = make_window(small_project(0.1))
     run_to_end(qtbot, win)
     r = win.project.result

@@ -120,7 +120,7 @@ def solved(make_window, qtbot):
 
 
 # ---------------------------------------------------------------------- curve darts
-def test_a_three_click_curve_dart_lies_where_the_clicks_project_and_cuts(solved, qtbot):
+def test_a_three_click_curve_dart_lies_where_the_clicks_project_and_cuts(each_widget, solved, qtbot):
     win = solved
     view, doc = win.view, win.document
     before = win.project
@@ -201,7 +201,7 @@ def draw_dart(qtbot, win, targets=TARGETS):
     assert win.tool is None
 
 
-def test_a_double_click_finishes_the_dart(solved, qtbot):
+def test_a_double_click_finishes_the_dart(each_widget, solved, qtbot):
     win = solved
     win.actions["tool_curve_dart"].trigger()
     click(qtbot, win.view, *pixel(win.view, TARGETS[0]))
@@ -212,7 +212,7 @@ def test_a_double_click_finishes_the_dart(solved, qtbot):
 
 
 # ---------------------------------------------------------------------- plane darts
-def test_a_plane_dart_placed_with_the_widget(solved, qtbot):
+def test_a_plane_dart_placed_with_the_widget(each_widget, solved, qtbot):
     win = solved
     view, panel = win.view, win.dart_panel
     before = win.project
