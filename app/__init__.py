@@ -1,7 +1,7 @@
 """flatweave app: the desktop GUI (PySide6 + pyvista) on top of :mod:`core`.
 
-:mod:`app.view3d`, :mod:`app.view2d` and :mod:`app.viewbase` are the only
-modules that touch pyvista or VTK; :mod:`app.mainwindow` holds the window,
+:mod:`app.view3d`, :mod:`app.view2d`, :mod:`app.viewbase` and :mod:`app.canvas`
+are the only modules that touch pyvista or VTK; :mod:`app.mainwindow` holds the window,
 menus and actions, :mod:`app.tools` the 3D view's tools; :mod:`app.main` is
 the ``flatweave`` command.
 """

@@ -1,8 +1,8 @@
 """What the 3D view and the pattern view share: the render widget, colour
 scales as VTK sees them, the spring mesh layer and hover picking.
 
-With :mod:`app.view3d` and :mod:`app.view2d` this is the only code that
-touches pyvista or VTK; the rest of the app hands these classes numpy arrays
+With :mod:`app.view3d`, :mod:`app.view2d` and :mod:`app.canvas` (which
+makes the render widget) this is the only code that touches pyvista or VTK; the rest of the app hands these classes numpy arrays
 (:class:`app.frames.Frame`) and :class:`ViewOptions`.
 
 Live updates write into the existing ``pv.PolyData`` objects (points, cell
@@ -323,7 +323,7 @@ _IDS = itertools.count()
 
 
 class ViewBase:
-    """A pyvistaqt render widget with hover picking over a :class:`MeshLayer`.
+    """A render widget (:mod:`app.canvas`) with hover picking over a :class:`MeshLayer`.
 
     ``hover_callback(text or None)`` is called (in the GUI thread) when the
     mouse moves over a spring or cell, or off them.
@@ -366,7 +366,7 @@ class ViewBase:
         return self._plotter.is_ready()
 
     def render(self) -> None:
-        """Schedule a redraw. pyvistaqt's widget renders the scene in its paintGL,
+        """Schedule a redraw. Both render widgets render the scene in their paint,
         so asking Qt for a repaint renders once, and repaints asked for in one
         pass of the event loop are merged (``plotter.render()`` would render
         now and then again in the repaint it schedules)."""

@@ -45,15 +45,17 @@ from app.frames import Frame, FrameMaker
 
 __all__ = ["SolveThread", "RunOutcome", "one_line"]
 
-DRAPE_FRAME_INTERVAL = 0.1
-"""Seconds between frames of the drape (the mesh laid so far), and so the
-longest wait for Stop or Pause during a drape. Each such frame has a new mesh
-(the views rebuild their geometry). Measured with benchmarks/gui_fps.py at
-2,525 nodes (raster canvas, quiet machine): every 0.5 s left the first half
-second of a run blank and gave 6.9-8.8 frames/s from Run to the result; every
-0.1 s, 10.2-11.3 frames/s, the run no longer (1.6-2.2 s against 1.4-2.1 s).
-Headless at 10,117 nodes the frames cost 0.13 s of a 2.1 s drape (every
-0.07 s: 0.64 s)."""
+DRAPE_FRAME_INTERVAL = 1 / 15
+"""Seconds between frames of the drape (the mesh laid so far) at least, and so
+the longest wait for Stop or Pause during a drape; the drape spaces its
+reports further when they are dear (at most a tenth of its time, see
+core.drape.REPORT_SHARE). Each frame has a new mesh (the views rebuild their
+geometry). Measured with benchmarks/gui_fps.py at 2,525 nodes (raster canvas,
+quiet machine): every 0.5 s left the first half second of a run blank and gave
+6.9-8.8 frames/s from Run to the result; every 0.1 s, 10.2-11.3; every 1/15 s,
+10.8-12.4, the run no longer within the spread (1.6-2.4 s). Headless, the
+frames cost 0.01 s of a 0.5 s drape at 2,527 nodes and 0.3 s of 2.3 s at
+10,117 (20 frames)."""
 PATTERN_INTERVAL = 0.25
 """Seconds between live patterns at least (more when a pattern is slow: at most
 about a seventh of the run goes into them)."""

@@ -58,6 +58,11 @@ node; all included, 10.1 kB per node at 160,000. The sparse factorisation's
 fill grows like n log n; 12 kB leaves 19 % above the highest figure for that.
 The paper solver takes less (6.9 kB per node at 40,000, 20 iterations)."""
 
+REPORT_SHARE = 9.0
+"""After a progress report the drape waits at least this many times the report's
+own length before the next, so reports (a large mesh, a slow viewer) take at
+most a tenth of a drape."""
+
 
 @dataclass(frozen=True)
 class DrapeSettings:
@@ -543,8 +548,8 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
     front with an estimate of its node count.
 
     ``progress(ij, uv, xyz)``, if given, is called with copies of the nodes laid
-    so far, at most every ``progress_interval`` seconds (a live view of the
-    drape). An exception it raises ends the drape there and propagates (how a
+    so far, at most every ``progress_interval`` seconds, and less often when a
+    report is slow (see ``REPORT_SHARE``): a live view of the drape. An exception it raises ends the drape there and propagates (how a
     caller stops a drape).
     """
     t0 = time.perf_counter()
@@ -572,11 +577,15 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
     if progress is not None:
         last = [time.perf_counter()]
 
+        wait = [progress_interval]
+
         def on_add():
             now = time.perf_counter()
-            if now - last[0] >= progress_interval:
+            if now - last[0] >= wait[0]:
                 progress(b.ij.copy(), b.uv.copy(), b.xyz.copy())
                 last[0] = time.perf_counter()  # the report's own time is not drape time
+                # dear reports (a large mesh, a slow viewer) come less often: at most a tenth of the time
+                wait[0] = max(progress_interval, REPORT_SHARE * (last[0] - now))
         b.on_add = on_add
     b.seed_and_paths()
     while True:
