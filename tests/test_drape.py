@@ -151,6 +151,32 @@ def test_progress_reports_the_mesh_as_it_grows_and_can_stop_the_drape():
         drape(surface, s, MATERIALS["woven"], progress=stop_at_100, progress_interval=0.0)
 
 
+def test_slow_progress_reports_come_less_often():
+    """A report that takes t seconds is followed by at least REPORT_SHARE * t of
+    drape before the next: slow viewers cost the drape at most a tenth."""
+    import time
+
+    from core.drape import REPORT_SHARE
+
+    surface = load_example("octant")
+    s = DrapeSettings(0.03, 0.03)
+    pause = 0.005
+    spans = []
+
+    def slow(ij, uv, xyz):
+        t = time.perf_counter()
+        if spans:
+            spans[-1].append(t)
+        time.sleep(pause)
+        spans.append([time.perf_counter()])
+
+    drape(surface, s, MATERIALS["woven"], progress=slow, progress_interval=0.0)
+    gaps = [b - a for a, b in (x for x in spans if len(x) == 2)]  # end of one report to the start of the next
+    print(f"{len(gaps)} gaps, shortest {1000 * min(gaps):.1f} ms")
+    assert len(gaps) >= 3
+    assert min(gaps) >= REPORT_SHARE * pause  # sleep() lasts at least `pause`, so the wait is at least this
+
+
 def test_the_pipeline_shows_the_drape_as_the_solver_will_build_it():
     from core.darts import PlaneDart
     from core.pipeline import FlattenSettings, flatten_iter, make_problem
