@@ -128,6 +128,17 @@ class GLPlotter(QtInteractor):
         """Render at once (before reading pixels back from VTK)."""
         self._render()
 
+    def close(self) -> None:
+        super().close()
+        # pyvistaqt keeps Python wrappers of its GL context and of the context's
+        # surface, which Qt owns and deletes with the widget. A wrapper that
+        # outlives its object can be handed out again by shiboken for a new Qt
+        # object at the same address (seen once in the tests: a message box's
+        # buttons() returned a 'QOffscreenSurface'), so drop them with the widget.
+        forget = getattr(self, "_forget_context", None)
+        if forget is not None:
+            forget()
+
 
 class CanvasPlotter(pv.Plotter):
     """A pyvista plotter that renders off screen and is shown by
