@@ -10,8 +10,10 @@ two views in a 1600 x 1000 window (octant, 2,525 nodes), a pass that only
 changed a status label took 20-28 ms, and a live frame (both views) 67-82 ms,
 of which the two VTK renders were 28. :class:`CanvasPlotter` renders the same
 pyvista scene off screen and paints its pixels into an ordinary widget, so the
-window stays a raster window: the label-only pass fell to 0.4 ms and a frame
-of two views to about 35 ms (benchmarks/gui_fps.py has the live numbers).
+window stays a raster window: the label-only pass fell to 0.2-0.4 ms and a
+frame of two views to 40-50 ms (35 ms in a bare window with the same two
+scenes); reading the pixels back and drawing them costs under 1 ms a view.
+Live updates went from 7.5-8.5 to 11.2-12.1 frames/s (benchmarks/gui_fps.py).
 
 ``FLATWEAVE_VIEW`` chooses: ``gl`` (pyvistaqt), ``canvas``, or ``auto`` (the
 default): the canvas when Qt's OpenGL renderer is a software one, pyvistaqt
@@ -99,9 +101,8 @@ class GLPlotter(QtInteractor):
     VTK's Python wrapping keeps the GIL through that call: only methods VTK
     marks ``VTK_UNBLOCKTHREADS``, ``vtkRenderWindow.Render()`` among them,
     release it. So every render of a view stopped the solve thread for its
-    whole length (py-spy's GIL sampling: about 0.85 s of a 2.7 s live run at
-    2,500 nodes; with the change the solve took 0.7-1.1 s in the window
-    instead of 1.2-1.4 s). Here the interactor's own render is switched off
+    whole length (with the change the 2,525-node solve took 0.7-1.1 s in the
+    window instead of 1.2-1.4 s). Here the interactor's own render is switched off
     for the paint and a ``RenderEvent`` observer, first in line, renders the
     window instead: the same render, events and order, without the GIL.
     """
