@@ -36,9 +36,10 @@ from pyvistaqt import QtInteractor
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-__all__ = ["CanvasPlotter", "GLPlotter", "make_plotter", "view_kind", "is_software_renderer"]
+from app.main import VIEW_KINDS, view_setting  # the setting's parsing, light enough for the command
 
-VIEW_KINDS = ("auto", "gl", "canvas")
+__all__ = ["CanvasPlotter", "GLPlotter", "make_plotter", "view_kind", "is_software_renderer", "VIEW_KINDS"]
+
 _SOFTWARE = re.compile(r"llvmpipe|softpipe|swrast|software|gdi generic|basic render", re.IGNORECASE)
 _GL_RENDERER = 0x1F01
 _chosen: str | None = None
@@ -74,9 +75,7 @@ def view_kind() -> str:
     """``"gl"`` or ``"canvas"``: from ``FLATWEAVE_VIEW``, else by the renderer
     (asked once per process; needs a QApplication)."""
     global _chosen
-    wanted = os.environ.get("FLATWEAVE_VIEW", "auto").strip().lower() or "auto"
-    if wanted not in VIEW_KINDS:
-        raise ValueError(f"FLATWEAVE_VIEW must be one of {', '.join(VIEW_KINDS)}, not {wanted!r}")
+    wanted = view_setting(os.environ.get("FLATWEAVE_VIEW"))
     if wanted != "auto":
         return wanted
     if _chosen is None:

@@ -27,7 +27,16 @@ from pathlib import Path
 DEFAULT_EXAMPLE = "octant"
 READY_POLL_MS = 50
 READY_TIMEOUT_MS = 10000
-VIEW_KINDS = ("auto", "gl", "canvas")  # as app.canvas.VIEW_KINDS (not imported: that loads VTK and Qt)
+VIEW_KINDS = ("auto", "gl", "canvas")  # the views' render widgets, see app.canvas (which needs VTK and Qt)
+
+
+def view_setting(text: str | None) -> str:
+    """One of VIEW_KINDS from ``--view`` or ``FLATWEAVE_VIEW`` (None or blank: auto);
+    anything else raises ValueError with a one-line message."""
+    view = (text or "").strip().lower() or "auto"
+    if view not in VIEW_KINDS:
+        raise ValueError(f"FLATWEAVE_VIEW must be one of {', '.join(VIEW_KINDS)}, not {view!r}")
+    return view
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -95,10 +104,10 @@ def load_start_project(args):
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    view = (args.view or os.environ.get("FLATWEAVE_VIEW", "auto")).strip().lower() or "auto"
-    if view not in VIEW_KINDS:
-        print(f"flatweave: error: FLATWEAVE_VIEW must be one of {', '.join(VIEW_KINDS)}, not {view!r}",
-              file=sys.stderr)
+    try:
+        view = view_setting(args.view or os.environ.get("FLATWEAVE_VIEW"))
+    except ValueError as exc:
+        print(f"flatweave: error: {exc}", file=sys.stderr)
         return 2
     if args.view:
         os.environ["FLATWEAVE_VIEW"] = view

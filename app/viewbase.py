@@ -2,8 +2,9 @@
 scales as VTK sees them, the spring mesh layer and hover picking.
 
 With :mod:`app.view3d`, :mod:`app.view2d` and :mod:`app.canvas` (which
-makes the render widget) this is the only code that touches pyvista or VTK; the rest of the app hands these classes numpy arrays
-(:class:`app.frames.Frame`) and :class:`ViewOptions`.
+makes the render widget) this is the only code that touches pyvista or VTK;
+the rest of the app hands these classes numpy arrays (:class:`app.frames.Frame`)
+and :class:`ViewOptions`.
 
 Live updates write into the existing ``pv.PolyData`` objects (points, cell
 scalars) so no actor is rebuilt per frame; only a change of topology (nodes

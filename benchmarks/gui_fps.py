@@ -48,7 +48,7 @@ os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 from PySide6.QtCore import QTimer  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app.canvas import view_kind  # noqa: E402
+from app.canvas import VIEW_KINDS, view_kind  # noqa: E402
 from app.frames import FrameMaker  # noqa: E402
 from app.mainwindow import MainWindow  # noqa: E402
 from core.examples import example_path, load_example  # noqa: E402
@@ -115,9 +115,7 @@ def live_run(probe, win, project, label):
     first = {}
     done = {}
 
-    solve_frames = []
-
-    drape_frames = []
+    solve_frames, drape_frames = [], []
 
     def on_frame(f):
         first.setdefault("t", time.perf_counter())
@@ -216,7 +214,7 @@ def main(argv=None) -> int:
     ap.add_argument("--spacing", type=float, default=0.025)
     ap.add_argument("--paper-iterations", type=int, default=60, help="iteration budget of the paper solver row")
     ap.add_argument("--repeat", type=int, default=3, help="fast-solver runs (one row each)")
-    ap.add_argument("--view", choices=("auto", "gl", "canvas"), default=None,
+    ap.add_argument("--view", choices=VIEW_KINDS, default=None,
                     help="the views' render widget (FLATWEAVE_VIEW; default: as the app chooses)")
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / "gui_fps.md")
     args = ap.parse_args(argv)

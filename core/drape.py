@@ -549,8 +549,9 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
 
     ``progress(ij, uv, xyz)``, if given, is called with copies of the nodes laid
     so far, at most every ``progress_interval`` seconds, and less often when a
-    report is slow (see ``REPORT_SHARE``): a live view of the drape. An exception it raises ends the drape there and propagates (how a
-    caller stops a drape).
+    report is slow (see ``REPORT_SHARE``): a live view of the drape. An
+    exception it raises ends the drape there and propagates (how a caller
+    stops a drape).
     """
     t0 = time.perf_counter()
     s = settings
@@ -575,9 +576,7 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
                                 f"that fits is about {smallest:.3g}")
     b = _Builder(surface, s)
     if progress is not None:
-        last = [time.perf_counter()]
-
-        wait = [progress_interval]
+        last, wait = [time.perf_counter()], [progress_interval]  # end of the last report, wait after it
 
         def on_add():
             now = time.perf_counter()
