@@ -6,8 +6,9 @@ Subcommands:
 * ``info SURFACE``: domain, area and boundary length of a surface
 * ``examples``: the bundled example surfaces
 
-SURFACE is a geomdl JSON file or the name of a bundled example. Errors a user
-can cause print one line, ``flatweave: error: ...``, and exit with status 2.
+SURFACE is a surface file (any format of :mod:`core.readers`) or the name of a
+bundled example; the export formats are those of :mod:`core.export`. Errors a
+user can cause print one line, ``flatweave: error: ...``, and exit with status 2.
 """
 
 from __future__ import annotations
@@ -35,18 +36,30 @@ def _floats(text: str, n: int, what: str) -> tuple[float, ...]:
 
 
 def resolve_surface(name: str):
-    """Load a surface from a path or a bundled example's name; returns (surface, source)."""
-    from core.examples import example_path, list_examples
-    from core.surface_io import load_surface
+    """Load a surface from a path or a bundled example's name; returns (surface, source).
+    A project file is refused: these commands take a surface."""
+    from core.readers import open_path
 
-    path = Path(name)
-    if not path.exists() and not path.suffix:
-        names = [e["name"] for e in list_examples()]
-        if name in names:
-            path = example_path(name)
-        else:
-            raise SettingsError(f"{name!r} is neither a file nor a bundled example ({', '.join(names)})")
-    return load_surface(path), str(path)
+    opened = open_path(name, surface_only=True)
+    return opened.surface, opened.source
+
+
+def _help(text: str) -> str:
+    return text.replace("%", "%%")  # argparse formats help with %
+
+
+def _surface_help() -> str:
+    from core.readers import readers
+
+    files = "; ".join(f"{', '.join(r.suffixes)}: {r.description}" for r in readers(project=False))
+    return _help(f"surface file ({files}) or bundled example name")
+
+
+def _export_help() -> str:
+    from core.export import exporters
+
+    formats = "; ".join(f"{e.suffix} ({e.description})" for e in exporters())
+    return _help(f"write the pattern to PATH, the suffix picks the format: {formats}; repeatable")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -57,7 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
     f = sub.add_parser("flatten", help="drape a spring mesh on a surface, minimise it, write the result")
-    f.add_argument("surface", metavar="SURFACE", help="geomdl JSON surface file or bundled example name")
+    f.add_argument("surface", metavar="SURFACE", help=_surface_help())
     f.add_argument("--method", choices=("spring", "planar"), default="spring",
                    help="spring (the paper's method, default) or planar (the planar energy method of Wang, "
                         "Smith and Yuen 2002 the paper compares against: triangles laid flat and relaxed in the "
@@ -98,10 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="refuse meshes estimated larger than N nodes, or than the available memory holds "
                         "(default 2,000,000)")
     f.add_argument("--out", metavar="RESULT.json", help="result file to write")
-    f.add_argument("--export", action="append", default=[], metavar="PATH",
-                   help="write the pattern to PATH, the suffix picks the format: .dxf (AAMA layers, mm), "
-                        ".svg (true size), .pdf (tiled 1:1), .vtp (3D mesh with strain), .obj (mesh with the "
-                        "pattern as texture coordinates); repeatable")
+    f.add_argument("--export", action="append", default=[], metavar="PATH", help=_export_help())
     f.add_argument("--seam-allowance", type=float, default=10.0, metavar="MM",
                    help="seam allowance of exported patterns in mm (default 10; 0 for none)")
     f.add_argument("--units", choices=("mm", "cm", "m", "in"), default="m",
@@ -111,7 +121,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="piece name in exported labels (default: the surface's name)")
 
     i = sub.add_parser("info", help="domain, area and boundary length of a surface")
-    i.add_argument("surface", metavar="SURFACE")
+    i.add_argument("surface", metavar="SURFACE", help=_surface_help())
 
     sub.add_parser("examples", help="list the bundled example surfaces")
     return p

@@ -1,8 +1,10 @@
 """The bundled example surfaces (``resources/surfaces``).
 
 ``resources/surfaces/index.json`` lists every example; it and the surface
-files are written by ``resources/make_surfaces.py``. Each entry is a dict
-with the keys
+files are written by ``resources/make_surfaces.py``. The folder is installed
+as the package data of ``core.examples_data`` (see ``pyproject.toml``), so an
+installed wheel finds it with :mod:`importlib.resources`; a source checkout
+reads the folder itself. Each entry is a dict with the keys
 
 - ``name``, ``file``, ``title``, ``description``, ``units`` (str)
 - ``exact_area``, ``exact_boundary_length`` : float, or None without a closed form
@@ -16,6 +18,7 @@ with the keys
 from __future__ import annotations
 
 import copy
+import importlib.resources
 import json
 from functools import lru_cache
 from pathlib import Path
@@ -25,18 +28,35 @@ from core.errors import SettingsError
 from core.nurbs import NurbsSurface
 from core.surface_io import load_surface
 
-__all__ = ["resources_dir", "list_examples", "example_names", "example_info", "example_path",
+__all__ = ["resources_dir", "surfaces_dir", "list_examples", "example_names", "example_info", "example_path",
            "load_example"]
 
 
 def resources_dir() -> Path:
-    """The ``resources/`` directory next to the ``core`` package."""
+    """The source checkout's ``resources/`` folder, next to the ``core`` package
+    (an installed wheel has only its ``surfaces``: see :func:`surfaces_dir`)."""
     return Path(core.__file__).resolve().parent.parent / "resources"
 
 
 @lru_cache(maxsize=1)
+def surfaces_dir() -> Path:
+    """The folder of the example surfaces and ``index.json``.
+
+    The checkout's ``resources/surfaces`` when ``core`` runs from a source tree
+    (which is also where an editable install points), else the installed
+    package data ``core.examples_data``. The checkout comes first so that a
+    second checkout (a git worktree) reads its own files, not those of the
+    checkout the environment's editable install points to.
+    """
+    checkout = resources_dir() / "surfaces"
+    if (checkout / "index.json").is_file():
+        return checkout
+    return Path(str(importlib.resources.files("core.examples_data")))
+
+
+@lru_cache(maxsize=1)
 def _index() -> tuple[dict, ...]:
-    path = resources_dir() / "surfaces" / "index.json"
+    path = surfaces_dir() / "index.json"
     doc = json.loads(path.read_text(encoding="utf-8"))
     return tuple(doc["examples"])
 
@@ -61,7 +81,7 @@ def example_info(name: str) -> dict:
 
 def example_path(name: str) -> Path:
     """Path of the surface file of example ``name``; :class:`SettingsError` if unknown."""
-    return resources_dir() / "surfaces" / example_info(name)["file"]
+    return surfaces_dir() / example_info(name)["file"]
 
 
 def load_example(name: str) -> NurbsSurface:

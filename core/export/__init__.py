@@ -4,9 +4,12 @@ makers (DXF, SVG, tiled 1:1 PDF) and the 3D result for other tools (VTP, OBJ).
     from core.export import ExportOptions, export
     export(result, "octant.dxf", ExportOptions(seam_allowance_mm=10, units="m"))
 
-The file's suffix picks the format (:data:`FORMATS`). Every writer builds
-the whole file in memory and writes it atomically, so a failed export leaves
-no partial file and an existing file untouched (a full disk, a folder that
+The file's suffix picks the format. A format is one :func:`register_exporter`
+call (the built-in ones are at the end of this module); :data:`FORMATS`,
+:func:`dialog_filter` and the CLI's help are read from that registry.
+
+Every writer builds the whole file in memory and it is written atomically, so
+a failed export leaves no partial file and an existing file untouched (a full disk, a folder that
 refuses the file: a one-line FlatweaveError naming the file and the reason).
 :func:`export_all` is all or nothing: it checks every target, builds every
 file, writes each to a temporary file and renames them only when all are
@@ -16,6 +19,7 @@ written. Check targets with :func:`check_target` before a long solve.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,17 +28,88 @@ from core.export.pdf import PAPERS
 from core.export.sheet import UNITS, Sheet, build_sheet, mm_per_unit
 from core.fileio import atomic_write_bytes, atomic_write_many
 
-__all__ = ["ExportOptions", "FORMATS", "UNITS", "PAPERS", "export", "export_all", "export_bytes", "check_target",
-           "build_sheet", "Sheet",
-           "mm_per_unit"]
+__all__ = ["ExportOptions", "Exporter", "FORMATS", "UNITS", "PAPERS", "export", "export_all", "export_bytes",
+           "check_target", "register_exporter", "unregister_exporter", "exporters", "exporter_for",
+           "dialog_filter", "build_sheet", "Sheet", "mm_per_unit"]
 
-FORMATS = {
-    ".dxf": "DXF R2000, AAMA layers, mm",
-    ".svg": "SVG at true size (mm)",
-    ".pdf": "PDF, tiled 1:1 with overview and assembly map",
-    ".vtp": "VTK PolyData: draped mesh, spring strain, cell shear",
-    ".obj": "Wavefront OBJ: surface mesh, pattern as texture coordinates",
-}
+
+@dataclass(frozen=True)
+class Exporter:
+    """One registered export format.
+
+    suffix : lower-case file suffix with the dot, e.g. ``".dxf"``
+    writer : ``writer(result, options, sheet) -> bytes``; ``sheet`` is the 2D
+        :class:`Sheet` when ``needs_sheet``, else None
+    description : what the file holds, for dialogs and help
+    needs_sheet : True for 2D pattern formats (the sheet is built once per export)
+    """
+
+    suffix: str
+    writer: Callable[..., bytes]
+    description: str
+    needs_sheet: bool
+
+
+_EXPORTERS: dict[str, Exporter] = {}
+
+
+def register_exporter(suffix: str, writer: Callable[..., bytes], description: str, needs_sheet: bool) -> Exporter:
+    """Add the format of files ending in ``suffix``; returns its entry.
+
+    ValueError if the suffix is malformed or already has an exporter.
+    """
+    s = str(suffix).lower()
+    if not s.startswith(".") or len(s) < 2 or "/" in s or os.sep in s:
+        raise ValueError(f"a suffix is a dot and a name, like '.dxf', not {suffix!r}")
+    if s in _EXPORTERS:
+        raise ValueError(f"{s} files already have an exporter")
+    entry = Exporter(s, writer, str(description), bool(needs_sheet))
+    _EXPORTERS[s] = entry
+    return entry
+
+
+def unregister_exporter(suffix: str) -> None:
+    """Remove the exporter of ``suffix`` (KeyError if there is none)."""
+    del _EXPORTERS[str(suffix).lower()]
+
+
+def exporters() -> list[Exporter]:
+    """The registered exporters, in registration order."""
+    return list(_EXPORTERS.values())
+
+
+def exporter_for(suffix: str) -> Exporter | None:
+    """The exporter of ``suffix`` (case-insensitive), or None."""
+    return _EXPORTERS.get(str(suffix).lower())
+
+
+class _Formats(Mapping):
+    """Read-only view of the registry: suffix -> description, in registration order."""
+
+    def __getitem__(self, suffix: str) -> str:
+        return _EXPORTERS[suffix].description
+
+    def __iter__(self):
+        return iter(list(_EXPORTERS))
+
+    def __len__(self) -> int:
+        return len(_EXPORTERS)
+
+    def __repr__(self) -> str:
+        return f"FORMATS({dict(self)!r})"
+
+
+FORMATS: Mapping[str, str] = _Formats()
+"""Every export format: suffix -> description (a live view of the registry)."""
+
+
+def dialog_filter() -> str:
+    """A Qt file-dialog filter with one entry per format, e.g. ``"DXF ... (*.dxf);;SVG ... (*.svg)"``."""
+    return ";;".join(f"{e.description} (*{e.suffix})" for e in _EXPORTERS.values())
+
+
+def _needs_sheet(suffixes) -> bool:
+    return any(e is not None and e.needs_sheet for e in map(exporter_for, suffixes))
 
 
 @dataclass(frozen=True)
@@ -84,30 +159,14 @@ def check_target(path) -> Path:
 
 def export_bytes(result, suffix: str, options: ExportOptions = ExportOptions(), sheet: Sheet | None = None) -> bytes:
     """The file's contents for a format suffix (``.dxf``, ``.svg``, ...)."""
-    suffix = suffix.lower()
-    if suffix in (".dxf", ".svg", ".pdf") and sheet is None:
+    entry = exporter_for(suffix)
+    if entry is None:
+        raise SettingsError(f"unknown export format {suffix.lower()!r}; use one of {', '.join(FORMATS)}")
+    if not entry.needs_sheet:
+        return entry.writer(result, options, None)
+    if sheet is None:
         sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
-    if suffix == ".dxf":
-        from core.export.dxf import dxf_bytes
-
-        return dxf_bytes(sheet)
-    if suffix == ".svg":
-        from core.export.svg import svg_text
-
-        return svg_text(sheet).encode("utf-8")
-    if suffix == ".pdf":
-        from core.export.pdf import pdf_bytes
-
-        return pdf_bytes(sheet, options.paper, title=options.name)
-    if suffix == ".vtp":
-        from core.export.mesh3d import vtp_text
-
-        return vtp_text(result).encode("ascii")
-    if suffix == ".obj":
-        from core.export.mesh3d import obj_text
-
-        return obj_text(result, options.name).encode("ascii")
-    raise SettingsError(f"unknown export format {suffix!r}; use one of {', '.join(FORMATS)}")
+    return entry.writer(result, options, sheet)
 
 
 def export(result, path, options: ExportOptions = ExportOptions(), sheet: Sheet | None = None) -> Path:
@@ -127,7 +186,46 @@ def export_all(result, paths, options: ExportOptions = ExportOptions()) -> list[
     """
     paths = [check_target(p) for p in paths]
     sheet = None
-    if any(p.suffix.lower() in (".dxf", ".svg", ".pdf") for p in paths):
+    if _needs_sheet(p.suffix for p in paths):
         sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
     atomic_write_many([(p, export_bytes(result, p.suffix, options, sheet)) for p in paths])
     return paths
+
+
+# ---------------------------------------------------------------------- the formats
+# The writers import their libraries (ezdxf, reportlab) only when a file is written.
+def _dxf(result, options: ExportOptions, sheet: Sheet) -> bytes:
+    from core.export.dxf import dxf_bytes
+
+    return dxf_bytes(sheet)
+
+
+def _svg(result, options: ExportOptions, sheet: Sheet) -> bytes:
+    from core.export.svg import svg_text
+
+    return svg_text(sheet).encode("utf-8")
+
+
+def _pdf(result, options: ExportOptions, sheet: Sheet) -> bytes:
+    from core.export.pdf import pdf_bytes
+
+    return pdf_bytes(sheet, options.paper, title=options.name)
+
+
+def _vtp(result, options: ExportOptions, sheet: None) -> bytes:
+    from core.export.mesh3d import vtp_text
+
+    return vtp_text(result).encode("ascii")
+
+
+def _obj(result, options: ExportOptions, sheet: None) -> bytes:
+    from core.export.mesh3d import obj_text
+
+    return obj_text(result, options.name).encode("ascii")
+
+
+register_exporter(".dxf", _dxf, "DXF R2000, AAMA layers, mm", needs_sheet=True)
+register_exporter(".svg", _svg, "SVG at true size (mm)", needs_sheet=True)
+register_exporter(".pdf", _pdf, "PDF, tiled 1:1 with overview and assembly map", needs_sheet=True)
+register_exporter(".vtp", _vtp, "VTK PolyData: draped mesh, spring strain, cell shear", needs_sheet=False)
+register_exporter(".obj", _obj, "Wavefront OBJ: surface mesh, pattern as texture coordinates", needs_sheet=False)
