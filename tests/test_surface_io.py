@@ -113,8 +113,8 @@ def test_bad_file_gives_one_line_surface_error(name):
                                   "tiny_coordinates.json", "multi_surface.json"])
 def test_bad_file_through_the_cli_is_one_line_and_status_2(tmp_path, name):
     out = tmp_path / "r.json"
-    p = subprocess.run([sys.executable, "-m", "core", "flatten", str(BAD / name), "--spacing", "0.1", "--out", str(out)],
-                       capture_output=True, text=True, timeout=120)
+    p = subprocess.run([sys.executable, "-m", "core", "flatten", str(BAD / name), "--spacing", "0.1",
+                        "--out", str(out)], capture_output=True, text=True, timeout=120)
     lines = [line for line in p.stderr.splitlines() if line.strip()]
     assert p.returncode == 2 and len(lines) == 1, p.stderr
     assert lines[0].startswith(f"flatweave: error: {BAD / name}: ") and BAD_FILES[name] in lines[0].lower()
