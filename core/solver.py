@@ -651,6 +651,19 @@ def _hessian_blocks(energy: Energy, S, Su, Sv, q, Suu, Suv, Svv):
     return Hs, Hn, G
 
 
+def _pin_block(pin: _PlanePin, uv_node: np.ndarray, G_node: np.ndarray, su_node: np.ndarray,
+               sv_node: np.ndarray, big: float) -> np.ndarray:
+    """(2, 2) added to the pinned node's Newton block: the Lagrangian's term
+    -mu H_c (mu the multiplier of the plane constraint c at the current
+    gradient) and a stiff penalty across the plane, so the node's step stays
+    in the plane's tangent (and the retraction corrects the rest)."""
+    cg_, ch_ = pin.constraint(uv_node)
+    g_uv = np.array([G_node @ su_node, G_node @ sv_node])
+    mu = float(g_uv @ cg_) / float(cg_ @ cg_)  # Lagrange multiplier
+    off = cg_ / np.linalg.norm(cg_)
+    return 1e8 * big * np.outer(off, off) - mu * ch_
+
+
 class _Round:
     """One population of the fast solver: a fixed node set and sparse pattern.
 
@@ -799,11 +812,7 @@ def _iterate_fast(run: _Run):
                 Hn[~rnd.alive] = eye * big
             pinned = _node_at(rnd.mesh, run.pin.ij) if run.pin is not None else None
             if pinned is not None:  # the orientation anchor moves along its plane only
-                cg_, ch_ = run.pin.constraint(rnd.uv[pinned])
-                g_uv = np.array([G[pinned] @ ev.su[pinned], G[pinned] @ ev.sv[pinned]])
-                mu = float(g_uv @ cg_) / float(cg_ @ cg_)  # Lagrange multiplier
-                off = cg_ / np.linalg.norm(cg_)
-                Hn[pinned] += 1e8 * big * np.outer(off, off) - mu * ch_
+                Hn[pinned] += _pin_block(run.pin, rnd.uv[pinned], G[pinned], ev.su[pinned], ev.sv[pinned], big)
             A, damp = normal.assemble(Hs, Jd, Hn, lam)
             g = normal.gradient(Q, rs, Jd, rd, energy)
             if not np.isfinite(g).all():
