@@ -27,11 +27,13 @@ from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
 from core.solver import Problem, SolveResult, SolverOptions, State, iterate
+from core.solvers import solver_entry, solver_names
 
 __all__ = ["FlattenSettings", "FlattenResult", "flatten", "flatten_iter", "result_to_dict",
            "make_problem", "compute_metrics", "state_from_dict", "check_result_finite", "SOLVERS"]
 
-SOLVERS = ("fast", "paper", "none")
+SOLVERS = solver_names("spring")
+"""The spring method's solver choices, 'none' (the drape only) included (:mod:`core.solvers`)."""
 
 
 @dataclass(frozen=True)
@@ -266,7 +268,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         uv = np.asarray(initial.uv, dtype=float)
         state, stats = State(problem.build(initial.mesh.ij, uv), uv), {"warm_start": True, "seconds": 0.0}
     solve = None
-    if settings.solver != "none":
+    if solver_entry(settings.solver).iterative:
         solve = yield from iterate(problem, state, settings.solver_options())
         state = State(solve.mesh, solve.uv)
     xyz = surface.points(state.uv)

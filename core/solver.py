@@ -57,10 +57,12 @@ from core.energy import Energy
 from core.errors import SettingsError, SolverError
 from core.mesh import DIAG, SpringMesh, lattice_index
 from core.metrics import spring_strain
+from core.solvers import solver_entry, solver_names
 
 __all__ = ["SolverOptions", "Snapshot", "SolveResult", "iterate", "minimize", "METHODS", "State"]
 
-METHODS = ("fast", "paper")
+METHODS = solver_names("spring", iterative=True)
+"""The minimisers (:mod:`core.solvers` lists them; 'none' is the pipeline's, not a minimiser)."""
 
 
 @dataclass(frozen=True)
@@ -1044,7 +1046,7 @@ def iterate(problem: Problem, state: State, options: SolverOptions = SolverOptio
     is the :class:`SolveResult`. Closing it early stops the solve. A value that
     becomes NaN or infinite raises :class:`~core.errors.SolverError`."""
     run = _Run(problem, state, options)
-    inner = _iterate_fast(run) if options.method == "fast" else _iterate_paper(run)
+    inner = solver_entry(options.method).run(run)
     try:
         yield from inner
     except GeneratorExit:
