@@ -52,6 +52,11 @@ class YarnConstraint:
         if not (np.isfinite(self.k) and self.k >= 0):
             raise SettingsError(f"yarn weight k must be a non-negative number, got {self.k!r}")
 
+    def to_dict(self) -> dict:
+        """The constraint as a JSON object (project and result files)."""
+        return {"kind": self.kind, "index": int(self.index), "plane": [float(x) for x in self.plane],
+                "k": float(self.k)}
+
     def nodes(self, mesh: SpringMesh) -> np.ndarray:
         """Indices of the mesh nodes on this yarn."""
         col = 0 if self.kind == "weft" else 1

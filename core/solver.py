@@ -56,10 +56,13 @@ from scipy.sparse.linalg import splu
 from core.energy import Energy
 from core.errors import SettingsError, SolverError
 from core.mesh import DIAG, SpringMesh, lattice_index
+from core.geom import nan_word, nonfinite_rows
+from core.geom import rowdot as _dot
 from core.metrics import spring_strain
 from core.solvers import solver_entry, solver_names
 
-__all__ = ["SolverOptions", "Snapshot", "SolveResult", "iterate", "minimize", "METHODS", "State"]
+__all__ = ["SolverOptions", "Snapshot", "SolveResult", "iterate", "minimize", "METHODS", "State",
+           "stopped_result", "STOPPED"]
 
 METHODS = solver_names("spring", iterative=True)
 """The minimisers (:mod:`core.solvers` lists them; 'none' is the pipeline's, not a minimiser)."""
@@ -331,11 +334,6 @@ def _anchors(problem: Problem, mesh: SpringMesh, uv: np.ndarray, options: Solver
 
 
 # ------------------------------------------------------------------ non-finite values
-def _word(x) -> str:
-    """'NaN' if any of ``x`` is NaN, else 'infinite'."""
-    return "NaN" if np.isnan(np.asarray(x, dtype=float)).any() else "infinite"
-
-
 def _nodes(n: int) -> str:
     return f"{n:,} node{'s' if n != 1 else ''}"
 
@@ -343,7 +341,7 @@ def _nodes(n: int) -> str:
 def _surface_cause(surface, uv: np.ndarray, ev=None) -> str | None:
     """What is not finite in the surface's evaluation at ``uv`` (None: nothing)."""
     uv = np.asarray(uv, dtype=float).reshape(-1, 2)
-    bad_uv = ~np.isfinite(uv).all(axis=1)
+    bad_uv = nonfinite_rows(uv)
     if bad_uv.any():
         return f"{_nodes(int(bad_uv.sum()))} had a non-finite (u, v)"
     if ev is None or ev.suu is None:
@@ -352,7 +350,7 @@ def _surface_cause(surface, uv: np.ndarray, ev=None) -> str | None:
                          ("second derivative", (ev.suu, ev.suv, ev.svv))):
         bad = np.zeros(len(uv), dtype=bool)
         for arr in arrays:
-            bad |= ~np.isfinite(arr).all(axis=1)
+            bad |= nonfinite_rows(arr)
         if bad.any():
             inside = int((bad & surface.in_domain(uv)).sum())
             where = f", {inside:,} of them inside its domain" if inside < bad.sum() else ""
@@ -368,16 +366,16 @@ def _cause(surface, uv: np.ndarray, ev=None) -> str:
 def _not_finite(what: str, value, iteration: int, cause: str) -> SolverError:
     """The one-line error of a solve stopped by a non-finite ``value``."""
     when = f"at iteration {iteration}" if iteration > 0 else "in the starting mesh"
-    return SolverError(f"{what} became {_word(value)} {when} ({cause}); the solve stopped and nothing was changed")
+    return SolverError(f"{what} became {nan_word(value)} {when} ({cause}); the solve stopped and nothing was changed")
 
 
 def _broken_inside(surface, uv: np.ndarray, xyz: np.ndarray, *derivs) -> bool:
     """True if the surface gave a non-finite point (or derivative) at a node
     inside its domain: the surface cannot be evaluated there, so no smaller step
     will help (outside the domain the extension may overflow: a step too long)."""
-    bad = ~np.isfinite(xyz).all(axis=1)
+    bad = nonfinite_rows(xyz)
     for d in derivs:
-        bad |= ~np.isfinite(d).all(axis=1)
+        bad |= nonfinite_rows(d)
     return bool((bad & surface.in_domain(uv)).any())
 
 
@@ -508,11 +506,6 @@ class _Normal:
         out = np.zeros((n, 2))
         out[self.order] = step.reshape(-1, 2)
         return out
-
-
-def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Row-wise dot products of (k, 3) arrays."""
-    return x[:, 0] * y[:, 0] + x[:, 1] * y[:, 1] + x[:, 2] * y[:, 2]
 
 
 def _residuals(energy: Energy, S, Su, Sv):
@@ -1059,6 +1052,15 @@ def iterate(problem: Problem, state: State, options: SolverOptions = SolverOptio
     return run.result(E)
 
 
+STOPPED = "stopped by the caller"
+
+
+def stopped_result(snap: Snapshot, message: str = STOPPED, history=()) -> SolveResult:
+    """The solve as it stood at ``snap`` when its caller stopped it (status 3)."""
+    return SolveResult(snap.mesh, snap.uv, snap.xyz, snap.energy, snap.iteration, snap.nfev, 3, message,
+                       snap.seconds, history=list(history))
+
+
 def minimize(problem: Problem, state: State, options: SolverOptions = SolverOptions(),
              callback=None) -> SolveResult:
     """Run a solver to the end. ``callback(snapshot)`` is called every
@@ -1080,6 +1082,4 @@ def minimize(problem: Problem, state: State, options: SolverOptions = SolverOpti
                 stop = True
         if stop:
             gen.close()
-            xyz = last.xyz
-            return SolveResult(last.mesh, last.uv, xyz, last.energy, last.iteration, last.nfev, 3,
-                               "stopped by the caller", last.seconds)
+            return stopped_result(last)
