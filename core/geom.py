@@ -19,12 +19,12 @@ __all__ = ["rowdot", "unit_rows", "polyline_sq_distances", "polyline_distance", 
 
 
 def rowdot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Row-wise dot products of (k, d) arrays, summed column by column from
-    the first (for d = 3 the same arithmetic as ``x0 y0 + x1 y1 + x2 y2``,
-    and faster than ``einsum`` on the short rows of the solver)."""
-    out = x[:, 0] * y[:, 0]
-    for c in range(1, x.shape[1]):
-        out = out + x[:, c] * y[:, c]
+    """Dot products along the last axis of (..., d) arrays, summed component
+    by component from the first (for d = 3 the arithmetic of
+    ``x0 y0 + x1 y1 + x2 y2``; faster than ``einsum`` on short rows)."""
+    out = x[..., 0] * y[..., 0]
+    for c in range(1, x.shape[-1]):
+        out = out + x[..., c] * y[..., c]
     return out
 
 

@@ -9,21 +9,18 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
   springs' 4x4 blocks with their geometric stiffness, plus the surface's
   curvature per node), assembled straight into a fixed block pattern, damped
   by lambda diag(A) and factorised by SuperLU. lambda starts at 1e-4 and falls
-  tenfold after every step the quadratic model predicts well (rho > 0.75):
-  measured on six cases, 27 % fewer iterations than Nielsen's rule from 1e-3,
-  to the same energies. The 500:1 stiffness of woven cloth, which makes
-  gradient methods crawl, costs it nothing.
+  tenfold after every step the quadratic model predicts well (rho > 0.75),
+  which took fewer iterations than Nielsen's rule (docs/decisions.md). The
+  500:1 stiffness of woven cloth, which makes gradient methods crawl, costs it
+  nothing.
 
 Both are generators (:func:`iterate`) that yield a :class:`Snapshot` after every
 iteration, so a GUI can draw and a caller can stop within one iteration by no
 longer asking for the next; :func:`minimize` drives one to the end.
 
 Re-solves after an edit (a dart added to a converged piece) start from the
-last result. Measured on the woven octant at 2,500 nodes and left out: moving
-only the nodes near the new nodes after a refill (6-10 lattice rings, the rest
-held) before a global polish; the whole mesh moves 1-3 spacings when a dart
-opens, the local rounds missed deletions the global steps then made, and the
-solve took more global factorisations (23-27 against 21), not fewer.
+last result and move the whole mesh: a dart opening moves every node, so a
+local re-solve near the new nodes saves nothing (docs/decisions.md).
 
 Adaptive population control (3.3): a node whose (u, v) leaves the domain is
 deleted with its springs; when the solver has converged, regions the mesh has
@@ -613,10 +610,9 @@ def _hessian_blocks(energy: Energy, S, Su, Sv, q, Suu, Suv, Svv):
     mapped to (u, v) by the surface derivatives; each node adds the
     surface-curvature term G . S_uv. This is the exact Hessian of EN: it is
     indefinite where springs are compressed, which the Levenberg-Marquardt
-    damping and gain-ratio test handle. (Projecting the blocks onto the PSD
-    cone, as projected Newton methods do, was measured: it slows the final
-    convergence to a linear crawl, up to 96 iterations on the isotropic
-    garment against 12.)
+    damping and gain-ratio test handle; a PSD projection of the blocks would
+    make the final convergence linear (docs/decisions.md). Checked against
+    finite differences by tests/test_hessian.py.
     """
     a, b = energy.a, energy.b
     d = S[a] - S[b]
@@ -730,21 +726,9 @@ class _Round:
         run.uv = self.uv[idx]
 
     def solve(self, A, g: np.ndarray) -> np.ndarray:
-        """A x = -g by a sparse LU factorisation in the pattern's own order.
-
-        (Conjugate gradients preconditioned by the previous factorisation were
-        measured twice: at 10,000 nodes they converge to 1e-3 within 4
-        iterations only in the last two steps of a round, and then cost as much
-        as a new factorisation, since a triangular solve costs a quarter of one.
-        Measured again at 2,500 nodes on the dart re-solve: no convergence within
-        30 iterations while nodes are being switched off, 8-11 iterations to 1e-2
-        after, as dear as a factorisation. Other orderings at 2,500 / 10,000
-        nodes, same matrices: SuperLU's MMD_AT_PLUS_A 13 % less fill and about
-        the same time at 2,500 but 1.6x slower at 10,000, COLAMD 2-3x slower;
-        a node-level minimum-degree order expanded to the 2 x 2 blocks, like
-        MMD; LAPACK's banded Cholesky in reverse Cuthill-McKee order 2x slower
-        at 2,500 and no faster at 10,000.)
-        """
+        """A x = -g by a sparse LU factorisation in the pattern's own order
+        (nested dissection): no iterative solver or other ordering measured
+        was faster (docs/decisions.md)."""
         lu = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         return lu.solve(-g)
 
