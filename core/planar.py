@@ -100,7 +100,7 @@ from scipy.spatial import cKDTree
 import core
 from core.darts import RESULT_DART_KEYS, _boundary_distance
 from core.errors import SettingsError, SolverError
-from core.geom import outline_errors, require_finite
+from core.geom import nan_word, outline_errors, require_finite
 from core.nurbs import NurbsSurface
 from core.pipeline import check_result_finite
 from core.pattern import DartOpening, Pattern, Piece, _resample_uv, polygon_area
@@ -685,7 +685,7 @@ def relax(xy0: np.ndarray, edges: np.ndarray, rest: np.ndarray, k: np.ndarray | 
     E0, g = spring_energy(xy, edges, rest, kk)
     if not (math.isfinite(E0) and np.isfinite(g).all()):
         what = "energy" if not math.isfinite(E0) else "energy's gradient"
-        word = "NaN" if np.isnan(E0) or np.isnan(g).any() else "infinite"
+        word = nan_word(np.append(E0, g))
         raise SolverError(f"the planar {what} became {word} in the unfolded start (non-finite positions or rest "
                           f"lengths); the solve stopped and nothing was changed")
     floor = 1e-24 * float(np.sum(kk * rest * rest))
