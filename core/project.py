@@ -290,10 +290,7 @@ def _yarns_from(f: _Fields, value: Any) -> tuple:
         what = f"yarns[{k}]"
         item = f.obj(item, what)
         try:
-            out.append(YarnConstraint(f.string(f.get(item, "kind", what), f"{what}.kind"),
-                                      f.integer(f.get(item, "index", what), f"{what}.index"),
-                                      f.numbers(f.get(item, "plane", what), 4, f"{what}.plane"),
-                                      f.number(f.get(item, "k", what), f"{what}.k")))
+            out.append(YarnConstraint.from_dict(item, f, what))
         except SettingsError as exc:
             raise f.fail(f"{what}: {exc}") from None
     return tuple(out)
