@@ -32,12 +32,12 @@ import sys
 import threading
 import time
 import traceback
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from PySide6.QtCore import QThread, Signal
 
 from core.errors import FlatweaveError
-from core.pipeline import FlattenResult, flatten_iter
+from core.pipeline import FlattenResult, flatten_iter, stopped_result
 from core.project import Project
 from core.solver import State
 
@@ -266,23 +266,12 @@ class SolveThread(QThread):
         return RunOutcome(self._stopped_result(maker, last), p, stopped=True)
 
     def _stopped_result(self, maker: FrameMaker, snap) -> FlattenResult:
-        """The last iterate as a result: its pattern and metrics by the pipeline
-        (the solver off), the settings those of the run, the status 'stopped'."""
+        """The last iterate as a result (:func:`core.pipeline.stopped_result`):
+        the run's settings and solver, its iterations, the status 'stopped'."""
         p = self.project
         self.stage = "pattern of the last iterate"
-        gen = flatten_iter(p.surface, replace(p.settings, solver="none"), State(snap.mesh, snap.uv),
-                           area=maker.A3)
-        try:
-            next(gen)
-        except StopIteration as done:
-            result: FlattenResult = done.value
-        else:  # pragma: no cover - the pipeline does not yield without a solver
-            raise RuntimeError("the pipeline yielded with the solver off")
-        metrics = dict(result.metrics)
-        metrics.update({"iterations": snap.iteration, "energy_evaluations": snap.nfev,
-                        "solver_status": f"stopped by the user at iteration {snap.iteration}",
-                        "solve_seconds": snap.seconds})
-        result = replace(result, settings=p.settings, metrics=metrics,
-                         history=tuple(float(e) for _, e, _ in self.history))
+        result = stopped_result(p.surface, p.settings, snap, area=maker.A3,
+                                message=f"stopped by the user at iteration {snap.iteration}",
+                                history=[e for _, e, _ in self.history])
         self._publish(maker.from_result(result))
         return result

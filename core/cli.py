@@ -63,6 +63,8 @@ def _export_help() -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from core.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
+
     p = argparse.ArgumentParser(
         prog="python -m core",
         description="flatweave: flat patterns of woven fabric or isotropic sheets covering NURBS surfaces.")
@@ -71,11 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     f = sub.add_parser("flatten", help="drape a spring mesh on a surface, minimise it, write the result")
     f.add_argument("surface", metavar="SURFACE", help=_surface_help())
-    f.add_argument("--method", choices=("spring", "planar"), default="spring",
-                   help="spring (the paper's method, default) or planar (the planar energy method of Wang, "
-                        "Smith and Yuen 2002 the paper compares against: triangles laid flat and relaxed in the "
-                        "plane; uses --spacing as edge length, darts, --solver fast|none, --tol, --max-iter, "
-                        "--max-seconds, --max-nodes)")
+    f.add_argument("--method", choices=method_names(), default="spring", help=method_help())
     f.add_argument("--spacing", type=float, required=True, metavar="R",
                    help="rest length of the weft springs (and of the warp springs unless --spacing-warp)")
     f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
@@ -87,9 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="weft direction at the seed, degrees from the u direction (default 0)")
     f.add_argument("--paths", choices=("plane", "geodesic"), default="plane",
                    help="constrained paths: the paper's normal-section planes or geodesics (default plane)")
-    f.add_argument("--solver", choices=("fast", "paper", "none"), default="fast",
-                   help="fast (Levenberg-Marquardt, default), paper (steepest descent + Fletcher-Reeves "
-                        "CG with golden-section search) or none (the initial drape only)")
+    f.add_argument("--solver", choices=solver_names("spring"), default=DEFAULT_SOLVER, help=solver_help("spring"))
     f.add_argument("--tol", type=float, default=1e-9, metavar="T",
                    help="stop when an iteration lowers the energy by less than T times the energy (default 1e-9)")
     f.add_argument("--max-iter", type=int, default=1000, metavar="N", help="iteration budget (default 1000)")
@@ -205,6 +201,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
     """``flatten --method planar``: the comparison method of core.planar."""
     from core.fileio import write_json
     from core.planar import PlanarSettings, flatten_planar, planar_result_to_dict
+    from core.solvers import solver_entry
 
     unused = [name for name, value, default in (
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
@@ -212,11 +209,12 @@ def _cmd_flatten_planar(args, out: Path) -> int:
         ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None)) if value != default]
     if unused:
         raise SettingsError(f"--method planar does not use {', '.join(unused)}")
-    if args.solver == "paper":
+    solvers = solver_entry("planar").solver_map  # --solver name -> the planar method's minimiser
+    if args.solver not in solvers:
         raise SettingsError("--method planar has solvers fast (Levenberg-Marquardt) and none (the unfolding only)")
     surface, source = resolve_surface(args.surface)
     settings = PlanarSettings(
-        spacing=args.spacing, darts=_darts(args, surface), solver="none" if args.solver == "none" else "lm",
+        spacing=args.spacing, darts=_darts(args, surface), solver=solvers[args.solver],
         tol=args.tol, max_iter=args.max_iter,
         max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"), max_nodes=args.max_nodes)
     result = flatten_planar(surface, settings)

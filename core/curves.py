@@ -53,6 +53,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import SettingsError
+from core.geom import rowdot as _dot2
+from core.geom import unit_rows as _unit
 from core.nurbs import NurbsSurface
 
 __all__ = ["Arc2", "Biarcs", "ProjectedCurve", "Projection", "fit_biarcs", "project_points",
@@ -234,12 +236,6 @@ class Biarcs:
 
 
 # ====================================================================== small geometry
-def _unit(v: np.ndarray) -> np.ndarray:
-    """Rows of v (n, k) scaled to unit length (zero rows stay zero)."""
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
 def _perp(v: np.ndarray) -> np.ndarray:
     """(n, 2) vectors turned +90 degrees."""
     return np.stack([-v[..., 1], v[..., 0]], axis=-1)
@@ -247,10 +243,6 @@ def _perp(v: np.ndarray) -> np.ndarray:
 
 def _cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-
-
-def _dot2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -23,19 +23,28 @@ whether it is drawn (``visible``). A curve dart drawn in the app keeps the
 points the designer placed (``handles``, their (u, v)) and the direction it was
 projected along (``view_dir``), so it can be edited and rebuilt
 (:func:`curve_dart_through`).
+
+Both kinds follow one protocol (:class:`Dart`): the crossing test
+(``crosses``), the side of a node (``side``), the curve in (u, v)
+(``curve_uv``), the file form (``to_dict`` / ``from_dict``) and flags the
+callers branch on instead of the kind's name (``needs_xyz``,
+``editable_points``, ``has_widget``). :data:`DART_KINDS` maps the ``kind``
+string of files to the class; a new kind is a class and an entry there.
 """
 
 from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from core.errors import SettingsError
+from core.geom import cumulative_length, interp_rows, nearest_segment, polyline_distance
 from core.nurbs import NurbsSurface
 
-__all__ = ["PlaneDart", "CurveDart", "segments_cross", "DartSet", "curve_dart", "curve_dart_from_file",
+__all__ = ["Dart", "DART_KINDS", "RESULT_DART_KEYS", "CUT_DART_KEYS", "dart_from_dict", "PlaneDart", "CurveDart", "segments_cross", "DartSet", "curve_dart", "curve_dart_from_file",
            "curve_dart_through", "dart_handles"]
 
 
@@ -77,8 +86,62 @@ def segments_cross(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarra
     return out
 
 
+class Dart:
+    """What every kind of dart provides (PlaneDart, CurveDart).
+
+    kind : the kind's name in files (a key of :data:`DART_KINDS`)
+    name, visible : labels that never change a solve
+    needs_xyz : the crossing test and the side need the nodes on the surface
+        (``xa``, ``xb``, ``xyz``), not only their (u, v)
+    editable_points : the dart is edited by dragging its drawn (u, v) points
+    has_widget : the dart is edited by a 3D widget (a plane and its box)
+
+    crosses(uva, uvb, xa, xb) -> (m,) bool : springs from a to b crossing it
+    side(uv, xyz) -> (n,) int8 : +1 / -1, the side of the dart a node is on
+    curve_uv(surface, n) -> (k, 2) : its curve in (u, v), mouth to tip
+    to_dict(keys=None) -> dict : the file form (all fields, or only ``keys``)
+    from_dict(item, read, what, name, visible) : the inverse (a classmethod;
+        ``read`` supplies typed reads with one-line errors, see
+        :func:`dart_from_dict`)
+    """
+
+    kind: str
+    name: str
+    visible: bool
+    needs_xyz: bool = False
+    editable_points: bool = False
+    has_widget: bool = False
+
+    def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
+        raise NotImplementedError
+
+    def side(self, uv, xyz) -> np.ndarray:
+        raise NotImplementedError
+
+    def curve_uv(self, surface: NurbsSurface, n: int = 256) -> np.ndarray:
+        raise NotImplementedError
+
+    def _fields(self) -> dict:
+        """The kind's own entries of the file form, between ``name`` and ``visible``."""
+        raise NotImplementedError
+
+    def to_dict(self, keys=None) -> dict:
+        """The dart as a JSON object: kind, name, the kind's fields, visible
+        (project files); ``keys`` keeps only those (in this order), e.g.
+        :data:`RESULT_DART_KEYS` for result files, :data:`CUT_DART_KEYS` for
+        what decides the cut."""
+        out = {"kind": self.kind, "name": self.name, **self._fields(), "visible": bool(self.visible)}
+        return out if keys is None else {k: v for k, v in out.items() if k in keys}
+
+
+RESULT_DART_KEYS = ("kind", "name", "plane", "box", "uv")
+"""A dart's entries in a result file's settings (no labels beyond its name)."""
+CUT_DART_KEYS = ("kind", "plane", "box", "uv")
+"""What a dart's cut depends on."""
+
+
 @dataclass(frozen=True)
-class PlaneDart:
+class PlaneDart(Dart):
     """plane : (a, b, c, d); box : (xmin, xmax, ymin, ymax, zmin, zmax) or None (no limit);
     name, visible : labels (see the module docstring)."""
 
@@ -87,6 +150,8 @@ class PlaneDart:
     name: str = "plane dart"
     kind: str = field(default="plane", init=False)
     visible: bool = True
+    needs_xyz = True  # the plane function is evaluated at the nodes on the surface
+    has_widget = True
 
     def __post_init__(self):
         _check_labels(self)
@@ -97,6 +162,16 @@ class PlaneDart:
             b = np.asarray(self.box, dtype=float)
             if b.shape != (6,) or not np.all(np.isfinite(b)) or np.any(b[0::2] > b[1::2]):
                 raise SettingsError(f"plane dart box {self.box!r} must be XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX")
+
+    def _fields(self) -> dict:
+        return {"plane": [float(x) for x in self.plane],
+                "box": None if self.box is None else [float(x) for x in self.box]}
+
+    @classmethod
+    def from_dict(cls, item: dict, read, what: str, name: str, visible: bool) -> "PlaneDart":
+        box = item.get("box")
+        return cls(read.numbers(read.get(item, "plane", what), 4, f"{what}.plane"),
+                   None if box is None else read.numbers(box, 6, f"{what}.box"), name=name, visible=visible)
 
     def F(self, xyz: np.ndarray) -> np.ndarray:
         p = np.asarray(self.plane, dtype=float)
@@ -232,7 +307,7 @@ def _boundary_distance(surface: NurbsSurface, uv: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class CurveDart:
+class CurveDart(Dart):
     """A dart along a (u, v) polyline, ordered from its mouth to its tip.
 
     uv : (k, 2) points of the curve in the parameter domain (k >= 2)
@@ -248,6 +323,7 @@ class CurveDart:
     handles: np.ndarray | None = None
     view_dir: tuple[float, float, float] | None = None
     visible: bool = True
+    editable_points = True
 
     def __post_init__(self):
         _check_labels(self)
@@ -267,22 +343,63 @@ class CurveDart:
                                     f"got {self.view_dir!r:.60}")
             object.__setattr__(self, "view_dir", tuple(float(x) for x in d))
 
+    def _fields(self) -> dict:
+        out = {"uv": np.asarray(self.uv, dtype=float).tolist()}
+        if self.handles is not None:
+            out["handles"] = np.asarray(self.handles, dtype=float).tolist()
+        if self.view_dir is not None:
+            out["view_dir"] = [float(x) for x in self.view_dir]
+        return out
+
+    @classmethod
+    def from_dict(cls, item: dict, read, what: str, name: str, visible: bool) -> "CurveDart":
+        pts = read.points(read.get(item, "uv", what), f"{what}.uv")
+        handles = item.get("handles")
+        view = item.get("view_dir")
+        return cls(pts, name=name, visible=visible,
+                   handles=None if handles is None else read.points(handles, f"{what}.handles"),
+                   view_dir=None if view is None else read.numbers(view, 3, f"{what}.view_dir"))
+
     def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
         return segments_cross(uva, uvb, self.uv[:-1], self.uv[1:])
 
     def side(self, uv, xyz) -> np.ndarray:
         """(n,) +1 / -1: left or right of the nearest dart segment in (u, v)."""
         a, b = self.uv[:-1], self.uv[1:]
-        ab = b - a
-        L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-        t = np.clip(np.einsum("nkj,kj->nk", uv[:, None, :] - a[None], ab) / L2, 0, 1)
-        foot = a[None] + t[..., None] * ab[None]
-        k = np.argmin(np.einsum("nkj,nkj->nk", uv[:, None, :] - foot, uv[:, None, :] - foot), axis=1)
+        k = nearest_segment(uv, self.uv)
         s = _orient(a[k], b[k], uv)
         return np.where(s >= 0, 1, -1).astype(np.int8)
 
     def curve_uv(self, surface: NurbsSurface, n: int = 256) -> np.ndarray:
         return self.uv
+
+
+DART_KINDS: dict[str, type] = {"plane": PlaneDart, "curve": CurveDart}
+"""The kinds of dart, by the ``kind`` string of files."""
+
+
+def dart_from_dict(item: Any, read, what: str) -> Dart:
+    """A dart from its file form (:meth:`Dart.to_dict`).
+
+    ``read`` does the typed reads and makes the errors (the project reader,
+    :class:`core.project._Fields`): ``obj``, ``get``, ``string``, ``numbers``,
+    ``points`` and ``fail``; a value a dart refuses (SettingsError) comes back
+    as ``read.fail`` naming the entry ``what``.
+    """
+    item = read.obj(item, what)
+    kind = read.get(item, "kind", what)
+    name = read.string(item.get("name", f"{kind} dart"), f"{what}.name")
+    visible = item.get("visible", True)  # absent in files written before darts could be hidden
+    if not isinstance(visible, bool):
+        raise read.fail(f"{what}.visible must be true or false, got {visible!r:.40}")
+    cls = DART_KINDS.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        kinds = " or ".join(repr(k) for k in DART_KINDS)
+        raise read.fail(f"{what}.kind must be {kinds}, got {kind!r:.40}")
+    try:
+        return cls.from_dict(item, read, what, name, visible)
+    except SettingsError as exc:
+        raise read.fail(f"{what}: {exc}") from None
 
 
 class DartSet:
@@ -304,7 +421,7 @@ class DartSet:
         out = np.zeros(len(uva), dtype=bool)
         if not self.darts or len(uva) == 0:
             return out
-        if any(d.kind == "plane" for d in self.darts):
+        if any(d.needs_xyz for d in self.darts):
             xa = self.surface.points(uva) if xa is None else xa
             xb = self.surface.points(uvb) if xb is None else xb
         for d in self.darts:
@@ -316,7 +433,7 @@ class DartSet:
 
         The nodes are put on the surface once (``xyz``, if not given, and only
         for plane darts), not once per spring end."""
-        if xyz is None and any(d.kind == "plane" for d in self.darts):
+        if xyz is None and any(d.needs_xyz for d in self.darts):
             xyz = self.surface.points(uv)
 
         def keep(ends, kind):
@@ -335,12 +452,7 @@ class DartSet:
         """
         out = []
         for d, curve in zip(self.darts, curves3d):
-            a, b = curve[:-1], curve[1:]
-            ab = b - a
-            t = np.clip(np.einsum("nkj,kj->nk", xyz[:, None, :] - a[None], ab)
-                        / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-300), 0, 1)
-            foot = a[None] + t[..., None] * ab[None]
-            dist = np.sqrt(np.einsum("nkj,nkj->nk", xyz[:, None, :] - foot, xyz[:, None, :] - foot)).min(axis=1)
+            dist = polyline_distance(xyz, curve)
             near = np.flatnonzero(dist <= reach)
             side = d.side(uv[near], xyz[near]) if len(near) else np.zeros(0, np.int8)
             out.append({"positive": near[side > 0], "negative": near[side < 0]})
@@ -400,7 +512,7 @@ def curve_dart_through(surface: NurbsSurface, handles, view_dir, tol: float | No
         raise SettingsError("a curve dart needs two different points")
     dart = curve_dart(surface, surface.points(h), view_dir, tol=tol, name=name)
     size = float(np.max(np.ptp(dom, axis=1)))
-    off = _polyline_distance(h, dart.uv) > 5e-3 * size + (0.0 if tol is None else 2.0 * tol)
+    off = polyline_distance(h, dart.uv) > 5e-3 * size + (0.0 if tol is None else 2.0 * tol)
     if off.any():
         k = int(np.flatnonzero(off)[0]) + 1
         raise SettingsError(f"the dart's point {k} is hidden from this direction or the curve leaves the "
@@ -409,28 +521,16 @@ def curve_dart_through(surface: NurbsSurface, handles, view_dir, tol: float | No
     return CurveDart(dart.uv, name=name, handles=h, view_dir=tuple(d / np.linalg.norm(d)), visible=visible)
 
 
-def _polyline_distance(p: np.ndarray, line: np.ndarray) -> np.ndarray:
-    """(k,) distance of points p (k, 2) to the polyline ``line`` (m, 2)."""
-    a, b = line[:-1], line[1:]
-    ab = b - a
-    t = np.clip(np.einsum("nkj,kj->nk", p[:, None, :] - a[None], ab)
-                / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-300), 0, 1)
-    foot = a[None] + t[..., None] * ab[None]
-    return np.sqrt(np.einsum("nkj,nkj->nk", p[:, None, :] - foot, p[:, None, :] - foot).min(axis=1))
-
-
 def dart_handles(surface: NurbsSurface, dart: CurveDart, count: int = 5) -> np.ndarray:
     """(h, 2) handles for editing a curve dart: its own, or (a dart from a file,
     which has none) ``count`` points evenly spaced along it on the surface,
     both ends included."""
     if dart.handles is not None:
         return np.array(dart.handles)
-    xyz = surface.points(dart.uv)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))])
+    s = cumulative_length(surface.points(dart.uv))
     if s[-1] <= 0:
         return dart.uv[[0, -1]].copy()
-    at = np.linspace(0.0, s[-1], count)
-    return np.column_stack([np.interp(at, s, dart.uv[:, 0]), np.interp(at, s, dart.uv[:, 1])])
+    return interp_rows(np.linspace(0.0, s[-1], count), s, dart.uv)
 
 
 def curve_dart_from_file(surface: NurbsSurface, path, name: str = "curve dart") -> CurveDart:

@@ -38,6 +38,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from core.errors import SettingsError, SolverError
+from core.geom import nonfinite_rows
 from core.mesh import DIAG, Material, SpringMesh, build_mesh
 from core.nurbs import NurbsSurface
 
@@ -332,7 +333,7 @@ class _Builder:
     # -- bookkeeping
     def add(self, ij, uv, how) -> None:
         ev = self.surface.evaluate(uv)
-        bad = ~(np.isfinite(ev.xyz).all(axis=1) & np.isfinite(ev.normal).all(axis=1))
+        bad = nonfinite_rows(ev.xyz) | nonfinite_rows(ev.normal)
         if bad.any():  # a NaN in the k-d trees would fail obscurely later
             n = int(bad.sum())
             raise SolverError(f"the surface evaluation returned a non-finite point or normal at {n:,} "

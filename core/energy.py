@@ -52,6 +52,20 @@ class YarnConstraint:
         if not (np.isfinite(self.k) and self.k >= 0):
             raise SettingsError(f"yarn weight k must be a non-negative number, got {self.k!r}")
 
+    def to_dict(self) -> dict:
+        """The constraint as a JSON object (project and result files)."""
+        return {"kind": self.kind, "index": int(self.index), "plane": [float(x) for x in self.plane],
+                "k": float(self.k)}
+
+    @classmethod
+    def from_dict(cls, item: dict, read, what: str) -> "YarnConstraint":
+        """The inverse of :meth:`to_dict`; ``read`` does the typed reads (as
+        for darts, :func:`core.darts.dart_from_dict`)."""
+        return cls(read.string(read.get(item, "kind", what), f"{what}.kind"),
+                   read.integer(read.get(item, "index", what), f"{what}.index"),
+                   read.numbers(read.get(item, "plane", what), 4, f"{what}.plane"),
+                   read.number(read.get(item, "k", what), f"{what}.k"))
+
     def nodes(self, mesh: SpringMesh) -> np.ndarray:
         """Indices of the mesh nodes on this yarn."""
         col = 0 if self.kind == "weft" else 1

@@ -43,6 +43,10 @@ class Material:
         """(3,) constants indexed by spring kind."""
         return np.array([self.k_weft, self.k_warp, self.k_diag], dtype=float)
 
+    def to_dict(self) -> dict:
+        """The material as a JSON object (project and result files)."""
+        return {"name": self.name, "k_weft": self.k_weft, "k_warp": self.k_warp, "k_diag": self.k_diag}
+
     @property
     def ratio(self) -> str:
         return f"{self.k_weft:g}:{self.k_warp:g}:{self.k_diag:g}"

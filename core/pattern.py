@@ -32,6 +32,7 @@ from scipy.spatial import cKDTree
 
 from core.darts import _boundary_distance
 from core.errors import SettingsError
+from core.geom import cumulative_length, interp_rows
 from core.mesh import WARP, WEFT, SpringMesh
 from core.nurbs import NurbsSurface
 from core.quadrature import boundary_polyline, edge_lengths
@@ -520,7 +521,7 @@ class DartSetView:
         for d in self.inner.darts:
             if d is self.exclude:
                 continue
-            if d.kind == "plane" and xa is None:
+            if d.needs_xyz and xa is None:
                 xa, xb = self.inner.surface.points(uva), self.inner.surface.points(uvb)
             out |= d.crosses(uva, uvb, xa, xb)
         return out
@@ -530,10 +531,8 @@ def _resample_uv(surface: NurbsSurface, uv: np.ndarray, step: float) -> np.ndarr
     """Resample a (u, v) polyline evenly in arc length on the surface, about ``step`` apart."""
     if len(uv) < 2:
         return uv
-    P = surface.points(uv)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
+    s = cumulative_length(surface.points(uv))
     if s[-1] == 0:
         return uv[:1]
     n = max(2, int(np.ceil(s[-1] / step)) + 1)
-    t = np.linspace(0.0, s[-1], n)
-    return np.column_stack([np.interp(t, s, uv[:, 0]), np.interp(t, s, uv[:, 1])])
+    return interp_rows(np.linspace(0.0, s[-1], n), s, uv)

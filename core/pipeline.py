@@ -17,21 +17,26 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import core
-from core.darts import CurveDart, DartSet, PlaneDart
+from core.darts import DART_KINDS, RESULT_DART_KEYS, DartSet
 from core.drape import DrapeSettings, drape, refill
 from core.energy import Energy, YarnConstraint
+from core.geom import outline_errors, require_finite
 from core.errors import SettingsError, SolverError
 from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
 from core.metrics import cell_shear_deg, deformation_summary, spring_lengths
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
-from core.solver import Problem, SolveResult, SolverOptions, State, iterate
+from core.solver import STOPPED, Problem, SolveResult, SolverOptions, State, iterate
+from core.solver import stopped_result as stopped_solve
+from core.solvers import solver_entry, solver_names
 
 __all__ = ["FlattenSettings", "FlattenResult", "flatten", "flatten_iter", "result_to_dict",
-           "make_problem", "compute_metrics", "state_from_dict", "check_result_finite", "SOLVERS"]
+           "make_problem", "compute_metrics", "state_from_dict", "check_result_finite", "SOLVERS",
+           "validate_settings", "settings_to_dict", "SETTINGS_KEYS", "stopped_result"]
 
-SOLVERS = ("fast", "paper", "none")
+SOLVERS = solver_names("spring")
+"""The spring method's solver choices, 'none' (the drape only) included (:mod:`core.solvers`)."""
 
 
 @dataclass(frozen=True)
@@ -50,6 +55,9 @@ class FlattenSettings:
     darts : plane and curve darts (:mod:`core.darts`)
     max_nodes : refuse meshes estimated larger than this (or than the available
         memory holds, :func:`core.drape.node_limit`), up front
+
+    Settings check themselves when made (:func:`validate_settings`): a value
+    no solve can use is a one-line SettingsError, here and not mid-solve.
     """
 
     spacing: float
@@ -66,6 +74,9 @@ class FlattenSettings:
     darts: tuple = ()
     max_nodes: int = 2_000_000
 
+    def __post_init__(self):
+        validate_settings(self)
+
     def drape_settings(self) -> DrapeSettings:
         return DrapeSettings(self.spacing, self.spacing_warp, tuple(self.seed), float(self.angle_deg),
                              self.paths, self.max_nodes)
@@ -73,6 +84,82 @@ class FlattenSettings:
     def solver_options(self) -> SolverOptions:
         return SolverOptions(method=self.solver, tol=self.tol, max_iter=self.max_iter,
                              max_seconds=self.max_seconds)
+
+
+def validate_settings(s: FlattenSettings) -> None:
+    """Raise a one-line SettingsError for a setting no solve can use."""
+    def positive(name, value):
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and math.isfinite(value) and value > 0):
+            raise SettingsError(f"{name} must be a positive number, got {value!r}")
+
+    positive("spacing", s.spacing)
+    if s.spacing_warp is not None:
+        positive("warp spacing", s.spacing_warp)
+    if not isinstance(s.material, Material):
+        raise SettingsError(f"material must be a Material, got {type(s.material).__name__}")
+    for name in ("k_weft", "k_warp", "k_diag"):
+        positive(f"material {name}", getattr(s.material, name))
+    seed = tuple(s.seed)
+    if len(seed) != 2 or not all(isinstance(x, (int, float)) and 0 <= x <= 1 for x in seed):
+        raise SettingsError(f"seed must be two fractions of the domain between 0 and 1, got {s.seed!r}")
+    if not (isinstance(s.angle_deg, (int, float)) and math.isfinite(s.angle_deg)):
+        raise SettingsError(f"weft angle must be a number of degrees, got {s.angle_deg!r}")
+    if s.paths not in ("plane", "geodesic"):
+        raise SettingsError(f"paths must be 'plane' or 'geodesic', got {s.paths!r}")
+    if s.solver not in SOLVERS:
+        raise SettingsError(f"solver {s.solver!r} is not one of {', '.join(SOLVERS)}")
+    positive("tolerance", s.tol)
+    if not (isinstance(s.max_iter, int) and not isinstance(s.max_iter, bool) and s.max_iter >= 0):
+        raise SettingsError(f"max iterations must be a non-negative integer, got {s.max_iter!r}")
+    # a zero budget is a run that stops at once (a project's job needs a positive one)
+    if not (isinstance(s.max_seconds, (int, float)) and s.max_seconds >= 0):
+        raise SettingsError(f"time budget must be a positive number of seconds, got {s.max_seconds!r}")
+    if not (isinstance(s.max_nodes, int) and s.max_nodes > 0):
+        raise SettingsError(f"max nodes must be a positive integer, got {s.max_nodes!r}")
+    for y in s.yarns:
+        if not isinstance(y, YarnConstraint):
+            raise SettingsError(f"yarn constraints must be YarnConstraint, got {type(y).__name__}")
+    for d in s.darts:
+        if not isinstance(d, tuple(DART_KINDS.values())):
+            raise SettingsError(f"darts must be {' or '.join(c.__name__ for c in DART_KINDS.values())}, "
+                                f"got {type(d).__name__}")
+
+
+SETTINGS_KEYS = ("spacing", "spacing_warp", "material", "seed", "angle_deg", "paths", "solver", "tol",
+                 "max_iter", "max_seconds", "max_nodes")
+"""The settings' entries in a project file (darts and yarns are listed beside them)."""
+
+
+def settings_to_dict(s: FlattenSettings, form: str = "result") -> dict:
+    """The settings as a JSON object: the one encoding of settings, darts
+    (:meth:`core.darts.Dart.to_dict`), yarns and material.
+
+    form "result" (a result file's ``settings``): every field, in field
+    order, ``spacing_warp`` filled in from the weft spacing, the darts without
+    their labels beyond the name (:data:`~core.darts.RESULT_DART_KEYS`) and the
+    yarns inline. form "project": :data:`SETTINGS_KEYS` only (darts and yarns
+    are listed beside them), ``spacing_warp`` null when it follows the weft
+    spacing. Either way an infinite time budget is null.
+    """
+    if form not in ("result", "project"):
+        raise ValueError(f"form must be 'result' or 'project', got {form!r}")
+    out = {
+        "spacing": s.spacing,
+        "spacing_warp": s.spacing_warp if s.spacing_warp is not None or form == "project" else s.spacing,
+        "material": s.material.to_dict(),
+        "seed": list(s.seed),
+        "angle_deg": s.angle_deg,
+        "paths": s.paths,
+        "solver": s.solver,
+        "tol": s.tol,
+        "max_iter": s.max_iter,
+        "max_seconds": s.max_seconds if math.isfinite(s.max_seconds) else None,
+        "yarns": [y.to_dict() for y in s.yarns],
+        "darts": [d.to_dict(RESULT_DART_KEYS) for d in s.darts],
+        "max_nodes": s.max_nodes,
+    }
+    return out if form == "result" else {k: out[k] for k in SETTINGS_KEYS}
 
 
 @dataclass(frozen=True)
@@ -105,22 +192,13 @@ class FlattenResult:
 
 def compute_metrics(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, pattern: Pattern,
                     yarns=(), L3: float | None = None, A3: float | None = None) -> dict:
-    """Energy, boundary and area errors, thread strain, shear and sizes.
-
-    boundary_error_pct = 100 |L2 - L3| / L3 with L3 the boundary length on
-    the surface and L2 the outline's perimeter; area_error_pct likewise with
-    A3 the region's area and A2 the area inside the outline. The signed
-    values are kept too (``*_signed_pct``).
-    """
+    """Energy, boundary and area errors (:func:`core.geom.outline_errors`: L3
+    and A3 the surface's boundary length and area, L2 and A2 the outline's),
+    thread strain, shear and sizes."""
     L3 = boundary_length(surface) if L3 is None else L3
     A3 = region_area(surface) if A3 is None else A3
-    L2, A2 = pattern.perimeter, pattern.area
     m = {"energy": Energy(surface, mesh, yarns).value_xyz(xyz),
-         "boundary_error_pct": 100 * abs(L2 - L3) / L3,
-         "area_error_pct": 100 * abs(A2 - A3) / A3,
-         "boundary_error_signed_pct": 100 * (L2 - L3) / L3,
-         "area_error_signed_pct": 100 * (A2 - A3) / A3,
-         "boundary_length_3d": L3, "boundary_length_2d": L2, "area_3d": A3, "area_2d": A2}
+         **outline_errors(pattern.perimeter, L3, pattern.area, A3)}
     m.update(deformation_summary(xyz, mesh))
     m["nodes"] = mesh.n_nodes
     m["springs"] = mesh.n_springs
@@ -206,12 +284,7 @@ def _check_drape(surface: NurbsSurface, d, ds: DrapeSettings) -> None:
 
 def _check_finite(what: str, arr, unit: str) -> None:
     """SolverError unless every row of ``arr`` is finite."""
-    arr = np.asarray(arr, dtype=float)
-    bad = ~np.isfinite(arr.reshape(len(arr), -1)).all(axis=1) if arr.size else np.zeros(0, dtype=bool)
-    if bad.any():
-        word = "NaN" if np.isnan(arr).any() else "infinite"
-        raise SolverError(f"the result's {what} {'is' if bad.sum() == 1 else 'are'} {word} at {int(bad.sum()):,} of "
-                          f"{len(arr):,} {unit}; the solve stopped and nothing was changed")
+    require_finite(f"the result's {what}", arr, unit)
 
 
 def check_result_finite(uv: np.ndarray, xyz: np.ndarray, pattern: Pattern | None = None,
@@ -244,8 +317,6 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     infinity anywhere (solver, nodes, pattern, metrics) raises
     :class:`~core.errors.SolverError`: no result holds a non-finite number.
     """
-    if settings.solver not in SOLVERS:
-        raise SettingsError(f"solver {settings.solver!r} is not one of {', '.join(SOLVERS)}")
     t0 = time.perf_counter()
     A3 = region_area(surface) if area is None else area
     _check_area(surface, A3)
@@ -266,7 +337,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         uv = np.asarray(initial.uv, dtype=float)
         state, stats = State(problem.build(initial.mesh.ij, uv), uv), {"warm_start": True, "seconds": 0.0}
     solve = None
-    if settings.solver != "none":
+    if solver_entry(settings.solver).iterative:
         solve = yield from iterate(problem, state, settings.solver_options())
         state = State(solve.mesh, solve.uv)
     xyz = surface.points(state.uv)
@@ -298,16 +369,44 @@ def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | N
             area: float | None = None, callback=None) -> FlattenResult:
     """Run :func:`flatten_iter` to the end. ``callback(snapshot)`` is called
     at every solver iteration; returning True stops the solve there (the
-    result is then the last iterate, with its pattern and metrics)."""
+    result is then the last iterate, with its pattern and metrics, see
+    :func:`stopped_result`)."""
     gen = flatten_iter(surface, settings, initial, area)
+    history = []
     while True:
         try:
             snap = next(gen)
         except StopIteration as done:
             return done.value
+        history.append(snap.energy)
         if callback is not None and callback(snap):
             gen.close()
-            return flatten(surface, replace(settings, solver="none"), State(snap.mesh, snap.uv), area)
+            return stopped_result(surface, settings, snap, area, history=history)
+
+
+def stopped_result(surface: NurbsSurface, settings: FlattenSettings, snap, area: float | None = None,
+                   message: str = STOPPED, history=()) -> FlattenResult:
+    """The last iterate of a solve stopped at snapshot ``snap`` as a result.
+
+    Its pattern and metrics are made by the pipeline from the snapshot's
+    state (the solver off); the settings are the run's and the solve is
+    the one that ran as far as it went (:func:`core.solver.stopped_result`):
+    its solver, iterations, energy evaluations, ``message`` as status and
+    ``history`` (the energy after each iteration) as the energy trace.
+    """
+    gen = flatten_iter(surface, replace(settings, solver="none"), State(snap.mesh, snap.uv), area)
+    try:
+        next(gen)
+    except StopIteration as done:
+        result: FlattenResult = done.value
+    else:  # pragma: no cover - the pipeline does not yield without a solver
+        raise AssertionError("flatten_iter yielded with the solver off")
+    solve = stopped_solve(snap, message, history)
+    metrics = dict(result.metrics)
+    metrics.update({"iterations": solve.nit, "energy_evaluations": solve.nfev, "solver_status": solve.message,
+                    "solve_seconds": solve.seconds})
+    return replace(result, settings=settings, metrics=metrics, solve=solve,
+                   history=tuple(float(e) for e in history))
 
 
 def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:
@@ -324,20 +423,6 @@ def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -
     return State(make_problem(surface, settings).build(ij, uv), uv)
 
 
-def _settings_dict(s: FlattenSettings) -> dict:
-    out = asdict(s)
-    out["material"] = {"name": s.material.name, "k_weft": s.material.k_weft,
-                       "k_warp": s.material.k_warp, "k_diag": s.material.k_diag}
-    out["spacing_warp"] = s.spacing_warp if s.spacing_warp is not None else s.spacing
-    out["seed"] = list(s.seed)
-    out["max_seconds"] = s.max_seconds if math.isfinite(s.max_seconds) else None
-    out["yarns"] = [{"kind": y.kind, "index": y.index, "plane": list(y.plane), "k": y.k} for y in s.yarns]
-    out["darts"] = [{"kind": d.kind, "name": d.name, "plane": list(d.plane),
-                     "box": list(d.box) if d.box is not None else None} if d.kind == "plane"
-                    else {"kind": d.kind, "name": d.name, "uv": np.asarray(d.uv).tolist()} for d in s.darts]
-    return out
-
-
 def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> dict:
     """The result file's content (see README, "Result file")."""
     mesh, xyz, pattern = result.mesh, result.xyz, result.pattern
@@ -347,7 +432,7 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
         "version": 1,
         "flatweave": core.__version__,
         "surface": surface_source,
-        "settings": _settings_dict(result.settings),
+        "settings": settings_to_dict(result.settings, "result"),
         "metrics": result.metrics,
         "drape": result.drape_stats,
         "nodes": {
@@ -381,6 +466,9 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
     }
 
 
+_OPENING_DART_KEYS = ("kind", "name", "plane", "box")  # a result's dart openings: no curve points
+
+
 def _darts_dict(result: FlattenResult) -> list[dict]:
     """The darts: definition, curve, leg lengths, opening angle, dart nodes."""
     s = result.settings
@@ -391,10 +479,7 @@ def _darts_dict(result: FlattenResult) -> list[dict]:
         [o.curve3d for o in result.pattern.darts], result.uv, result.xyz, reach)
     out = []
     for dart, opening, nodes in zip(s.darts, result.pattern.darts, labels):
-        entry = {"kind": dart.kind, "name": dart.name}
-        if dart.kind == "plane":
-            entry["plane"] = list(dart.plane)
-            entry["box"] = list(dart.box) if dart.box is not None else None
+        entry = dart.to_dict(_OPENING_DART_KEYS)
         entry.update({
             "curve_uv": opening.curve_uv.tolist(), "curve": opening.curve3d.tolist(),
             "mouth_on_boundary": opening.mouth,

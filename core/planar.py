@@ -98,8 +98,9 @@ from scipy.sparse.linalg import splu
 from scipy.spatial import cKDTree
 
 import core
-from core.darts import _boundary_distance
+from core.darts import RESULT_DART_KEYS, _boundary_distance
 from core.errors import SettingsError, SolverError
+from core.geom import nan_word, outline_errors, require_finite
 from core.nurbs import NurbsSurface
 from core.pipeline import check_result_finite
 from core.pattern import DartOpening, Pattern, Piece, _resample_uv, polygon_area
@@ -290,10 +291,8 @@ def tessellate(surface: NurbsSurface, spacing: float, max_nodes: int = 2_000_000
 
 def _check_points(xyz: np.ndarray, what: str, when: str, kind: str = "point") -> None:
     """SolverError unless every point (or derivative) of the surface is finite."""
-    bad = ~np.isfinite(xyz.reshape(-1, xyz.shape[-1])).all(axis=1)
-    if bad.any():
-        raise SolverError(f"the surface evaluation returned a non-finite {kind} at {int(bad.sum()):,} of {len(bad):,} "
-                          f"{what} while {when}; the solve stopped and nothing was changed")
+    require_finite("the surface evaluation", xyz.reshape(-1, xyz.shape[-1]), what, when=f" while {when}",
+                   state=f"returned a non-finite {kind}")
 
 
 def _weld(t: Tessellation, tol: float) -> Tessellation:
@@ -686,7 +685,7 @@ def relax(xy0: np.ndarray, edges: np.ndarray, rest: np.ndarray, k: np.ndarray | 
     E0, g = spring_energy(xy, edges, rest, kk)
     if not (math.isfinite(E0) and np.isfinite(g).all()):
         what = "energy" if not math.isfinite(E0) else "energy's gradient"
-        word = "NaN" if np.isnan(E0) or np.isnan(g).any() else "infinite"
+        word = nan_word(np.append(E0, g))
         raise SolverError(f"the planar {what} became {word} in the unfolded start (non-finite positions or rest "
                           f"lengths); the solve stopped and nothing was changed")
     floor = 1e-24 * float(np.sum(kk * rest * rest))
@@ -922,7 +921,6 @@ def planar_metrics(surface: NurbsSurface, tess: Tessellation, edges: np.ndarray,
     A3 exact on the surface, L2 and A2 of the outline), edge strain, flips, sizes."""
     L3 = boundary_length(surface)
     A3 = region_area(surface) if area is None else area
-    L2, A2 = pattern.perimeter, pattern.area
     l2 = np.linalg.norm(xy[edges[:, 0]] - xy[edges[:, 1]], axis=1)
     strain = np.abs(l2 / rest - 1.0)
     a2 = _uv_area(xy, tess.tri)
@@ -935,11 +933,7 @@ def planar_metrics(surface: NurbsSurface, tess: Tessellation, edges: np.ndarray,
         seg = np.linalg.norm(np.roll(o3, -1, axis=0) - o3, axis=1)
         L3_mesh += float(seg[p.on_boundary & np.roll(p.on_boundary, -1)].sum())
     return {
-        "boundary_error_pct": 100 * abs(L2 - L3) / L3,
-        "area_error_pct": 100 * abs(A2 - A3) / A3,
-        "boundary_error_signed_pct": 100 * (L2 - L3) / L3,
-        "area_error_signed_pct": 100 * (A2 - A3) / A3,
-        "boundary_length_3d": L3, "boundary_length_2d": L2, "area_3d": A3, "area_2d": A2,
+        **outline_errors(pattern.perimeter, L3, pattern.area, A3),
         "boundary_length_3d_mesh": L3_mesh, "area_3d_mesh": float(a3.sum()),
         "max_edge_strain_pct": float(100 * strain.max(initial=0.0)),
         "mean_edge_strain_pct": float(100 * strain.mean()) if strain.size else 0.0,
@@ -955,14 +949,7 @@ def planar_result_to_dict(result: PlanarResult, surface_source: str | None = Non
     s = result.settings
     tess, pattern, xy = result.tess, result.pattern, result.xy
     l2 = np.linalg.norm(xy[result.edges[:, 0]] - xy[result.edges[:, 1]], axis=1)
-    darts = []
-    for d in s.darts:
-        entry = {"kind": d.kind, "name": d.name}
-        if d.kind == "plane":
-            entry.update({"plane": list(d.plane), "box": list(d.box) if d.box is not None else None})
-        else:
-            entry["uv"] = np.asarray(d.uv).tolist()
-        darts.append(entry)
+    darts = [d.to_dict(RESULT_DART_KEYS) for d in s.darts]
     out_darts = []
     for d, op, cut in zip(darts, pattern.darts, tess.cuts):
         e = dict(d)

@@ -52,14 +52,16 @@ from typing import Any
 import numpy as np
 
 import core
-from core.darts import CurveDart, PlaneDart
+from core.darts import CUT_DART_KEYS, dart_from_dict
 from core.energy import YarnConstraint
 from core.errors import FlatweaveError, SettingsError
 from core.fileio import write_json
 from core.mesh import MATERIALS, Material
 from core.nurbs import NurbsSurface
-from core.pipeline import (SOLVERS, FlattenResult, FlattenSettings, _settings_dict, flatten_iter,
-                           result_to_dict, state_from_dict)
+from core.pipeline import SETTINGS_KEYS as _SETTINGS_KEYS
+from core.pipeline import FlattenResult, FlattenSettings, flatten_iter, result_to_dict, state_from_dict
+from core.pipeline import settings_to_dict as pipeline_settings_to_dict
+from core.pipeline import validate_settings as pipeline_validate_settings
 from core.quadrature import region_area
 from core.solver import State
 from core.surface_io import surface_from_json_dict, surface_to_json_dict
@@ -79,9 +81,6 @@ UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
 
 DRAPE_KEYS = ("spacing", "spacing_warp", "seed", "angle_deg", "paths", "max_nodes")
 """Settings that decide the drape: changing one needs a new drape, not a warm start."""
-
-_SETTINGS_KEYS = ("spacing", "spacing_warp", "material", "seed", "angle_deg", "paths", "solver", "tol",
-                  "max_iter", "max_seconds", "max_nodes")
 
 
 class ProjectError(FlatweaveError, ValueError):
@@ -155,78 +154,35 @@ class Project:
 
 
 def validate_settings(s: FlattenSettings) -> None:
-    """Raise a one-line SettingsError for a setting no solve can use."""
-    def positive(name, value):
-        if not (isinstance(value, (int, float)) and not isinstance(value, bool)
-                and math.isfinite(value) and value > 0):
-            raise SettingsError(f"{name} must be a positive number, got {value!r}")
-
-    positive("spacing", s.spacing)
-    if s.spacing_warp is not None:
-        positive("warp spacing", s.spacing_warp)
-    if not isinstance(s.material, Material):
-        raise SettingsError(f"material must be a Material, got {type(s.material).__name__}")
-    for name in ("k_weft", "k_warp", "k_diag"):
-        positive(f"material {name}", getattr(s.material, name))
-    seed = tuple(s.seed)
-    if len(seed) != 2 or not all(isinstance(x, (int, float)) and 0 <= x <= 1 for x in seed):
-        raise SettingsError(f"seed must be two fractions of the domain between 0 and 1, got {s.seed!r}")
-    if not (isinstance(s.angle_deg, (int, float)) and math.isfinite(s.angle_deg)):
-        raise SettingsError(f"weft angle must be a number of degrees, got {s.angle_deg!r}")
-    if s.paths not in ("plane", "geodesic"):
-        raise SettingsError(f"paths must be 'plane' or 'geodesic', got {s.paths!r}")
-    if s.solver not in SOLVERS:
-        raise SettingsError(f"solver {s.solver!r} is not one of {', '.join(SOLVERS)}")
-    positive("tolerance", s.tol)
-    if not (isinstance(s.max_iter, int) and not isinstance(s.max_iter, bool) and s.max_iter >= 0):
-        raise SettingsError(f"max iterations must be a non-negative integer, got {s.max_iter!r}")
-    if not (isinstance(s.max_seconds, (int, float)) and s.max_seconds > 0):
+    """Raise a one-line SettingsError for a setting no solve can use
+    (:func:`core.pipeline.validate_settings`, which FlattenSettings run when
+    made) or that a project's job cannot run with: a zero time budget."""
+    pipeline_validate_settings(s)
+    if not s.max_seconds > 0:
         raise SettingsError(f"time budget must be a positive number of seconds, got {s.max_seconds!r}")
-    if not (isinstance(s.max_nodes, int) and s.max_nodes > 0):
-        raise SettingsError(f"max nodes must be a positive integer, got {s.max_nodes!r}")
 
 
 # ---------------------------------------------------------------------- settings <-> dict
-_SOLVE_DART_KEYS = ("kind", "plane", "box", "uv")  # what a dart's cut depends on
-
-
 def _darts_to_list(darts, labels: bool = True) -> list[dict]:
     """The darts as JSON objects; ``labels=False`` keeps only what decides the
     cut (kind, plane and box, or the (u, v) curve), not the name, visibility,
     or a curve dart's drawn points and direction."""
-    out = []
-    for d in darts:
-        if d.kind == "plane":
-            item = {"kind": "plane", "name": d.name, "plane": [float(x) for x in d.plane],
-                    "box": None if d.box is None else [float(x) for x in d.box]}
-        else:
-            item = {"kind": "curve", "name": d.name, "uv": np.asarray(d.uv, dtype=float).tolist()}
-            if d.handles is not None:
-                item["handles"] = np.asarray(d.handles, dtype=float).tolist()
-            if d.view_dir is not None:
-                item["view_dir"] = [float(x) for x in d.view_dir]
-        item["visible"] = bool(d.visible)
-        if not labels:
-            item = {k: v for k, v in item.items() if k in _SOLVE_DART_KEYS}
-        out.append(item)
-    return out
+    return [d.to_dict(None if labels else CUT_DART_KEYS) for d in darts]
 
 
 def _yarns_to_list(yarns) -> list[dict]:
-    return [{"kind": y.kind, "index": int(y.index), "plane": [float(x) for x in y.plane], "k": float(y.k)}
-            for y in yarns]
+    return [y.to_dict() for y in yarns]
 
 
 def settings_to_dict(s: FlattenSettings) -> dict:
-    """JSON-ready settings without darts and yarns (those are listed on their own).
+    """JSON-ready settings without darts and yarns (those are listed on their own):
+    :func:`core.pipeline.settings_to_dict`'s project form.
 
     ``spacing_warp`` stays null when it follows the weft spacing and an
     infinite time budget is null, so :func:`settings_from_dict` gives back
     equal settings.
     """
-    d = _settings_dict(s)
-    d["spacing_warp"] = s.spacing_warp
-    return {k: d[k] for k in _SETTINGS_KEYS}
+    return pipeline_settings_to_dict(s, "project")
 
 
 class _Fields:
@@ -270,6 +226,12 @@ class _Fields:
             raise self.fail(f"{what} must be a list of {n} numbers")
         return tuple(self.number(x, what) for x in value)
 
+    def points(self, value: Any, what: str) -> np.ndarray:
+        """(k, 2) from a list of [u, v] points."""
+        if not isinstance(value, list) or not all(isinstance(p, list) for p in value):
+            raise self.fail(f"{what} must be a list of [u, v] points")
+        return np.array([self.numbers(p, 2, what) for p in value], dtype=float).reshape(-1, 2)
+
 
 def _material_from(f: _Fields, value: Any) -> Material:
     m = f.obj(value, "settings.material")
@@ -291,7 +253,7 @@ def settings_from_dict(d: Any, darts: Any = (), yarns: Any = (), where: str = "p
     for key in _SETTINGS_KEYS:
         f.get(d, key, "settings")
     max_seconds = f.number(d["max_seconds"], "settings.max_seconds", allow_none=True)
-    out = FlattenSettings(
+    values = dict(
         spacing=f.number(d["spacing"], "settings.spacing"),
         spacing_warp=f.number(d["spacing_warp"], "settings.spacing_warp", allow_none=True),
         material=_material_from(f, d["material"]),
@@ -307,6 +269,7 @@ def settings_from_dict(d: Any, darts: Any = (), yarns: Any = (), where: str = "p
         yarns=_yarns_from(f, yarns),
     )
     try:
+        out = FlattenSettings(**values)
         validate_settings(out)
     except SettingsError as exc:
         raise ProjectError(f"{where}: {exc}") from None
@@ -316,39 +279,7 @@ def settings_from_dict(d: Any, darts: Any = (), yarns: Any = (), where: str = "p
 def _darts_from(f: _Fields, value: Any) -> tuple:
     if not isinstance(value, (list, tuple)):
         raise f.fail("darts must be a list")
-    out = []
-    for k, item in enumerate(value):
-        what = f"darts[{k}]"
-        item = f.obj(item, what)
-        kind = f.get(item, "kind", what)
-        name = f.string(item.get("name", f"{kind} dart"), f"{what}.name")
-        visible = item.get("visible", True)  # absent in files written before darts could be hidden
-        if not isinstance(visible, bool):
-            raise f.fail(f"{what}.visible must be true or false, got {visible!r:.40}")
-        try:
-            if kind == "plane":
-                box = item.get("box")
-                out.append(PlaneDart(f.numbers(f.get(item, "plane", what), 4, f"{what}.plane"),
-                                     None if box is None else f.numbers(box, 6, f"{what}.box"), name=name,
-                                     visible=visible))
-            elif kind == "curve":
-                pts = _uv_list(f, f.get(item, "uv", what), f"{what}.uv")
-                handles = item.get("handles")
-                view = item.get("view_dir")
-                out.append(CurveDart(pts, name=name, visible=visible,
-                                     handles=None if handles is None else _uv_list(f, handles, f"{what}.handles"),
-                                     view_dir=None if view is None else f.numbers(view, 3, f"{what}.view_dir")))
-            else:
-                raise f.fail(f"{what}.kind must be 'plane' or 'curve', got {kind!r:.40}")
-        except SettingsError as exc:
-            raise f.fail(f"{what}: {exc}") from None
-    return tuple(out)
-
-
-def _uv_list(f: _Fields, value: Any, what: str) -> np.ndarray:
-    if not isinstance(value, list) or not all(isinstance(p, list) for p in value):
-        raise f.fail(f"{what} must be a list of [u, v] points")
-    return np.array([f.numbers(p, 2, what) for p in value], dtype=float).reshape(-1, 2)
+    return tuple(dart_from_dict(item, f, f"darts[{k}]") for k, item in enumerate(value))
 
 
 def _yarns_from(f: _Fields, value: Any) -> tuple:
@@ -359,10 +290,7 @@ def _yarns_from(f: _Fields, value: Any) -> tuple:
         what = f"yarns[{k}]"
         item = f.obj(item, what)
         try:
-            out.append(YarnConstraint(f.string(f.get(item, "kind", what), f"{what}.kind"),
-                                      f.integer(f.get(item, "index", what), f"{what}.index"),
-                                      f.numbers(f.get(item, "plane", what), 4, f"{what}.plane"),
-                                      f.number(f.get(item, "k", what), f"{what}.k")))
+            out.append(YarnConstraint.from_dict(item, f, what))
         except SettingsError as exc:
             raise f.fail(f"{what}: {exc}") from None
     return tuple(out)

@@ -9,21 +9,18 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
   springs' 4x4 blocks with their geometric stiffness, plus the surface's
   curvature per node), assembled straight into a fixed block pattern, damped
   by lambda diag(A) and factorised by SuperLU. lambda starts at 1e-4 and falls
-  tenfold after every step the quadratic model predicts well (rho > 0.75):
-  measured on six cases, 27 % fewer iterations than Nielsen's rule from 1e-3,
-  to the same energies. The 500:1 stiffness of woven cloth, which makes
-  gradient methods crawl, costs it nothing.
+  tenfold after every step the quadratic model predicts well (rho > 0.75),
+  which took fewer iterations than Nielsen's rule (docs/decisions.md). The
+  500:1 stiffness of woven cloth, which makes gradient methods crawl, costs it
+  nothing.
 
 Both are generators (:func:`iterate`) that yield a :class:`Snapshot` after every
 iteration, so a GUI can draw and a caller can stop within one iteration by no
 longer asking for the next; :func:`minimize` drives one to the end.
 
 Re-solves after an edit (a dart added to a converged piece) start from the
-last result. Measured on the woven octant at 2,500 nodes and left out: moving
-only the nodes near the new nodes after a refill (6-10 lattice rings, the rest
-held) before a global polish; the whole mesh moves 1-3 spacings when a dart
-opens, the local rounds missed deletions the global steps then made, and the
-solve took more global factorisations (23-27 against 21), not fewer.
+last result and move the whole mesh: a dart opening moves every node, so a
+local re-solve near the new nodes saves nothing (docs/decisions.md).
 
 Adaptive population control (3.3): a node whose (u, v) leaves the domain is
 deleted with its springs; when the solver has converged, regions the mesh has
@@ -56,11 +53,16 @@ from scipy.sparse.linalg import splu
 from core.energy import Energy
 from core.errors import SettingsError, SolverError
 from core.mesh import DIAG, SpringMesh, lattice_index
+from core.geom import nan_word, nonfinite_rows
+from core.geom import rowdot as _dot
 from core.metrics import spring_strain
+from core.solvers import solver_entry, solver_names
 
-__all__ = ["SolverOptions", "Snapshot", "SolveResult", "iterate", "minimize", "METHODS", "State"]
+__all__ = ["SolverOptions", "Snapshot", "SolveResult", "iterate", "minimize", "METHODS", "State",
+           "stopped_result", "STOPPED"]
 
-METHODS = ("fast", "paper")
+METHODS = solver_names("spring", iterative=True)
+"""The minimisers (:mod:`core.solvers` lists them; 'none' is the pipeline's, not a minimiser)."""
 
 
 @dataclass(frozen=True)
@@ -329,11 +331,6 @@ def _anchors(problem: Problem, mesh: SpringMesh, uv: np.ndarray, options: Solver
 
 
 # ------------------------------------------------------------------ non-finite values
-def _word(x) -> str:
-    """'NaN' if any of ``x`` is NaN, else 'infinite'."""
-    return "NaN" if np.isnan(np.asarray(x, dtype=float)).any() else "infinite"
-
-
 def _nodes(n: int) -> str:
     return f"{n:,} node{'s' if n != 1 else ''}"
 
@@ -341,7 +338,7 @@ def _nodes(n: int) -> str:
 def _surface_cause(surface, uv: np.ndarray, ev=None) -> str | None:
     """What is not finite in the surface's evaluation at ``uv`` (None: nothing)."""
     uv = np.asarray(uv, dtype=float).reshape(-1, 2)
-    bad_uv = ~np.isfinite(uv).all(axis=1)
+    bad_uv = nonfinite_rows(uv)
     if bad_uv.any():
         return f"{_nodes(int(bad_uv.sum()))} had a non-finite (u, v)"
     if ev is None or ev.suu is None:
@@ -350,7 +347,7 @@ def _surface_cause(surface, uv: np.ndarray, ev=None) -> str | None:
                          ("second derivative", (ev.suu, ev.suv, ev.svv))):
         bad = np.zeros(len(uv), dtype=bool)
         for arr in arrays:
-            bad |= ~np.isfinite(arr).all(axis=1)
+            bad |= nonfinite_rows(arr)
         if bad.any():
             inside = int((bad & surface.in_domain(uv)).sum())
             where = f", {inside:,} of them inside its domain" if inside < bad.sum() else ""
@@ -366,16 +363,16 @@ def _cause(surface, uv: np.ndarray, ev=None) -> str:
 def _not_finite(what: str, value, iteration: int, cause: str) -> SolverError:
     """The one-line error of a solve stopped by a non-finite ``value``."""
     when = f"at iteration {iteration}" if iteration > 0 else "in the starting mesh"
-    return SolverError(f"{what} became {_word(value)} {when} ({cause}); the solve stopped and nothing was changed")
+    return SolverError(f"{what} became {nan_word(value)} {when} ({cause}); the solve stopped and nothing was changed")
 
 
 def _broken_inside(surface, uv: np.ndarray, xyz: np.ndarray, *derivs) -> bool:
     """True if the surface gave a non-finite point (or derivative) at a node
     inside its domain: the surface cannot be evaluated there, so no smaller step
     will help (outside the domain the extension may overflow: a step too long)."""
-    bad = ~np.isfinite(xyz).all(axis=1)
+    bad = nonfinite_rows(xyz)
     for d in derivs:
-        bad |= ~np.isfinite(d).all(axis=1)
+        bad |= nonfinite_rows(d)
     return bool((bad & surface.in_domain(uv)).any())
 
 
@@ -508,11 +505,6 @@ class _Normal:
         return out
 
 
-def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Row-wise dot products of (k, 3) arrays."""
-    return x[:, 0] * y[:, 0] + x[:, 1] * y[:, 1] + x[:, 2] * y[:, 2]
-
-
 def _residuals(energy: Energy, S, Su, Sv):
     """Residuals and Jacobian blocks at surface data (S, S_u, S_v).
 
@@ -618,10 +610,9 @@ def _hessian_blocks(energy: Energy, S, Su, Sv, q, Suu, Suv, Svv):
     mapped to (u, v) by the surface derivatives; each node adds the
     surface-curvature term G . S_uv. This is the exact Hessian of EN: it is
     indefinite where springs are compressed, which the Levenberg-Marquardt
-    damping and gain-ratio test handle. (Projecting the blocks onto the PSD
-    cone, as projected Newton methods do, was measured: it slows the final
-    convergence to a linear crawl, up to 96 iterations on the isotropic
-    garment against 12.)
+    damping and gain-ratio test handle; a PSD projection of the blocks would
+    make the final convergence linear (docs/decisions.md). Checked against
+    finite differences by tests/test_hessian.py.
     """
     a, b = energy.a, energy.b
     d = S[a] - S[b]
@@ -649,6 +640,19 @@ def _hessian_blocks(energy: Energy, S, Su, Sv, q, Suu, Suv, Svv):
     Hn[:, 0, 1] = Hn[:, 1, 0] = _dot(G, Suv)
     Hn[:, 1, 1] = _dot(G, Svv)
     return Hs, Hn, G
+
+
+def _pin_block(pin: _PlanePin, uv_node: np.ndarray, G_node: np.ndarray, su_node: np.ndarray,
+               sv_node: np.ndarray, big: float) -> np.ndarray:
+    """(2, 2) added to the pinned node's Newton block: the Lagrangian's term
+    -mu H_c (mu the multiplier of the plane constraint c at the current
+    gradient) and a stiff penalty across the plane, so the node's step stays
+    in the plane's tangent (and the retraction corrects the rest)."""
+    cg_, ch_ = pin.constraint(uv_node)
+    g_uv = np.array([G_node @ su_node, G_node @ sv_node])
+    mu = float(g_uv @ cg_) / float(cg_ @ cg_)  # Lagrange multiplier
+    off = cg_ / np.linalg.norm(cg_)
+    return 1e8 * big * np.outer(off, off) - mu * ch_
 
 
 class _Round:
@@ -722,21 +726,9 @@ class _Round:
         run.uv = self.uv[idx]
 
     def solve(self, A, g: np.ndarray) -> np.ndarray:
-        """A x = -g by a sparse LU factorisation in the pattern's own order.
-
-        (Conjugate gradients preconditioned by the previous factorisation were
-        measured twice: at 10,000 nodes they converge to 1e-3 within 4
-        iterations only in the last two steps of a round, and then cost as much
-        as a new factorisation, since a triangular solve costs a quarter of one.
-        Measured again at 2,500 nodes on the dart re-solve: no convergence within
-        30 iterations while nodes are being switched off, 8-11 iterations to 1e-2
-        after, as dear as a factorisation. Other orderings at 2,500 / 10,000
-        nodes, same matrices: SuperLU's MMD_AT_PLUS_A 13 % less fill and about
-        the same time at 2,500 but 1.6x slower at 10,000, COLAMD 2-3x slower;
-        a node-level minimum-degree order expanded to the 2 x 2 blocks, like
-        MMD; LAPACK's banded Cholesky in reverse Cuthill-McKee order 2x slower
-        at 2,500 and no faster at 10,000.)
-        """
+        """A x = -g by a sparse LU factorisation in the pattern's own order
+        (nested dissection): no iterative solver or other ordering measured
+        was faster (docs/decisions.md)."""
         lu = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         return lu.solve(-g)
 
@@ -799,11 +791,7 @@ def _iterate_fast(run: _Run):
                 Hn[~rnd.alive] = eye * big
             pinned = _node_at(rnd.mesh, run.pin.ij) if run.pin is not None else None
             if pinned is not None:  # the orientation anchor moves along its plane only
-                cg_, ch_ = run.pin.constraint(rnd.uv[pinned])
-                g_uv = np.array([G[pinned] @ ev.su[pinned], G[pinned] @ ev.sv[pinned]])
-                mu = float(g_uv @ cg_) / float(cg_ @ cg_)  # Lagrange multiplier
-                off = cg_ / np.linalg.norm(cg_)
-                Hn[pinned] += 1e8 * big * np.outer(off, off) - mu * ch_
+                Hn[pinned] += _pin_block(run.pin, rnd.uv[pinned], G[pinned], ev.su[pinned], ev.sv[pinned], big)
             A, damp = normal.assemble(Hs, Jd, Hn, lam)
             g = normal.gradient(Q, rs, Jd, rd, energy)
             if not np.isfinite(g).all():
@@ -1035,7 +1023,7 @@ def iterate(problem: Problem, state: State, options: SolverOptions = SolverOptio
     is the :class:`SolveResult`. Closing it early stops the solve. A value that
     becomes NaN or infinite raises :class:`~core.errors.SolverError`."""
     run = _Run(problem, state, options)
-    inner = _iterate_fast(run) if options.method == "fast" else _iterate_paper(run)
+    inner = solver_entry(options.method).run(run)
     try:
         yield from inner
     except GeneratorExit:
@@ -1046,6 +1034,15 @@ def iterate(problem: Problem, state: State, options: SolverOptions = SolverOptio
     if not (math.isfinite(E) and np.isfinite(S).all()):
         raise _not_finite("the energy", E, run.nit, _cause(problem.surface, run.uv))
     return run.result(E)
+
+
+STOPPED = "stopped by the caller"
+
+
+def stopped_result(snap: Snapshot, message: str = STOPPED, history=()) -> SolveResult:
+    """The solve as it stood at ``snap`` when its caller stopped it (status 3)."""
+    return SolveResult(snap.mesh, snap.uv, snap.xyz, snap.energy, snap.iteration, snap.nfev, 3, message,
+                       snap.seconds, history=list(history))
 
 
 def minimize(problem: Problem, state: State, options: SolverOptions = SolverOptions(),
@@ -1069,6 +1066,4 @@ def minimize(problem: Problem, state: State, options: SolverOptions = SolverOpti
                 stop = True
         if stop:
             gen.close()
-            xyz = last.xyz
-            return SolveResult(last.mesh, last.uv, xyz, last.energy, last.iteration, last.nfev, 3,
-                               "stopped by the caller", last.seconds)
+            return stopped_result(last)

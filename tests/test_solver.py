@@ -13,7 +13,7 @@ from core.energy import Energy, YarnConstraint
 from core.errors import FlatweaveError, SettingsError, SolverError
 from core.examples import load_example
 from core.mesh import MATERIALS
-from core.pipeline import FlattenSettings, check_result_finite, flatten, make_problem
+from core.pipeline import FlattenSettings, check_result_finite, flatten, make_problem, result_to_dict
 from core.solver import SolverOptions, State, _Normal, _residuals, iterate, minimize
 from tests.helpers import SurfaceFault
 from tests.test_drape import dense_points
@@ -99,6 +99,31 @@ def test_stop_within_one_iteration():
     gen = iterate(problem, st, SolverOptions())
     next(gen)
     gen.close()  # closing the generator is the GUI's stop: no error, nothing left running
+
+
+@pytest.mark.parametrize("solver", ["fast", "paper"])
+def test_a_stopped_flatten_reports_its_solver_and_iterations(solver):
+    """A run stopped by its callback is the last iterate with the solve that
+    ran: the real solver and the iterations done, not 'none' and 0."""
+    s = load_example("octant")
+    snaps = []
+
+    def stop(snap):
+        snaps.append(snap)
+        return snap.iteration >= 3
+
+    r = flatten(s, FlattenSettings(0.15, solver=solver), callback=stop)
+    last = snaps[-1]
+    assert last.iteration == 3
+    assert r.settings.solver == solver
+    assert r.metrics["iterations"] == 3 and r.solve.nit == 3
+    assert r.solve.status == 3 and r.metrics["solver_status"] == "stopped by the caller"
+    assert r.metrics["energy_evaluations"] == last.nfev > 0
+    assert r.history == tuple(sn.energy for sn in snaps)
+    assert r.metrics["energy"] == pytest.approx(last.energy, rel=1e-12)
+    assert r.mesh.n_nodes == last.mesh.n_nodes and np.array_equal(r.uv, last.uv)
+    d = result_to_dict(r)
+    assert d["settings"]["solver"] == solver and d["metrics"]["iterations"] == 3
 
 
 def test_budgets_are_reported():
