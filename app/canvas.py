@@ -36,7 +36,7 @@ from pyvistaqt import QtInteractor
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-from app.main import VIEW_KINDS, view_setting  # the setting's parsing, light enough for the command
+from app.viewkind import VIEW_KINDS, view_setting
 
 __all__ = ["CanvasPlotter", "GLPlotter", "make_plotter", "view_kind", "is_software_renderer", "VIEW_KINDS"]
 

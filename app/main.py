@@ -24,19 +24,11 @@ import os
 import sys
 from pathlib import Path
 
+from app.viewkind import VIEW_KINDS, view_setting  # no Qt or VTK: checked before either loads
+
 DEFAULT_EXAMPLE = "octant"
 READY_POLL_MS = 50
 READY_TIMEOUT_MS = 10000
-VIEW_KINDS = ("auto", "gl", "canvas")  # the views' render widgets, see app.canvas (which needs VTK and Qt)
-
-
-def view_setting(text: str | None) -> str:
-    """One of VIEW_KINDS from ``--view`` or ``FLATWEAVE_VIEW`` (None or blank: auto);
-    anything else raises ValueError with a one-line message."""
-    view = (text or "").strip().lower() or "auto"
-    if view not in VIEW_KINDS:
-        raise ValueError(f"FLATWEAVE_VIEW must be one of {', '.join(VIEW_KINDS)}, not {view!r}")
-    return view
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -121,6 +113,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"flatweave: error: {exc}", file=sys.stderr)
         return 2
 
+    from app.nonefix import keep_none_alive
+
+    keep_none_alive()  # before any Qt call
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
 

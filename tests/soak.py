@@ -233,6 +233,9 @@ def main(argv=None) -> int:
     folder = Path(tempfile.mkdtemp(prefix="flatweave-soak-"))
     os.environ["FLATWEAVE_RECOVERY_DIR"] = str(folder / "recovery")
 
+    from app.nonefix import keep_none_alive
+
+    keep_none_alive()  # before any Qt call
     from PySide6.QtWidgets import QApplication
 
     from app.mainwindow import MainWindow

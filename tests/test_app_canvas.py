@@ -62,7 +62,8 @@ def test_auto_chooses_by_the_renderer(monkeypatch, qapp):
 
 def test_the_app_command_lists_the_widget_kinds():
     from app.main import VIEW_KINDS
-    assert VIEW_KINDS == canvas.VIEW_KINDS
+    from app.viewkind import VIEW_KINDS as KINDS
+    assert VIEW_KINDS == canvas.VIEW_KINDS == KINDS
 
 
 def test_a_bad_view_setting_is_a_one_line_error(monkeypatch):

@@ -135,9 +135,10 @@ def test_only_the_views_touch_vtk():
 def test_many_qt_calls_never_use_up_none():
     """shiboken6 6.12.0 drops a reference to None per call of a void Qt method;
     on CPython 3.11 the process aborted when the count reached zero (about
-    70,000 calls in the window). Importing ``app`` makes None's count
+    70,000 calls in the window). The launcher's guard makes None's count
     inexhaustible: 300,000 such calls must leave the process alive."""
-    code = ("import sys, app\n"
+    code = ("from app.nonefix import keep_none_alive\n"
+            "keep_none_alive()\n"
             "from PySide6.QtCore import QCoreApplication, QObject\n"
             "a = QCoreApplication([])\n"
             "o = QObject()\n"
@@ -147,3 +148,25 @@ def test_many_qt_calls_never_use_up_none():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           cwd=str(REPO))
     assert proc.returncode == 0 and proc.stdout.strip() == "alive", proc.stderr[-500:]
+
+
+def test_the_none_guard_is_for_the_builds_that_need_it():
+    from app.nonefix import needs_none_guard
+
+    assert needs_none_guard("cpython", (3, 11, 7), (6, 12, 0))
+    assert needs_none_guard("cpython", (3, 10, 0), (6, 13, 1))  # no fixed release known yet
+    assert not needs_none_guard("cpython", (3, 12, 0), (6, 12, 0))  # None is immortal
+    assert not needs_none_guard("cpython", (3, 11, 7), (6, 11, 2))
+    assert not needs_none_guard("pypy", (3, 11, 7), (6, 12, 0))
+    assert not needs_none_guard("cpython", (3, 11, 7), None)
+
+
+def test_importing_app_leaves_none_alone():
+    """The guard is the launcher's call, not a side effect of ``import app``."""
+    code = ("import sys\n"
+            "before = sys.getrefcount(None)\n"
+            "import app, app.mainwindow\n"
+            "print(sys.getrefcount(None) < 2 ** 59)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          cwd=str(REPO))
+    assert proc.returncode == 0 and proc.stdout.strip() == "True", proc.stderr[-500:]
