@@ -69,14 +69,16 @@ def load_start_project(args):
     """The project to open: a project file, or a surface with default settings
     (a bundled example's recommended spacing and units when FILE is one)."""
     from core.examples import example_path, list_examples
-    from core.project import PROJECT_SUFFIX, load_project, new_project
-    from core.surface_io import load_surface
+    from core.project import Project, new_project
 
-    if args.file is not None and args.file.suffix.lower() == PROJECT_SUFFIX:
-        project, path = load_project(args.file), args.file
+    from app.files import example_units, open_path
+
+    path = args.file if args.file is not None else Path(example_path(DEFAULT_EXAMPLE))
+    opened = open_path(path)
+    if isinstance(opened, Project):
+        project = opened
     else:
-        path = args.file if args.file is not None else Path(example_path(DEFAULT_EXAMPLE))
-        surface = load_surface(path)
+        surface = opened
         spacing, units = None, "m"
         try:
             for entry in list_examples():
@@ -84,8 +86,7 @@ def load_start_project(args):
                     spacing, units = entry.get("recommended_spacing"), entry.get("units", "m")
         except (OSError, ValueError):
             pass
-        project = new_project(surface, Path(path).stem, str(path), spacing,
-                              units if units in ("mm", "cm", "m", "in") else "m")
+        project = new_project(surface, Path(path).stem, str(path), spacing, example_units(units))
         path = None
     if args.spacing is not None:
         project = project.with_settings(spacing=args.spacing)
@@ -104,6 +105,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.view:
         os.environ["FLATWEAVE_VIEW"] = view
 
+    from app.nonefix import keep_none_alive
+
+    keep_none_alive()  # before any Qt call
+
     # Load before any Qt work: a bad file is a one-line error, status 2.
     from core.errors import FlatweaveError
 
@@ -113,9 +118,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"flatweave: error: {exc}", file=sys.stderr)
         return 2
 
-    from app.nonefix import keep_none_alive
-
-    keep_none_alive()  # before any Qt call
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
 

@@ -178,7 +178,7 @@ def replay(probe, win, project, label):
     t0 = time.perf_counter()
     for f in frames:
         t = time.perf_counter()
-        win._draw_frame(f)
+        win.presenter.draw_frame(f)
         draw.append(time.perf_counter() - t)
         probe.app.processEvents()  # one pass: paints what the frame changed
     t1 = time.perf_counter()

@@ -18,7 +18,7 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QImage
 
-from app.mainwindow import GRID_POINTS
+from app.presenter import GRID_POINTS
 from app.view3d import grid_boundary, grid_faces
 from core.examples import example_names, example_path
 from core.surface_io import load_surface

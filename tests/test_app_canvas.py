@@ -135,7 +135,7 @@ def test_one_paint_pass_renders_each_view_once(canvas_window, qtbot):
     win.runner.thread = _Busy()  # the window draws frames while a run is on
     try:
         for _ in range(3):  # a frame asks each view for a redraw more than once; the paint merges them
-            win._draw_frame(frame)
+            win.presenter.draw_frame(frame)
             win.view.render()
             QApplication.processEvents()
     finally:
