@@ -18,10 +18,9 @@ Projection (paper 3.4 B). A click is put on the surface along its own viewing
 ray (for the perspective camera, the ray from the eye through that pixel), so a
 point lands exactly under the cursor. The curve between the points is the
 projection of the drawn polyline along the camera's direction of projection,
-which is what the paper prescribes; for a perspective view it differs from
-projecting every pixel along its own ray by at most the chord's sag times the
-sine of the half view angle (about 0.5 % of the octant's radius for clicks a
-quarter of the octant apart), and not at all at the clicks.
+which is what the paper prescribes; for a perspective view it differs slightly
+from projecting every pixel along its own ray between the clicks (bound in
+docs/decisions.md, App), and not at all at the clicks.
 """
 
 from __future__ import annotations

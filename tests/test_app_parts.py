@@ -107,7 +107,7 @@ def test_topology_ids_are_unique_across_makers(dart_result):
 
 VTK_NAMES = {"pyvista", "pyvistaqt", "vtk", "vtkmodules"}
 VIEW_MODULES = {"view3d.py", "view2d.py", "viewbase.py", "canvas.py"}
-QT_FREE = {"colours.py", "frames.py"}
+QT_FREE = {"colours.py", "frames.py", "aspects.py", "viewkind.py"}
 
 
 def _imports(path: Path) -> set[str]:
@@ -170,3 +170,42 @@ def test_importing_app_leaves_none_alone():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           cwd=str(REPO))
     assert proc.returncode == 0 and proc.stdout.strip() == "True", proc.stderr[-500:]
+
+
+def _app_imports(path: Path) -> set[str]:
+    """The app modules ``path`` imports (anywhere in it)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("app."):
+            names.add(node.module)
+        elif isinstance(node, ast.Import):
+            names |= {a.name for a in node.names if a.name.startswith("app.")}
+    return names
+
+
+def test_the_views_do_not_import_the_command():
+    """app.main imports the window (through app.canvas); nothing it loads imports app.main back."""
+    for f in sorted((REPO / "app").glob("*.py")):
+        if f.name != "main.py":
+            assert "app.main" not in _app_imports(f), f"{f.name} imports app.main"
+
+
+def test_every_core_aspect_has_a_flag():
+    from app.aspects import Aspect, aspects_of
+    from core.document import ASPECTS
+
+    flags = [aspects_of([name]) for name in ASPECTS]
+    assert len(set(flags)) == len(ASPECTS) and Aspect.NONE not in flags
+    assert aspects_of(ASPECTS) == Aspect.SURFACE | Aspect.SETTINGS | Aspect.LABELS | Aspect.DISPLAY | \
+        Aspect.RESULT | Aspect.NAME
+    assert aspects_of(frozenset()) == Aspect.NONE
+    with pytest.raises(KeyError):
+        aspects_of(["colour"])
+
+
+def test_the_window_never_asks_what_the_tool_is():
+    """Per-tool behaviour lives in the Tool classes and the tools table (app.tooling.TOOLS)."""
+    tree = ast.parse((REPO / "app" / "mainwindow.py").read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "isinstance":
+            assert "tool" not in ast.unparse(node.args[0]), ast.unparse(node)
