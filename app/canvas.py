@@ -28,7 +28,7 @@ from pyvistaqt import QtInteractor
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-from app.viewkind import VIEW_KINDS, view_setting
+from app.choices import VIEW_KINDS, view_setting
 
 __all__ = ["CanvasPlotter", "GLPlotter", "make_plotter", "view_kind", "is_software_renderer", "VIEW_KINDS"]
 

@@ -23,7 +23,7 @@ from PySide6.QtWidgets import QFileDialog, QMessageBox
 from core.errors import FlatweaveError
 from core.examples import example_info, example_path, list_examples
 from core.nurbs import NurbsSurface
-from core.project import PROJECT_SUFFIX, Project, load_project
+from core.project import PROJECT_SUFFIX, UNITS, Project, load_project
 from core.recovery import Orphan, Session, find_orphans, save_with_backups
 from core.surface_io import load_surface
 
@@ -32,7 +32,6 @@ from app.worker import one_line
 __all__ = ["Files", "open_path", "path_kind", "open_filter", "project_filter", "AUTOSAVE_MS"]
 
 AUTOSAVE_MS = 60_000  # the document is autosaved this often when it has changed (and after each solve)
-UNITS = ("mm", "cm", "m", "in")
 
 
 def path_kind(path: str | Path) -> str:
@@ -58,6 +57,7 @@ def project_filter() -> str:
 
 
 def example_units(units) -> str:
+    """An example's units if the project knows them, else metres."""
     return units if units in UNITS else "m"
 
 

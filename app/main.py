@@ -24,7 +24,7 @@ import os
 import sys
 from pathlib import Path
 
-from app.viewkind import VIEW_KINDS, view_setting  # no Qt or VTK: checked before either loads
+from app.choices import VIEW_KINDS, solver_labels, view_setting  # no Qt or VTK: checked before either loads
 
 DEFAULT_EXAMPLE = "octant"
 READY_POLL_MS = 50
@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="project (.flatweave) or surface (geomdl JSON); default: the sphere-octant example")
     parser.add_argument("--spacing", type=float, default=None, metavar="R",
                         help="mesh spacing for a surface (default: the example's, or about sqrt(area)/25)")
-    parser.add_argument("--solver", choices=("fast", "paper"), default=None, help="solver to use")
+    parser.add_argument("--solver", choices=tuple(solver_labels()), default=None, help="solver to use")
     parser.add_argument("--run", action="store_true", help="solve once the window is up")
     parser.add_argument("--screenshot", type=Path, metavar="OUT.png",
                         help="save an image of the window once it has rendered (after the solve with --run)")

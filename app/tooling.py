@@ -53,7 +53,7 @@ TOOLS = (
 class WindowToolHost:
     """What a tool may ask of the window (the :class:`app.tools.ToolHost` protocol)."""
 
-    def __init__(self, window, control: "ToolControl"):
+    def __init__(self, window, control: ToolControl):
         self._window, self._control = window, control
         self.view = window.view
         self.editors = window.dart_panel
@@ -73,7 +73,7 @@ class ToolMouse:
     """The 3D view's left-button events, handed to the active tool.
     A tool's error becomes a one-line message: the view never sees it."""
 
-    def __init__(self, control: "ToolControl"):
+    def __init__(self, control: ToolControl):
         self.control = control
 
     def _call(self, method: str, *args) -> bool:

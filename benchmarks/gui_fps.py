@@ -55,7 +55,7 @@ from PySide6.QtWidgets import QApplication  # noqa: E402
 from app.canvas import view_kind  # noqa: E402
 from app.frames import FrameMaker  # noqa: E402
 from app.mainwindow import MainWindow  # noqa: E402
-from app.viewkind import VIEW_KINDS  # noqa: E402
+from app.choices import VIEW_KINDS  # noqa: E402
 from core.examples import example_path, load_example  # noqa: E402
 from core.pipeline import flatten_iter  # noqa: E402
 from core.project import new_project  # noqa: E402

@@ -62,7 +62,7 @@ def test_auto_chooses_by_the_renderer(monkeypatch, qapp):
 
 def test_the_app_command_lists_the_widget_kinds():
     from app.main import VIEW_KINDS
-    from app.viewkind import VIEW_KINDS as KINDS
+    from app.choices import VIEW_KINDS as KINDS
     assert VIEW_KINDS == canvas.VIEW_KINDS == KINDS
 
 

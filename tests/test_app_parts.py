@@ -107,7 +107,7 @@ def test_topology_ids_are_unique_across_makers(dart_result):
 
 VTK_NAMES = {"pyvista", "pyvistaqt", "vtk", "vtkmodules"}
 VIEW_MODULES = {"view3d.py", "view2d.py", "viewbase.py", "canvas.py"}
-QT_FREE = {"colours.py", "frames.py", "aspects.py", "viewkind.py"}
+QT_FREE = {"colours.py", "frames.py", "aspects.py", "choices.py"}
 
 
 def _imports(path: Path) -> set[str]:
