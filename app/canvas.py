@@ -1,19 +1,11 @@
 """The render widgets of the two views: pyvistaqt's OpenGL widget, or a plain
 (raster) Qt widget showing an off-screen pyvista render.
 
-Why two. A window that holds a ``QOpenGLWidget`` (pyvistaqt's ``QtInteractor``
-is one) is composed by Qt with OpenGL on every paint pass: the whole window's
-backing store and every GL widget's texture are drawn and the window swapped,
-whatever changed. On a GPU that is nearly free. On a software renderer (Mesa's
-llvmpipe, as on a machine with no GPU or under Xvfb) it is not: measured with
-two views in a 1600 x 1000 window (octant, 2,525 nodes), a pass that only
-changed a status label took 20-28 ms, and a live frame (both views) 67-82 ms,
-of which the two VTK renders were 28. :class:`CanvasPlotter` renders the same
-pyvista scene off screen and paints its pixels into an ordinary widget, so the
-window stays a raster window: the label-only pass fell to 0.2-0.4 ms and a
-frame of two views to 40-50 ms (35 ms in a bare window with the same two
-scenes); reading the pixels back and drawing them costs under 1 ms a view.
-Live updates went from 7.5-8.5 to 11.2-12.1 frames/s (benchmarks/gui_fps.py).
+Why two: Qt composes a window holding a ``QOpenGLWidget`` with OpenGL on
+every paint pass, which a software renderer (Mesa's llvmpipe, no GPU, Xvfb)
+pays dearly for; :class:`CanvasPlotter` renders the same pyvista scene off
+screen and paints its pixels into an ordinary widget, so the window stays a
+raster window (measurements in docs/decisions.md, App).
 
 ``FLATWEAVE_VIEW`` chooses: ``gl`` (pyvistaqt), ``canvas``, or ``auto`` (the
 default): the canvas when Qt's OpenGL renderer is a software one, pyvistaqt
@@ -36,7 +28,7 @@ from pyvistaqt import QtInteractor
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-from app.main import VIEW_KINDS, view_setting  # the setting's parsing, light enough for the command
+from app.choices import VIEW_KINDS, view_setting
 
 __all__ = ["CanvasPlotter", "GLPlotter", "make_plotter", "view_kind", "is_software_renderer", "VIEW_KINDS"]
 
@@ -100,8 +92,7 @@ class GLPlotter(QtInteractor):
     VTK's Python wrapping keeps the GIL through that call: only methods VTK
     marks ``VTK_UNBLOCKTHREADS``, ``vtkRenderWindow.Render()`` among them,
     release it. So every render of a view stopped the solve thread for its
-    whole length (with the change the 2,525-node solve took 0.7-1.1 s in the
-    window instead of 1.2-1.4 s). Here the interactor's own render is switched off
+    whole length (docs/decisions.md, App). Here the interactor's own render is switched off
     for the paint and a ``RenderEvent`` observer, first in line, renders the
     window instead: the same render, events and order, without the GIL.
     """
@@ -130,11 +121,8 @@ class GLPlotter(QtInteractor):
 
     def close(self) -> None:
         super().close()
-        # pyvistaqt keeps Python wrappers of its GL context and of the context's
-        # surface, which Qt owns and deletes with the widget. A wrapper that
-        # outlives its object can be handed out again by shiboken for a new Qt
-        # object at the same address (seen once in the tests: a message box's
-        # buttons() returned a 'QOffscreenSurface'), so drop them with the widget.
+        # pyvistaqt's wrappers of the Qt-owned GL context and surface must not outlive
+        # them: shiboken can hand a stale one out for a new object (docs/decisions.md, App).
         forget = getattr(self, "_forget_context", None)
         if forget is not None:
             forget()

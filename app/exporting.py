@@ -1,5 +1,6 @@
-"""File > Export: the dialog (file, format, seam allowance, units, paper) and
-the thread that writes the files with :mod:`core.export`.
+"""File > Export: the dialog (file, format, seam allowance, units, paper),
+the thread that writes the files with :mod:`core.export`, and the window's
+export commands (:class:`Exports`).
 
 The format follows the file name's suffix (and choosing a format changes the
 suffix); "every format" writes one file per format next to each other. The
@@ -13,7 +14,7 @@ import sys
 import traceback
 from pathlib import Path
 
-from PySide6.QtCore import QThread, Signal
+from PySide6.QtCore import Qt, QThread, Signal
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFileDialog,
                                QFormLayout, QHBoxLayout, QLabel, QLineEdit, QPushButton, QVBoxLayout, QWidget)
 
@@ -23,7 +24,12 @@ from core.pipeline import FlattenResult
 
 from app.worker import one_line
 
-__all__ = ["ExportDialog", "ExportThread", "export_paths"]
+__all__ = ["ExportDialog", "ExportThread", "Exports", "export_paths", "export_filter"]
+
+
+def export_filter() -> str:
+    """The export file dialog's filter: one entry per format."""
+    return ";;".join(f"{text} (*{suffix})" for suffix, text in FORMATS.items())
 
 
 def export_paths(path: str | Path, every_format: bool) -> list[Path]:
@@ -133,8 +139,7 @@ class ExportDialog(QDialog):
             self.path.setText(str(p.with_suffix(self.format.currentData())))
 
     def _browse(self) -> None:
-        filters = ";;".join(f"{text} (*{suffix})" for suffix, text in FORMATS.items())
-        path, _ = QFileDialog.getSaveFileName(self, "Export pattern", self.path.text(), filters)
+        path, _ = QFileDialog.getSaveFileName(self, "Export pattern", self.path.text(), export_filter())
         if path:
             self.path.setText(path)
             self._path_edited(path)
@@ -160,3 +165,87 @@ class ExportDialog(QDialog):
             self.error.setText(str(exc))
             return
         self.accept()
+
+
+class Exports:
+    """The window's File > Export: one export thread at a time. ``window``
+    gives the project and document, the status bar, the progress label,
+    ``show_error``, ``update_actions`` and the ``export_finished`` /
+    ``export_failed`` signals."""
+
+    def __init__(self, window):
+        self.window = window
+        self.export_thread: ExportThread | None = None
+        self.export_box: ExportDialog | None = None
+        self.last_export: list[Path] = []
+        self.export_options = ExportOptions()  # the last choices (units come from the project)
+        self._every_format = False
+
+    @property
+    def busy(self) -> bool:
+        return self.export_thread is not None
+
+    def _start_path(self) -> Path:
+        if self.last_export:
+            return self.last_export[0]
+        doc = self.window.document
+        folder = doc.path.parent if doc.path is not None else Path.cwd()
+        return folder / f"{self.window.surface_name or 'pattern'}.dxf"
+
+    def export_dialog(self) -> None:
+        """Ask where and how to export the document's pattern, then export it."""
+        project = self.window.project
+        if project is None or project.result is None:
+            return
+        o = self.export_options
+        dialog = ExportDialog(self._start_path(), project.units, project.name, o.seam_allowance_mm, o.paper,
+                              self._every_format, stale=not project.result_is_current, parent=self.window)
+        dialog.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
+        self.export_box = dialog
+
+        def accepted():
+            self._every_format = dialog.every_format.isChecked()
+            self.export_to(dialog.paths(), dialog.options())
+        dialog.accepted.connect(accepted)
+        dialog.open()
+
+    def export_to(self, paths, options: ExportOptions) -> bool:
+        """Write the document's result to ``paths`` (formats from their suffixes) in a
+        background thread; ``export_finished`` or ``export_failed`` follows."""
+        project = self.window.project
+        if project is None or project.result is None or self.export_thread is not None:
+            return False
+        self.export_options = options
+        t = ExportThread(project.result, [Path(p) for p in paths], options)
+        t.succeeded.connect(self._succeeded)
+        t.failed.connect(self._failed)
+        t.finished.connect(self._thread_finished)
+        self.export_thread = t
+        self.window.statusBar().showMessage(f"Exporting {', '.join(Path(p).name for p in paths)}...")
+        self.window.update_actions()
+        t.start()
+        return True
+
+    def _succeeded(self, written) -> None:
+        self.last_export = list(written)
+        folder = written[0].parent if written else Path(".")
+        names = ", ".join(p.name for p in written)
+        text = f"Exported {names} to {folder}"
+        self.window.statusBar().showMessage(text, 15000)
+        self.window.progress.setText(text)
+        self.window.export_finished.emit(list(written))
+
+    def _failed(self, message: str) -> None:
+        self.window.show_error(f"Export failed: {message}")
+        self.window.export_failed.emit(message)
+
+    def _thread_finished(self) -> None:
+        t, self.export_thread = self.export_thread, None
+        if t is not None:
+            t.wait()
+            t.deleteLater()
+        self.window.update_actions()
+
+    def close(self) -> None:
+        if self.export_thread is not None:
+            self.export_thread.wait()  # atomic writes: a few seconds at most

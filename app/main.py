@@ -24,19 +24,11 @@ import os
 import sys
 from pathlib import Path
 
+from app.choices import VIEW_KINDS, solver_labels, view_setting  # no Qt or VTK: checked before either loads
+
 DEFAULT_EXAMPLE = "octant"
 READY_POLL_MS = 50
 READY_TIMEOUT_MS = 10000
-VIEW_KINDS = ("auto", "gl", "canvas")  # the views' render widgets, see app.canvas (which needs VTK and Qt)
-
-
-def view_setting(text: str | None) -> str:
-    """One of VIEW_KINDS from ``--view`` or ``FLATWEAVE_VIEW`` (None or blank: auto);
-    anything else raises ValueError with a one-line message."""
-    view = (text or "").strip().lower() or "auto"
-    if view not in VIEW_KINDS:
-        raise ValueError(f"FLATWEAVE_VIEW must be one of {', '.join(VIEW_KINDS)}, not {view!r}")
-    return view
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -57,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="project (.flatweave) or surface (geomdl JSON); default: the sphere-octant example")
     parser.add_argument("--spacing", type=float, default=None, metavar="R",
                         help="mesh spacing for a surface (default: the example's, or about sqrt(area)/25)")
-    parser.add_argument("--solver", choices=("fast", "paper"), default=None, help="solver to use")
+    parser.add_argument("--solver", choices=tuple(solver_labels()), default=None, help="solver to use")
     parser.add_argument("--run", action="store_true", help="solve once the window is up")
     parser.add_argument("--screenshot", type=Path, metavar="OUT.png",
                         help="save an image of the window once it has rendered (after the solve with --run)")
@@ -77,14 +69,16 @@ def load_start_project(args):
     """The project to open: a project file, or a surface with default settings
     (a bundled example's recommended spacing and units when FILE is one)."""
     from core.examples import example_path, list_examples
-    from core.project import PROJECT_SUFFIX, load_project, new_project
-    from core.surface_io import load_surface
+    from core.project import Project, new_project
 
-    if args.file is not None and args.file.suffix.lower() == PROJECT_SUFFIX:
-        project, path = load_project(args.file), args.file
+    from app.files import example_units, open_path
+
+    path = args.file if args.file is not None else Path(example_path(DEFAULT_EXAMPLE))
+    opened = open_path(path)
+    if isinstance(opened, Project):
+        project = opened
     else:
-        path = args.file if args.file is not None else Path(example_path(DEFAULT_EXAMPLE))
-        surface = load_surface(path)
+        surface = opened
         spacing, units = None, "m"
         try:
             for entry in list_examples():
@@ -92,8 +86,7 @@ def load_start_project(args):
                     spacing, units = entry.get("recommended_spacing"), entry.get("units", "m")
         except (OSError, ValueError):
             pass
-        project = new_project(surface, Path(path).stem, str(path), spacing,
-                              units if units in ("mm", "cm", "m", "in") else "m")
+        project = new_project(surface, Path(path).stem, str(path), spacing, example_units(units))
         path = None
     if args.spacing is not None:
         project = project.with_settings(spacing=args.spacing)
@@ -111,6 +104,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.view:
         os.environ["FLATWEAVE_VIEW"] = view
+
+    from app.nonefix import keep_none_alive
+
+    keep_none_alive()  # before any Qt call
 
     # Load before any Qt work: a bad file is a one-line error, status 2.
     from core.errors import FlatweaveError

@@ -20,9 +20,9 @@ from core.errors import SettingsError
 from core.mesh import MATERIALS, Material, parse_material
 from core.project import UNITS, Project
 
-__all__ = ["NumberEdit", "SettingsPanel", "MetricsPanel"]
+from app.choices import solver_labels
 
-SOLVER_LABELS = {"fast": "fast (Levenberg-Marquardt)", "paper": "paper (steepest descent + CG)"}
+__all__ = ["NumberEdit", "SettingsPanel", "MetricsPanel"]
 
 
 class NumberEdit(QLineEdit):
@@ -127,7 +127,7 @@ class SettingsPanel(QWidget):
         solve_box = QGroupBox("Solver")
         form = QFormLayout(solve_box)
         self.solver = QComboBox()
-        for key, text in SOLVER_LABELS.items():
+        for key, text in solver_labels().items():
             self.solver.addItem(text, key)
         self.tol = NumberEdit(1e-9, 0.0, 1.0)
         self.tol.setToolTip("Stop when an iteration lowers the energy by less than this fraction")

@@ -18,16 +18,16 @@ Projection (paper 3.4 B). A click is put on the surface along its own viewing
 ray (for the perspective camera, the ray from the eye through that pixel), so a
 point lands exactly under the cursor. The curve between the points is the
 projection of the drawn polyline along the camera's direction of projection,
-which is what the paper prescribes; for a perspective view it differs from
-projecting every pixel along its own ray by at most the chord's sag times the
-sine of the half view angle (about 0.5 % of the octant's radius for clicks a
-quarter of the octant apart), and not at all at the clicks.
+which is what the paper prescribes; for a perspective view it differs slightly
+from projecting every pixel along its own ray between the clicks (bound in
+docs/decisions.md, App), and not at all at the clicks.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any, Protocol
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -38,7 +38,7 @@ from core.document import unique_name
 from core.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
 from core.errors import SettingsError
 
-__all__ = ["Tool", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
+__all__ = ["Tool", "ToolHost", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
            "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS", "DEFAULT_YARN_K"]
 
 STROKE_PIXELS = 8      # a drag adds a point every this many pixels
@@ -73,26 +73,56 @@ def _rim(surface) -> tuple[np.ndarray, np.ndarray]:
     return uv, surface.points(uv)
 
 
+class ToolHost(Protocol):
+    """What a tool may ask of the window (``app.tooling.WindowToolHost`` is the window's).
+
+    view : the 3D view (``app.view3d.SurfaceView``): viewing rays, display
+        points, previews, handles and the plane and box widgets
+    editors : the darts panel's tool editors (``show_plane_editor(tool or None)``,
+        ``show_yarn_editor(tool or None)``)
+    document : the open ``core.document.Document``: every commit is one of its edits
+    """
+
+    view: Any
+    editors: Any
+
+    @property
+    def document(self) -> Any: ...
+
+    def hint(self, text: str) -> None:
+        """Tell the designer what to do next (the status bar)."""
+
+    def drop_tool(self) -> None:
+        """End the active tool (the window falls back to the selection's, if any)."""
+
+
 class Tool:
-    """A tool of the 3D view (see the module docstring). ``window`` is the
-    main window: its ``document``, ``view`` and ``hint(text)``."""
+    """A tool of the 3D view (see the module docstring), working for ``host``.
+
+    What the window asks of every tool is here, so it never checks a tool's
+    class: the mouse (``press``, ``move``, ``release``), the keys (``finish``,
+    ``cancel``, ``back``), a new result (``on_result``) and the darts panel's
+    editors (``on_plane_values``, ``on_yarn_choice``).
+    """
 
     name = "tool"
+    implied = False     # comes and goes with the dart selection (not chosen): Finish and Cancel do not apply
+    takes_back = False  # Backspace takes back a step
 
-    def __init__(self, window):
-        self.window = window
-        self.view = window.view
+    def __init__(self, host: ToolHost):
+        self.host = host
+        self.view = host.view
 
     @property
     def document(self):
-        return self.window.document
+        return self.host.document
 
     @property
     def surface(self):
-        return self.window.document.project.surface
+        return self.host.document.project.surface
 
     def hint(self, text: str) -> None:
-        self.window.hint(text)
+        self.host.hint(text)
 
     def activate(self) -> None:
         pass
@@ -117,7 +147,16 @@ class Tool:
         """Esc: drop what the tool holds."""
 
     def back(self) -> None:
-        """Backspace: take back the last step."""
+        """Backspace: take back the last step (see ``takes_back``)."""
+
+    def on_result(self) -> None:
+        """The document's result changed (a solve ended, or undo)."""
+
+    def on_plane_values(self, plane, box) -> None:
+        """Numbers typed in the darts panel's plane editor."""
+
+    def on_yarn_choice(self, kind, angle_deg, k) -> None:
+        """A choice in the darts panel's yarn editor."""
 
     def _rim_point(self, x: float, y: float):
         """The visible rim point within SNAP_PIXELS of (x, y): ((u, v), xyz), or None."""
@@ -142,9 +181,10 @@ class CurveDartTool(Tool):
     a double click finishes, Esc cancels, Backspace removes the last point."""
 
     name = "curve dart"
+    takes_back = True
 
-    def __init__(self, window):
-        super().__init__(window)
+    def __init__(self, host):
+        super().__init__(host)
         self.handles: list[np.ndarray] = []   # (u, v) of the points placed
         self.pixels: list[tuple[float, float]] = []
         self.dragging = False
@@ -261,9 +301,10 @@ class HandleEditor(Tool):
     along the current view direction) and replaces the old one."""
 
     name = "dart points"
+    implied = True
 
-    def __init__(self, window, index: int):
-        super().__init__(window)
+    def __init__(self, host, index: int):
+        super().__init__(host)
         self.index = index
         dart = self.document.project.settings.darts[index]
         self.dart = dart
@@ -337,8 +378,8 @@ class PlaneDartTool(Tool):
 
     name = "plane dart"
 
-    def __init__(self, window, index: int | None = None):
-        super().__init__(window)
+    def __init__(self, host, index: int | None = None):
+        super().__init__(host)
         self.index = index
         s = self.surface
         (u0, u1), (v0, v1) = s.domain
@@ -382,7 +423,7 @@ class PlaneDartTool(Tool):
         self.view.hide_plane_widget()
         self.view.hide_box_widget()
         self.view.set_preview()
-        self.window.dart_panel.show_plane_editor(None)
+        self.host.editors.show_plane_editor(None)
 
     def _origin_normal(self):
         p = np.asarray(self.plane, dtype=float)
@@ -401,13 +442,16 @@ class PlaneDartTool(Tool):
         self.box = tuple(float(b) for b in bounds)
         self._changed(from_widgets=True)
 
+    def on_plane_values(self, plane, box) -> None:
+        self.set_values(plane, box)
+
     def set_values(self, plane, box) -> bool:
         """Numbers typed in the panel: the plane (a, b, c, d) and the box (6) or None."""
         try:
             dart = PlaneDart(tuple(plane), None if box is None else tuple(box), name=self.dart_name)
         except SettingsError as exc:
             self.hint(str(exc))
-            self.window.dart_panel.show_plane_editor(self)
+            self.host.editors.show_plane_editor(self)
             return False
         self.plane, self.box = dart.plane, dart.box
         origin, normal = self._origin_normal()
@@ -434,7 +478,7 @@ class PlaneDartTool(Tool):
         self.view.set_preview(self.curve if len(self.curve) else None)
         if not len(self.curve):
             self.hint("The plane does not meet the surface inside the box.")
-        self.window.dart_panel.show_plane_editor(self)
+        self.host.editors.show_plane_editor(self)
 
     # -------------------------------------------------------------- commit
     def finish(self) -> bool:
@@ -448,11 +492,11 @@ class PlaneDartTool(Tool):
             old = doc.project.settings.darts[self.index]
             doc.replace_dart(self.index, replace(self.dart, name=old.name, visible=old.visible),
                              label=f"Move {old.name}")
-        self.window.set_tool(None)
+        self.host.drop_tool()
         return True
 
     def cancel(self) -> None:
-        self.window.set_tool(None)
+        self.host.drop_tool()
 
 
 # ---------------------------------------------------------------------- yarns
@@ -485,8 +529,8 @@ class YarnTool(Tool):
 
     name = "yarn"
 
-    def __init__(self, window):
-        super().__init__(window)
+    def __init__(self, host):
+        super().__init__(host)
         self.pending: PendingYarn | None = None
         self.plane: tuple | None = None
         self._tree = None
@@ -506,7 +550,7 @@ class YarnTool(Tool):
         self.pending = None
         self.view.set_picked_yarn()
         self.view.set_preview()
-        self.window.dart_panel.show_yarn_editor(None)
+        self.host.editors.show_yarn_editor(None)
 
     def press(self, x, y, double):
         r = self.result
@@ -527,7 +571,10 @@ class YarnTool(Tool):
         self.pick(int(node), kind)
         return True
 
-    def result_changed(self) -> None:
+    def on_yarn_choice(self, kind, angle_deg, k) -> None:
+        self.set_choice(kind, angle_deg, k)
+
+    def on_result(self) -> None:
         """A new result (a solve ended, or undo): the picked node is found again
         by its lattice position, or the pick is dropped if the mesh lost it."""
         p, r = self.pending, self.result
@@ -601,7 +648,7 @@ class YarnTool(Tool):
         except SettingsError as exc:
             self.view.set_preview()
             self.hint(str(exc))
-        self.window.dart_panel.show_yarn_editor(self)
+        self.host.editors.show_yarn_editor(self)
 
     def finish(self) -> bool:
         p = self.pending
@@ -620,7 +667,7 @@ class YarnTool(Tool):
         self.pending = None
         self.view.set_picked_yarn()
         self.view.set_preview()
-        self.window.dart_panel.show_yarn_editor(None)
+        self.host.editors.show_yarn_editor(None)
         self.hint(f"Constrained {yarn.kind} {yarn.index}. Click another node, or Esc.")
         return True
 
@@ -629,7 +676,7 @@ class YarnTool(Tool):
             self.pending = None
             self.view.set_picked_yarn()
             self.view.set_preview()
-            self.window.dart_panel.show_yarn_editor(None)
+            self.host.editors.show_yarn_editor(None)
         else:
-            self.window.set_tool(None)
+            self.host.drop_tool()
 

@@ -126,8 +126,8 @@ class PatternView(ViewBase):
     def fit(self, render: bool = True) -> None:
         """Fit the camera to the pattern and its scale bar, looking down z, +y up.
 
-        (Set directly: pyvista's view_xy / reset_camera took about 0.2 s here
-        under load, as they gather the bounds of every actor in Python.)"""
+        (Set directly: pyvista's view_xy / reset_camera gather every actor's
+        bounds in Python, too slow under load; docs/decisions.md, App.)"""
         if self._closed:
             return
         polys = [p for p in (self.outline, self.scale_bar, *self.layer.springs) if p.n_points]

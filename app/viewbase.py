@@ -143,8 +143,8 @@ def replace_geometry(poly: pv.PolyData, points: np.ndarray, lines=None, faces=No
     ``lines`` or ``faces`` (VTK legacy cell arrays), or one vertex per point
     (``verts``); ``scalars`` become the cell array "value".
 
-    Built with plain VTK calls: through pyvista's constructors this took 0.6 ms
-    a layer, most of a live frame's Python time when nodes come and go."""
+    Built with plain VTK calls: pyvista's constructors cost most of a live
+    frame's Python time when nodes come and go (docs/decisions.md, App)."""
     points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
     has_lines = lines is not None and len(lines) > 0
     has_faces = faces is not None and len(faces) > 0
@@ -331,13 +331,9 @@ class ViewBase:
     """
 
     def __init__(self, parent=None):
-        # No multisampling: with Mesa's software renderer 4x MSAA made every render
-        # 3-7 times slower (measured: 15 ms -> 110 ms for 10k springs at 800x600).
-        # One headlight and a plain background: on that renderer pyvista's
-        # five-light kit and a gradient background cost 8 and 4-7 ms of the 29 ms
-        # a render of the 3D view took (octant, 2,525 nodes, 640 x 930 pixels;
-        # 17 ms with both changes). A headlight also lights whatever side faces
-        # the user, which suits a surface turned every way.
+        # No multisampling, one headlight, a plain background: each costs a software
+        # renderer much of a render (docs/decisions.md, App); a headlight also lights
+        # whatever side faces the user.
         # The widget is pyvistaqt's or a raster canvas, by the renderer: see app.canvas.
         self._plotter = make_plotter(parent)
         self._plotter.add_light(pv.Light(light_type="headlight"))

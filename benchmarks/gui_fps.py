@@ -45,12 +45,17 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
+from app.nonefix import keep_none_alive  # noqa: E402
+
+keep_none_alive()  # before any Qt call
+
 from PySide6.QtCore import QTimer  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app.canvas import VIEW_KINDS, view_kind  # noqa: E402
+from app.canvas import view_kind  # noqa: E402
 from app.frames import FrameMaker  # noqa: E402
 from app.mainwindow import MainWindow  # noqa: E402
+from app.choices import VIEW_KINDS  # noqa: E402
 from core.examples import example_path, load_example  # noqa: E402
 from core.pipeline import flatten_iter  # noqa: E402
 from core.project import new_project  # noqa: E402
@@ -173,7 +178,7 @@ def replay(probe, win, project, label):
     t0 = time.perf_counter()
     for f in frames:
         t = time.perf_counter()
-        win._draw_frame(f)
+        win.presenter.draw_frame(f)
         draw.append(time.perf_counter() - t)
         probe.app.processEvents()  # one pass: paints what the frame changed
     t1 = time.perf_counter()

@@ -7,6 +7,13 @@ import os
 import pytest
 
 
+def pytest_configure(config):
+    """The test session makes Qt calls as the app does: the same None guard first (app.nonefix)."""
+    from app.nonefix import keep_none_alive
+
+    keep_none_alive()
+
+
 def open_plotters() -> set[str]:
     """pyvista registers every live plotter here (the check pyvistaqt's own tests make)."""
     from pyvista.plotting.plotter import _ALL_PLOTTERS

@@ -7,7 +7,7 @@ on a display, e.g.::
 
 It opens the octant example in a real MainWindow and makes random edits the
 way the GUI makes them (``MainWindow.edit_settings`` / ``edit_display`` /
-``_dart_edit`` over the document's dart and yarn edits / ``delete_dart`` /
+``dart_edit`` over the document's dart and yarn edits / ``delete_dart`` /
 ``undo`` / ``redo`` / ``run`` / ``rerun`` / ``stop`` / ``toggle_pause`` /
 ``save_to`` / ``open_file`` / ``autosave``): darts added, edited and removed,
 settings and display changed, runs started, paused and stopped at random
@@ -115,7 +115,7 @@ class Soak:
             bend = rng.uniform(-0.1, 0.1)
             t = np.linspace(0.0, 1.0, 6)
             uv = np.column_stack([depth * t, v0 + bend * t ** 2])
-            win._dart_edit(doc.add_dart, CurveDart(uv, name=f"curve {self.counts[kind]}"))
+            win.dart_edit(doc.add_dart, CurveDart(uv, name=f"curve {self.counts[kind]}"))
         elif kind == "plane dart":
             c = rng.uniform(0.3, 0.7)
             axis = rng.randrange(3)
@@ -125,20 +125,20 @@ class Soak:
             box = list(box)
             other = (axis + 1) % 3
             box[2 * other + 1] = rng.uniform(0.3, 0.7)  # the box ends inside: the dart has a tip
-            win._dart_edit(doc.add_dart, PlaneDart((*normal, -c), tuple(box), name=f"plane {self.counts[kind]}"))
+            win.dart_edit(doc.add_dart, PlaneDart((*normal, -c), tuple(box), name=f"plane {self.counts[kind]}"))
         elif kind == "remove dart" and darts:
             win.delete_dart(rng.randrange(len(darts)))
         elif kind == "rename dart" and darts:
-            win._dart_edit(doc.rename_dart, rng.randrange(len(darts)), f"renamed {rng.randrange(1000)}")
+            win.dart_edit(doc.rename_dart, rng.randrange(len(darts)), f"renamed {rng.randrange(1000)}")
         elif kind == "hide dart" and darts:
             i = rng.randrange(len(darts))
-            win._dart_edit(doc.set_dart_visible, i, not darts[i].visible)
+            win.dart_edit(doc.set_dart_visible, i, not darts[i].visible)
         elif kind == "yarn":
-            win._dart_edit(doc.add_yarn, YarnConstraint(rng.choice(["weft", "warp"]), rng.randrange(-2, 3),
+            win.dart_edit(doc.add_yarn, YarnConstraint(rng.choice(["weft", "warp"]), rng.randrange(-2, 3),
                                                         (0.0, 0.0, 1.0, -rng.uniform(0.2, 0.6)),
                                                         rng.choice([10.0, 100.0])))
         elif kind == "remove yarn" and doc.project.settings.yarns:
-            win._dart_edit(doc.remove_yarn, rng.randrange(len(doc.project.settings.yarns)))
+            win.dart_edit(doc.remove_yarn, rng.randrange(len(doc.project.settings.yarns)))
         elif kind == "spacing":
             s = rng.choice([0.09, 0.1, 0.11, 0.12, 0.14])
             win.edit_settings("Spacing", {"spacing": s, "spacing_warp": s})
@@ -233,6 +233,9 @@ def main(argv=None) -> int:
     folder = Path(tempfile.mkdtemp(prefix="flatweave-soak-"))
     os.environ["FLATWEAVE_RECOVERY_DIR"] = str(folder / "recovery")
 
+    from app.nonefix import keep_none_alive
+
+    keep_none_alive()  # before any Qt call
     from PySide6.QtWidgets import QApplication
 
     from app.mainwindow import MainWindow

@@ -18,7 +18,7 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QImage
 
-from app.mainwindow import GRID_POINTS
+from app.presenter import GRID_POINTS
 from app.view3d import grid_boundary, grid_faces
 from core.examples import example_names, example_path
 from core.surface_io import load_surface
@@ -212,3 +212,48 @@ def test_opening_a_project_from_the_command_line(tmp_path):
     bad.write_text("{")
     proc = run_app(bad, "--quit", timeout=60)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "bad.flatweave" in proc.stderr
+
+
+# ---------------------------------------------------------------------- the actions table
+def test_menus_and_toolbar_come_from_the_actions_table(window):
+    from PySide6.QtWidgets import QToolBar
+
+    from app.actions import ACTIONS, MENUS
+    from app.tooling import TOOLS
+
+    assert list(window.actions) == [spec.key for spec in ACTIONS]
+    assert [a.text() for a in window.menuBar().actions()] == list(MENUS)
+    by_action = {a: key for key, a in window.actions.items()}
+    for title, menu in window.menus.items():
+        keys = [by_action[a] for a in menu.actions() if a in by_action]
+        assert sorted(keys) == sorted(s.key for s in ACTIONS if s.menu == title), title
+    toolbar = window.findChild(QToolBar)
+    keys = [by_action[a] for a in toolbar.actions() if not a.isSeparator()]
+    assert sorted(keys) == sorted(s.key for s in ACTIONS if s.toolbar is not None)
+    for t in TOOLS:  # a tool's row gives its action, menu entry, toolbar button and panel button
+        a = window.actions[t.key]
+        assert a.isCheckable() and a.shortcut().toString() == t.shortcut
+        assert a in window.menus[t.menu].actions() and a in toolbar.actions()
+        assert getattr(window.dart_panel, t.panel_button).defaultAction() is a
+
+
+def test_actions_follow_the_state(make_window):
+    win = make_window(example=None)
+    enabled = {key for key, a in win.actions.items() if a.isEnabled()}
+    assert enabled == {"open", "quit", "mode_strain", "mode_shear", "show_weft", "show_warp", "show_diag",
+                       "show_surface", "show_nodes"}
+    assert not win.settings_panel.isEnabled() and not win.dart_panel.isEnabled()
+    assert win.open_example("octant")
+    enabled = {key for key, a in win.actions.items() if a.isEnabled()}
+    assert {"run", "save", "save_as", "reset_view", "fit_pattern", "tool_curve_dart", "tool_yarn"} <= enabled
+    assert not enabled & {"pause", "stop", "export", "undo", "redo", "tool_finish", "tool_cancel", "tool_back"}
+    win.actions["tool_curve_dart"].trigger()
+    assert win.actions["tool_curve_dart"].isChecked()
+    assert all(win.actions[k].isEnabled() for k in ("tool_finish", "tool_cancel", "tool_back"))
+    win.actions["tool_plane_dart"].trigger()
+    assert win.actions["tool_plane_dart"].isChecked() and not win.actions["tool_curve_dart"].isChecked()
+    assert not win.actions["tool_back"].isEnabled() and win.actions["tool_finish"].isEnabled()
+    win.actions["tool_cancel"].trigger()
+    assert win.tool is None and not any(win.actions[t].isChecked() for t in ("tool_plane_dart", "tool_curve_dart"))
+    win.document.edit_settings("Tolerance", tol=1e-7)
+    assert win.actions["undo"].isEnabled() and win.actions["undo"].text() == "&Undo Tolerance"

@@ -62,7 +62,8 @@ def test_auto_chooses_by_the_renderer(monkeypatch, qapp):
 
 def test_the_app_command_lists_the_widget_kinds():
     from app.main import VIEW_KINDS
-    assert VIEW_KINDS == canvas.VIEW_KINDS
+    from app.choices import VIEW_KINDS as KINDS
+    assert VIEW_KINDS == canvas.VIEW_KINDS == KINDS
 
 
 def test_a_bad_view_setting_is_a_one_line_error(monkeypatch):
@@ -134,7 +135,7 @@ def test_one_paint_pass_renders_each_view_once(canvas_window, qtbot):
     win.runner.thread = _Busy()  # the window draws frames while a run is on
     try:
         for _ in range(3):  # a frame asks each view for a redraw more than once; the paint merges them
-            win._draw_frame(frame)
+            win.presenter.draw_frame(frame)
             win.view.render()
             QApplication.processEvents()
     finally:

@@ -231,7 +231,7 @@ def test_save_on_a_full_disk_keeps_the_document_dirty(make_window, qtbot, tmp_pa
 @pytest.mark.parametrize("error", [ValueError("Out of range float values are not JSON compliant: nan"),
                                    OSError(5, "Input/output error")])
 def test_an_unexpected_save_failure_is_still_a_one_line_error(make_window, monkeypatch, error, capsys):
-    import app.mainwindow
+    import app.files
 
     win = make_window(small_project(0.1))
     win.document.edit_settings("Tolerance", tol=1e-8)
@@ -239,7 +239,7 @@ def test_an_unexpected_save_failure_is_still_a_one_line_error(make_window, monke
     def failing(project, path):
         raise error
 
-    monkeypatch.setattr(app.mainwindow, "save_with_backups", failing)
+    monkeypatch.setattr(app.files, "save_with_backups", failing)
     assert not win.save_to("x.flatweave")
     assert win.last_error == f"Cannot save: {type(error).__name__}: {str(error).splitlines()[0]}"
     assert win.document.dirty and win.document.path is None

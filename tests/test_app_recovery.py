@@ -52,7 +52,7 @@ def test_a_solve_is_autosaved_and_a_save_clears_it(make_window, qtbot, recovery_
 def test_the_timer_autosaves_only_what_changed(make_window, qtbot, recovery_dir, tmp_path):
     win = make_window(small_project(0.12))
     assert win.save_to(tmp_path / "piece.flatweave")
-    win._autosave_timer.setInterval(50)
+    win.files.autosave_timer.setInterval(50)
     qtbot.wait(200)
     assert not recovery_files(recovery_dir)  # saved: nothing to recover
     win.edit_display("Units", {"units": "cm"})

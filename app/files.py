@@ -1,0 +1,282 @@
+"""Open, save, save as, autosave and recovery for the window.
+
+:func:`open_path` is the one place that decides whether a file is a project or
+a surface (the command uses it too); :func:`open_filter` and
+:func:`project_filter` build the file dialogs' filters. Work is never lost: a
+:class:`core.recovery.Session` autosaves the document (every minute when it
+changed, and after every solve) on a background thread,
+:meth:`Files.check_recovery` offers back what a crashed session left, and saves
+keep the last few versions as backups.
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
+
+from PySide6.QtCore import QObject, Qt, QTimer, Signal
+from PySide6.QtGui import QAction
+from PySide6.QtWidgets import QFileDialog, QMessageBox
+
+from core.errors import FlatweaveError
+from core.examples import example_info, example_path, list_examples
+from core.nurbs import NurbsSurface
+from core.project import PROJECT_SUFFIX, UNITS, Project, load_project
+from core.recovery import Orphan, Session, find_orphans, save_with_backups
+from core.surface_io import load_surface
+
+from app.worker import one_line
+
+__all__ = ["Files", "open_path", "path_kind", "open_filter", "project_filter", "AUTOSAVE_MS"]
+
+AUTOSAVE_MS = 60_000  # the document is autosaved this often when it has changed (and after each solve)
+
+
+def path_kind(path: str | Path) -> str:
+    """"project" or "surface": what the app reads ``path`` as (by its suffix)."""
+    return "project" if Path(path).suffix.lower() == PROJECT_SUFFIX else "surface"
+
+
+def open_path(path: str | Path) -> Project | NurbsSurface:
+    """Read ``path`` as a project or a surface (see :func:`path_kind`);
+    FlatweaveError or OSError when it cannot be read."""
+    return load_project(path) if path_kind(path) == "project" else load_surface(path)
+
+
+def open_filter() -> str:
+    """The Open dialog's filter."""
+    return f"Projects and surfaces (*{PROJECT_SUFFIX} *.json);;Projects (*{PROJECT_SUFFIX});;" \
+           "Surfaces (*.json);;All files (*)"
+
+
+def project_filter() -> str:
+    """The Save As dialog's filter."""
+    return f"flatweave projects (*{PROJECT_SUFFIX})"
+
+
+def example_units(units) -> str:
+    """An example's units if the project knows them, else metres."""
+    return units if units in UNITS else "m"
+
+
+class Files(QObject):
+    """The window's files. ``window`` gives the document, ``set_project``,
+    ``set_surface``, ``show_error`` and the status bar. ``recovery``: autosave
+    to a recovery file (see :mod:`core.recovery`)."""
+
+    autosave_failed = Signal(str)  # from the autosave thread
+
+    def __init__(self, window, recovery: bool = True):
+        super().__init__(window)
+        self.window = window
+        self.session: Session | None = None
+        self.recovery_box: QMessageBox | None = None
+        self.recovery_problem: str | None = None
+        if recovery:
+            try:
+                self.session = Session()
+            except (FlatweaveError, OSError) as exc:
+                self.recovery_problem = f"Autosave is off: {exc}"
+        self._autosaver = ThreadPoolExecutor(max_workers=1, thread_name_prefix="flatweave-autosave")
+        self._autosaved_revision: int | None = None
+        self.last_autosave: Future | None = None
+        self.autosave_timer = QTimer(window, interval=AUTOSAVE_MS)
+        self.autosave_timer.timeout.connect(self.autosave)
+        self.autosave_timer.start()
+        self.autosave_failed.connect(lambda m: window.statusBar().showMessage(m, 10000))
+
+    def _status(self, text: str, ms: int) -> None:
+        self.window.statusBar().showMessage(text, ms)
+
+    # ------------------------------------------------------------------ open
+    def open_file(self, path: str | Path) -> bool:
+        """Open a project (.flatweave) or a surface file; on failure show the error, keep the document."""
+        path = Path(path)
+        try:
+            opened = open_path(path)
+            if isinstance(opened, Project):
+                self.window.set_project(opened, path)
+            else:
+                self.window.set_surface(opened, path)
+        except (FlatweaveError, OSError) as exc:
+            self.window.show_error(f"Cannot open {path_kind(path)}: {exc}")
+            return False
+        self._status(f"Opened {path}", 5000)
+        return True
+
+    def open_example(self, name: str) -> bool:
+        """Open a bundled example with its recommended spacing and units."""
+        try:
+            info = example_info(name)
+            path = example_path(name)
+            surface = load_surface(path)
+        except (FlatweaveError, OSError) as exc:
+            self.window.show_error(f"Cannot open example {name}: {exc}")
+            return False
+        self.window.set_surface(surface, path, spacing=info.get("recommended_spacing"),
+                                units=example_units(info.get("units", "m")))
+        self._status(f"Opened the example {info.get('title') or name}", 5000)
+        return True
+
+    def fill_examples_menu(self, menu) -> None:
+        try:
+            examples = list_examples()
+        except (FlatweaveError, OSError, ValueError):  # a broken install: no menu entries
+            examples = []
+        for entry in examples:
+            name = entry["name"]
+            a = QAction(entry.get("title") or name, self.window)
+            a.setData(name)
+            if entry.get("description"):
+                a.setStatusTip(entry["description"])
+            a.triggered.connect(lambda checked=False, n=name: self.open_example(n))
+            menu.addAction(a)
+        if not examples:
+            menu.addAction("(no examples found)").setEnabled(False)
+
+    def open_dialog(self) -> None:
+        doc = self.window.document
+        start = str(doc.path.parent) if doc and doc.path else ""
+        path, _ = QFileDialog.getOpenFileName(self.window, "Open project or surface", start, open_filter())
+        if path:
+            self.open_file(path)
+
+    # ------------------------------------------------------------------ save
+    def save(self) -> bool:
+        doc = self.window.document
+        if doc is None:
+            return False
+        if doc.path is None or doc.path.suffix.lower() != PROJECT_SUFFIX:
+            return self.save_as()
+        return self.save_to(doc.path)
+
+    def save_as(self) -> bool:
+        doc = self.window.document
+        if doc is None:
+            return False
+        start = str(doc.path.with_suffix(PROJECT_SUFFIX)) if doc.path else f"{doc.project.name}{PROJECT_SUFFIX}"
+        path, _ = QFileDialog.getSaveFileName(self.window, "Save project", start, project_filter())
+        return bool(path) and self.save_to(path)
+
+    def save_to(self, path: str | Path) -> bool:
+        """Save the project to ``path`` (``.flatweave`` added if missing)."""
+        doc = self.window.document
+        path = Path(path)
+        if path.suffix.lower() != PROJECT_SUFFIX:
+            path = path.with_name(path.name + PROJECT_SUFFIX)
+        try:
+            save_with_backups(doc.project, path)
+        except Exception as exc:  # any failure is said, in one line; the document stays unsaved (dirty)
+            if not isinstance(exc, FlatweaveError):  # a bug, not a user error: keep its traceback
+                traceback.print_exc(file=sys.stderr)
+            self.window.show_error(f"Cannot save: {one_line(exc)}")
+            return False
+        doc.mark_saved(path)
+        self.autosave()  # nothing left to recover
+        self._status(f"Saved {path}", 5000)
+        return True
+
+    def confirm_close(self) -> bool:
+        """Ask what to do with unsaved work: Save (and close if it saved), Discard, or Cancel."""
+        buttons = QMessageBox.StandardButton
+        answer = QMessageBox.question(
+            self.window, "flatweave", f"Save the changes to {self.window.document.project.name} before closing?",
+            buttons.Save | buttons.Discard | buttons.Cancel, buttons.Save)
+        if answer == buttons.Save:
+            return self.save()
+        return answer == buttons.Discard
+
+    # ------------------------------------------------------------------ autosave and recovery
+    def autosave(self) -> Future | None:
+        """Write the document to this session's recovery file if it changed
+        since the last autosave (or clear the file when nothing is unsaved).
+        The write runs on the autosave thread; returns its Future (None if
+        there was nothing to do)."""
+        doc = self.window.document
+        if self.session is None or doc is None or doc.revision == self._autosaved_revision:
+            return None
+        self._autosaved_revision = doc.revision
+        if doc.unsaved_work:
+            self.last_autosave = self._autosaver.submit(self._write_recovery, doc.project, doc.path)
+        else:
+            self.last_autosave = self._autosaver.submit(self.session.clear)
+        return self.last_autosave
+
+    def _write_recovery(self, project: Project, path) -> None:  # on the autosave thread
+        try:
+            self.session.write(project, path)
+        except FlatweaveError as exc:
+            self._autosaved_revision = None  # try again at the next tick
+            self.autosave_failed.emit(f"Autosave failed: {exc}")
+
+    def check_recovery(self, folder: str | Path | None = None) -> Orphan | None:
+        """Offer back the newest document a crashed flatweave left (a
+        non-blocking question: Recover, Discard, or Later). Returns what is offered."""
+        if self.recovery_box is not None:
+            return None
+        if folder is None and self.session is None:
+            return None
+        orphans = find_orphans(self.session.folder if folder is None else folder)
+        if not orphans:
+            return None
+        offered, rest = orphans[0], orphans[1:]
+        for other in rest:  # offered one at a time: the others at the next check
+            other.release()
+        box = QMessageBox(QMessageBox.Icon.Question, "flatweave: recover unsaved work",
+                          f"flatweave did not close normally. Recover the work it autosaved?\n\n"
+                          f"{offered.describe()}", QMessageBox.StandardButton.NoButton, self.window)
+        recover = box.addButton("Recover", QMessageBox.ButtonRole.AcceptRole)
+        discard = box.addButton("Discard", QMessageBox.ButtonRole.DestructiveRole)
+        box.addButton("Later", QMessageBox.ButtonRole.RejectRole)
+        box.setDefaultButton(recover)
+        box.setWindowModality(Qt.WindowModality.NonModal)
+        box.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
+
+        def answered(_result):
+            clicked = box.clickedButton()
+            self.recovery_box = None
+            if clicked is recover:
+                self.recover(offered)
+            elif clicked is discard:
+                offered.discard()
+                self._status("Discarded the autosaved work.", 5000)
+            else:
+                offered.release()
+            if rest and clicked in (recover, discard):
+                QTimer.singleShot(0, lambda: self.check_recovery(folder))
+
+        box.finished.connect(answered)
+        self.recovery_box = box
+        box.show()
+        return offered
+
+    def recover(self, orphan: Orphan) -> bool:
+        """Open ``orphan``'s autosave as the document (unsaved; Save writes it
+        where it was saved before), then delete the recovery file once this
+        session's own autosave holds the work."""
+        try:
+            project = orphan.load()
+        except FlatweaveError as exc:
+            orphan.release()
+            self.window.show_error(f"Cannot recover {orphan.path}: {exc}")
+            return False
+        self.window.set_project(project, orphan.document_path, saved=False)
+        pending = self.autosave()
+        if pending is not None:
+            pending.result()
+        orphan.discard()
+        self._status(f"Recovered {orphan.describe()}; save it to keep it.", 10000)
+        return True
+
+    # ------------------------------------------------------------------ lifetime
+    def stop_autosaving(self) -> None:
+        self.autosave_timer.stop()
+
+    def close(self) -> None:
+        """Wait for the last autosave and end the session normally (nothing to recover)."""
+        self._autosaver.shutdown(wait=True)
+        if self.session is not None:
+            self.session.close()
+            self.session = None

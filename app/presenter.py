@@ -1,0 +1,200 @@
+"""Turns document changes and solve frames into view updates.
+
+:meth:`Presenter.document_changed` gets what a change touched as
+:class:`app.aspects.Aspect` flags and updates the 3D view, the pattern view,
+the metrics, the energy plot, the panels and the status labels that show those
+aspects, nothing else. The views own the VTK objects; this hands them numpy
+arrays (frames) and :class:`app.viewbase.ViewOptions`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from PySide6.QtGui import QCursor
+from PySide6.QtWidgets import QToolTip
+
+from core.energy import yarn_nodes
+from core.nurbs import NurbsSurface
+from core.project import Project
+
+from app.aspects import HISTORY, WHOLE, Aspect
+from app.frames import FrameMaker
+from app.viewbase import ViewOptions
+
+__all__ = ["Presenter", "surface_grid", "GRID_POINTS"]
+
+GRID_POINTS = 60
+CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
+
+
+def surface_grid(surface: NurbsSurface, n: int = GRID_POINTS):
+    """Sample a surface on an n x n grid spanning its parameter domain.
+
+    Returns uv : (n, n, 2), xyz : (n, n, 3), normals : (n, n, 3), with
+    uv[i, j] = (u_i, v_j), u and v evenly spaced over the domain, ends included.
+    """
+    (u0, u1), (v0, v1) = surface.domain
+    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+    uv = np.stack([u, v], axis=-1)
+    ev = surface.evaluate(uv.reshape(-1, 2))
+    return uv, ev.xyz.reshape(n, n, 3), ev.normal.reshape(n, n, 3)
+
+
+class Presenter:
+    """The window's views of the document. ``window`` gives the views, panels,
+    metrics, energy plot, progress label, runner and tools; the status labels
+    are ``hover``, ``name`` and ``info``."""
+
+    def __init__(self, window, hover, name, info):
+        self.window = window
+        self.view, self.pattern_view = window.view, window.pattern_view
+        self.hover_label, self.name_label, self.info_label = hover, name, info
+        self.view_options = ViewOptions()
+        self.frame = None  # the frame on screen
+        self.first_nodes: int | None = None  # nodes of the run's first frame after the drape
+        self._curve_cache: dict = {}
+        self.view.hover_callback = self.show_hover
+        self.pattern_view.hover_callback = self.show_hover
+
+    # ------------------------------------------------------------------ the document
+    def document_changed(self, project: Project, cause: str, aspects: Aspect) -> None:
+        w = self.window
+        whole = cause in WHOLE
+        if aspects & Aspect.SURFACE:
+            self._show_surface(project.surface)
+        if aspects & (Aspect.SETTINGS | Aspect.DISPLAY | Aspect.NAME) or whole:
+            w.settings_panel.set_project(project)
+        new_surface = bool(aspects & Aspect.SURFACE) or cause == "reset"
+        w.tools.document_changed(cause, new_surface,
+                                 cause in HISTORY and bool(aspects & (Aspect.SETTINGS | Aspect.LABELS)))
+        if new_surface:
+            self._curve_cache.clear()
+        if aspects & (Aspect.SETTINGS | Aspect.LABELS | Aspect.SURFACE) or whole:
+            w.tools.clamp_selection(len(project.settings.darts))
+            w.dart_panel.set_project(project, w.tools.selected_dart)
+            self.show_darts(project)
+            w.tools.refresh_handles()
+        if aspects & (Aspect.SETTINGS | Aspect.RESULT | Aspect.SURFACE) or whole:
+            self.show_yarns(project)
+        if aspects & Aspect.RESULT:
+            w.tools.result_changed()
+        if aspects & Aspect.DISPLAY:
+            self.set_view_options(units=project.units, shear_warning_deg=project.shear_warning_deg,
+                                  shear_limit_deg=project.shear_limit_deg)
+        if cause != "result" and (aspects & (Aspect.RESULT | Aspect.SURFACE) or cause in HISTORY) \
+                and not w.runner.active:
+            self.show_result(project)
+        elif self.frame is not None:
+            w.metrics.show_frame(self.frame, project, stale=not project.result_is_current)
+        self.name_label.setText(project.name)
+
+    def _show_surface(self, surface: NurbsSurface) -> None:
+        _, xyz, normals = surface_grid(surface)
+        self.view.set_surface(xyz, normals)
+        self.pattern_view.clear_frame()
+        self.frame = None
+        kind = "rational" if surface.rational else "polynomial"
+        (nu, nv), p, q = surface.shape, surface.degree_u, surface.degree_v
+        self.info_label.setText(f"{kind}, degree {p}x{q}, {nu}x{nv} control points")
+
+    # ------------------------------------------------------------------ darts and yarns
+    def dart_curve(self, surface: NurbsSurface, dart) -> np.ndarray:
+        """(k, 3) a dart's curve on the surface (cached: a plane dart's takes a grid search)."""
+        key = id(dart)
+        hit = self._curve_cache.get(key)
+        if hit is not None and hit[0] is dart and hit[1] is surface:
+            return hit[2]
+        uv = dart.curve_uv(surface)
+        curve = surface.points(uv) if len(uv) else np.zeros((0, 3))
+        if len(self._curve_cache) > CURVE_CACHE:
+            self._curve_cache.clear()
+        self._curve_cache[key] = (dart, surface, curve)
+        return curve
+
+    def show_darts(self, project: Project) -> None:
+        darts = project.settings.darts
+        curves = [self.dart_curve(project.surface, d) for d in darts]
+        self.view.set_darts(curves, [d.visible for d in darts], self.window.tools.selected_dart)
+
+    def show_yarns(self, project: Project | None, frame=None) -> None:
+        if project is None:
+            return
+        r = project.result
+        if frame is not None:
+            mesh, xyz = frame.mesh, frame.xyz
+        elif r is not None and r.surface is project.surface:
+            mesh, xyz = r.mesh, r.xyz
+        else:
+            mesh = xyz = None
+        lines = [] if mesh is None else [xyz[yarn_nodes(mesh, y.kind, y.index)] for y in project.settings.yarns]
+        self.view.set_yarns(lines, render=frame is None)
+
+    # ------------------------------------------------------------------ frames
+    def set_view_options(self, **changes) -> None:
+        self.view_options = replace(self.view_options, **changes)
+        self.view.restyle(self.view_options)
+        self.pattern_view.restyle(self.view_options)
+
+    def show_result(self, project: Project) -> None:
+        """Draw the project's result (or nothing, if it has none)."""
+        w = self.window
+        r = project.result
+        if r is None or r.surface is not project.surface:
+            self.frame = None
+            self.view.clear_frame()
+            self.pattern_view.clear_frame()
+            self.view.render()
+            self.pattern_view.render()
+            w.metrics.clear()
+            w.energy_plot.clear()
+            return
+        frame = FrameMaker(project.surface, r.settings, r.metrics.get("boundary_length_3d"),
+                           r.metrics.get("area_3d")).from_result(r)
+        self.pattern_view.request_fit()
+        self.draw_frame(frame)
+        w.energy_plot.set_history([(k + 1, e, False) for k, e in enumerate(r.history)])
+
+    def draw_frame(self, frame) -> None:
+        w = self.window
+        self.frame = frame
+        opts = self.view_options
+        # Both views repaint in one paint pass: cheaper than a pass each (docs/decisions.md, App).
+        self.view.show_frame(frame, opts)
+        self.pattern_view.show_frame(frame, opts)
+        project = w.project
+        if project is not None and project.settings.yarns:
+            self.show_yarns(project, frame)
+        if project is not None:
+            stale = frame.final and not project.result_is_current and not w.runner.busy
+            w.metrics.show_frame(frame, project, stale=stale)
+        if w.runner.busy:
+            w.energy_plot.set_history(w.runner.history)
+            self.show_progress(frame)
+
+    def show_progress(self, frame) -> None:
+        runner = self.window.runner
+        hist = runner.history
+        n = frame.stats.get("nodes", 0)
+        paused = " - paused" if runner.paused else ""
+        if frame.draping:
+            self.window.progress.setText(f"Draping{paused}: {n:,} nodes laid")
+            self.info_label.setText(f"draping  {n:,} nodes")
+            return
+        if self.first_nodes is None:
+            self.first_nodes = n
+        delta = ""
+        if len(hist) >= 2 and hist[-2][1] > 0:
+            delta = f" (change {hist[-1][1] - hist[-2][1]:+.3g})"
+        text = (f"{runner.stage.capitalize()}{paused}: iteration {frame.iteration}, "
+                f"EN {frame.energy:.6g}{delta}, {n:,} nodes ({n - self.first_nodes:+,d} since the drape)")
+        self.window.progress.setText(text)
+        self.info_label.setText(f"iteration {frame.iteration}  EN {frame.energy:.4g}  {n:,} nodes")
+
+    def show_hover(self, text: str | None) -> None:
+        self.hover_label.setText(text or "")
+        if text:
+            QToolTip.showText(QCursor.pos(), text)
+        else:
+            QToolTip.hideText()
