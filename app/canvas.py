@@ -156,7 +156,7 @@ class CanvasPlotter(pv.Plotter):
         if canvas is not None and not self._closed:
             canvas.update()
 
-    def render(self) -> None:  # noqa: D401 (pyvista's name)
+    def render(self) -> None:
         """Schedule a repaint (which renders)."""
         self._schedule()
 

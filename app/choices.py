@@ -22,5 +22,8 @@ def view_setting(text: str | None) -> str:
 
 
 def solver_labels() -> dict[str, str]:
-    """The solvers by name, with the settings panel's label of each (``--solver``'s choices)."""
-    return {"fast": "fast (Levenberg-Marquardt)", "paper": "paper (steepest descent + CG)"}
+    """The iterative solvers of the paper's spring method by name, with the settings
+    panel's label of each (``--solver``'s choices), from :mod:`core.solvers`."""
+    from core.solvers import solver_labels as labels
+
+    return labels("spring", iterative=True)

@@ -240,7 +240,7 @@ class DartPanel(QWidget):
         row = self.dart_list.currentRow()
         darts = self._project.settings.darts if self._project is not None else ()
         self.delete_dart.setEnabled(0 <= row < len(darts))
-        self.edit_dart.setEnabled(0 <= row < len(darts) and darts[row].kind == "plane")
+        self.edit_dart.setEnabled(0 <= row < len(darts) and darts[row].has_widget)
         yrow = self.yarn_list.currentRow()
         n = len(self._project.settings.yarns) if self._project is not None else 0
         self.edit_yarn.setEnabled(0 <= yrow < n)

@@ -19,7 +19,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, 
                                QFormLayout, QHBoxLayout, QLabel, QLineEdit, QPushButton, QVBoxLayout, QWidget)
 
 from core.errors import FlatweaveError
-from core.export import FORMATS, PAPERS, UNITS, ExportOptions, export_all
+from core.export import FORMATS, PAPERS, UNITS, ExportOptions, dialog_filter, export_all
 from core.pipeline import FlattenResult
 
 from app.worker import one_line
@@ -28,8 +28,8 @@ __all__ = ["ExportDialog", "ExportThread", "Exports", "export_paths", "export_fi
 
 
 def export_filter() -> str:
-    """The export file dialog's filter: one entry per format."""
-    return ";;".join(f"{text} (*{suffix})" for suffix, text in FORMATS.items())
+    """The export file dialog's filter: one entry per registered format (:mod:`core.export`)."""
+    return dialog_filter()
 
 
 def export_paths(path: str | Path, every_format: bool) -> list[Path]:

@@ -1,7 +1,7 @@
 """Open, save, save as, autosave and recovery for the window.
 
-:func:`open_path` is the one place that decides whether a file is a project or
-a surface (the command uses it too); :func:`open_filter` and
+:func:`core.readers.open_path` decides whether a file is a project or a
+surface (the command uses it too); :func:`open_filter` and
 :func:`project_filter` build the file dialogs' filters. Work is never lost: a
 :class:`core.recovery.Session` autosaves the document (every minute when it
 changed, and after every solve) on a background thread,
@@ -22,33 +22,20 @@ from PySide6.QtWidgets import QFileDialog, QMessageBox
 
 from core.errors import FlatweaveError
 from core.examples import example_info, example_path, list_examples
-from core.nurbs import NurbsSurface
-from core.project import PROJECT_SUFFIX, UNITS, Project, load_project
+from core.project import PROJECT_SUFFIX, UNITS, Project
 from core.recovery import Orphan, Session, find_orphans, save_with_backups
-from core.surface_io import load_surface
+from core.readers import dialog_filter, open_path, reader_for
 
 from app.worker import one_line
 
-__all__ = ["Files", "open_path", "path_kind", "open_filter", "project_filter", "AUTOSAVE_MS"]
+__all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS"]
 
 AUTOSAVE_MS = 60_000  # the document is autosaved this often when it has changed (and after each solve)
 
 
-def path_kind(path: str | Path) -> str:
-    """"project" or "surface": what the app reads ``path`` as (by its suffix)."""
-    return "project" if Path(path).suffix.lower() == PROJECT_SUFFIX else "surface"
-
-
-def open_path(path: str | Path) -> Project | NurbsSurface:
-    """Read ``path`` as a project or a surface (see :func:`path_kind`);
-    FlatweaveError or OSError when it cannot be read."""
-    return load_project(path) if path_kind(path) == "project" else load_surface(path)
-
-
 def open_filter() -> str:
-    """The Open dialog's filter."""
-    return f"Projects and surfaces (*{PROJECT_SUFFIX} *.json);;Projects (*{PROJECT_SUFFIX});;" \
-           "Surfaces (*.json);;All files (*)"
+    """The Open dialog's filter: every registered reader (:mod:`core.readers`)."""
+    return dialog_filter() + ";;All files (*)"
 
 
 def project_filter() -> str:
@@ -96,12 +83,13 @@ class Files(QObject):
         path = Path(path)
         try:
             opened = open_path(path)
-            if isinstance(opened, Project):
-                self.window.set_project(opened, path)
+            if opened.project is not None:
+                self.window.set_project(opened.project, path)
             else:
-                self.window.set_surface(opened, path)
+                self.window.set_surface(opened.surface, path)
         except (FlatweaveError, OSError) as exc:
-            self.window.show_error(f"Cannot open {path_kind(path)}: {exc}")
+            reader = reader_for(path)
+            self.window.show_error(f"Cannot open {'project' if reader and reader.project else 'surface'}: {exc}")
             return False
         self._status(f"Opened {path}", 5000)
         return True
@@ -110,13 +98,12 @@ class Files(QObject):
         """Open a bundled example with its recommended spacing and units."""
         try:
             info = example_info(name)
-            path = example_path(name)
-            surface = load_surface(path)
+            opened = open_path(example_path(name))
         except (FlatweaveError, OSError) as exc:
             self.window.show_error(f"Cannot open example {name}: {exc}")
             return False
-        self.window.set_surface(surface, path, spacing=info.get("recommended_spacing"),
-                                units=example_units(info.get("units", "m")))
+        self.window.set_surface(opened.surface, opened.path, spacing=opened.spacing,
+                                units=example_units(opened.units))
         self._status(f"Opened the example {info.get('title') or name}", 5000)
         return True
 

@@ -68,26 +68,11 @@ def build_parser() -> argparse.ArgumentParser:
 def load_start_project(args):
     """The project to open: a project file, or a surface with default settings
     (a bundled example's recommended spacing and units when FILE is one)."""
-    from core.examples import example_path, list_examples
-    from core.project import Project, new_project
+    from core.readers import open_path
 
-    from app.files import example_units, open_path
-
-    path = args.file if args.file is not None else Path(example_path(DEFAULT_EXAMPLE))
-    opened = open_path(path)
-    if isinstance(opened, Project):
-        project = opened
-    else:
-        surface = opened
-        spacing, units = None, "m"
-        try:
-            for entry in list_examples():
-                if Path(example_path(entry["name"])).resolve() == Path(path).resolve():
-                    spacing, units = entry.get("recommended_spacing"), entry.get("units", "m")
-        except (OSError, ValueError):
-            pass
-        project = new_project(surface, Path(path).stem, str(path), spacing, example_units(units))
-        path = None
+    opened = open_path(args.file if args.file is not None else DEFAULT_EXAMPLE)
+    project = opened.as_project()
+    path = opened.path if opened.project is not None else None
     if args.spacing is not None:
         project = project.with_settings(spacing=args.spacing)
     if args.solver is not None:

@@ -308,13 +308,13 @@ class MainWindow(QMainWindow):
         self.error_box = None
 
     # ------------------------------------------------------------------ lifetime
-    def showEvent(self, event) -> None:  # noqa: N802 (Qt name)
+    def showEvent(self, event) -> None:
         super().showEvent(event)
         if not self._shown:
             self._shown = True  # the views have their sizes only now: frame the surface again
             QTimer.singleShot(0, self.view.reset_camera)
 
-    def closeEvent(self, event) -> None:  # noqa: N802 (Qt name)
+    def closeEvent(self, event) -> None:
         if self.confirm_close and self.document is not None and self.document.unsaved_work \
                 and not self.files.confirm_close():
             event.ignore()

@@ -33,7 +33,7 @@ class EnergyPlot(QWidget):
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Preferred)
         self.setToolTip("Energy EN (log scale) against iteration; orange ticks: nodes deleted or refilled")
 
-    def sizeHint(self) -> QSize:  # noqa: N802 (Qt name)
+    def sizeHint(self) -> QSize:
         return QSize(300, 150)
 
     def clear(self) -> None:
@@ -49,7 +49,7 @@ class EnergyPlot(QWidget):
         self.changes = np.array([bool(r[2]) for r in rows], dtype=bool)
         self.update()
 
-    def paintEvent(self, _event) -> None:  # noqa: N802 (Qt name)
+    def paintEvent(self, _event) -> None:
         painter = QPainter(self)
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         painter.fillRect(self.rect(), QColor("white"))

@@ -82,7 +82,7 @@ class ToolMouse:
             return False
         try:
             return bool(getattr(tool, method)(*args))
-        except Exception as exc:  # noqa: BLE001 (a tool's bug must not reach VTK's event loop)
+        except Exception as exc:  # a tool's bug must not reach VTK's event loop
             self.control.window.show_error(f"{tool.name}: {one_line(exc)}")
             return True
 
@@ -119,7 +119,7 @@ class ToolControl:
         if old is not None:
             try:
                 old.deactivate()
-            except Exception as exc:  # noqa: BLE001 (never leave the window in a half-switched state)
+            except Exception as exc:  # never leave the window in a half-switched state
                 self._fail(old, exc)
         if tool is None:
             tool = self._handle_editor()
@@ -129,7 +129,7 @@ class ToolControl:
                 self.window.side_tabs.setCurrentWidget(self.window.dart_panel)
             try:
                 tool.activate()
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 self.tool = None
                 self._fail(tool, exc)
         self.window.update_actions()
@@ -156,7 +156,7 @@ class ToolControl:
         if doc is None or k is None or k >= len(doc.project.settings.darts):
             return None
         dart = doc.project.settings.darts[k]
-        return self.make(HandleEditor, k) if dart.kind == "curve" and dart.visible else None
+        return self.make(HandleEditor, k) if dart.editable_points and dart.visible else None
 
     def refresh_handles(self) -> None:
         if self.tool is None or self.tool.implied:
@@ -178,7 +178,7 @@ class ToolControl:
                 return
             try:
                 self.tool.finish()
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 self._fail(self.tool, exc)
 
     def cancel_tool(self) -> None:
@@ -237,7 +237,7 @@ class ToolControl:
         darts = self.window.document.project.settings.darts
         if not 0 <= index < len(darts):
             return
-        if darts[index].kind == "plane":
+        if darts[index].has_widget:
             self.set_tool(self.make(PlaneDartTool, index))
         else:
             self.select_dart(index)

@@ -199,8 +199,8 @@ class MeshLayer:
 
     def _scalar_actor(self, poly: pv.PolyData, scale: ColourScale, line_width):
         kwargs = {"line_width": line_width} if line_width else {"show_edges": False}
-        actor = self.plotter.add_mesh(poly, color="white", render=False, reset_camera=False, lighting=line_width is None,
-                                      **kwargs)
+        actor = self.plotter.add_mesh(poly, color="white", render=False, reset_camera=False,
+                                      lighting=line_width is None, **kwargs)
         mapper = actor.GetMapper()
         mapper.SetLookupTable(scale.ctf)
         mapper.SetScalarModeToUseCellFieldData()

@@ -193,7 +193,7 @@ class SolveThread(QThread):
             self._frame = frame
             self._frame_seq += 1
 
-    def run(self) -> None:  # noqa: D401 (Qt's name)
+    def run(self) -> None:
         _lower_priority()
         try:
             outcome = self._solve()

@@ -24,7 +24,6 @@ load of the machine; the one-minute load average is printed with them.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import cProfile
 import dataclasses
 import io

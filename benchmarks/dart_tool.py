@@ -38,7 +38,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
-from app.nonefix import keep_none_alive  # noqa: E402
+from app.nonefix import keep_none_alive
 
 keep_none_alive()  # before any Qt call
 
@@ -118,7 +118,8 @@ def main() -> int:
         assert len(win.project.settings.darts) == 1 and win.project.result_is_current
         gaps = np.diff(ticks) if len(ticks) > 1 else np.zeros(1)
         rows.append({"nice": nice, "load": os.getloadavg()[0], "nodes": r.mesh.n_nodes,
-                     "click_ms": 1000 * float(np.median(clicks)), "first_s": first[0], "total_s": total, "iterations": r.metrics["iterations"],
+                     "click_ms": 1000 * float(np.median(clicks)), "first_s": first[0], "total_s": total,
+                     "iterations": r.metrics["iterations"],
                      "frames": win.runner.frames_shown - shown0, "gap_ms": 1000 * float(gaps.max()),
                      "energy": (base.result.metrics["energy"], r.metrics["energy"])})
         win.actions["tool_curve_dart"].setChecked(False)
@@ -139,13 +140,15 @@ def main() -> int:
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for row in rows:
-        lines.append(f"| {f'nice {solve_worker.SOLVE_NICENESS}' if row['nice'] else 'normal'} | {row['load']:.1f} | {row['nodes']:,} | "
-                     f"{row['click_ms']:.0f} | {row['first_s']:.2f} | {row['total_s']:.2f} | {row['iterations']} | {row['frames']} | {row['gap_ms']:.0f} | "
+        thread = f"nice {solve_worker.SOLVE_NICENESS}" if row["nice"] else "normal"
+        lines.append(f"| {thread} | {row['load']:.1f} | {row['nodes']:,} | "
+                     f"{row['click_ms']:.0f} | {row['first_s']:.2f} | {row['total_s']:.2f} | {row['iterations']} | "
+                     f"{row['frames']} | {row['gap_ms']:.0f} | "
                      f"{row['energy'][0]:.4g} -> {row['energy'][1]:.4g} |")
     lines += ["", "Load: the one-minute load average when the re-solve ended (this benchmark included; the "
-              "rest is other work on the shared machine). Enter to first frame includes the window's 250 ms delay that merges edits made in quick "
-              "succession into one re-run. The same re-solve in core alone (`core.pipeline.flatten` "
-              "warm-started, no window) takes about 2.6 s."]
+              "rest is other work on the shared machine). Enter to first frame includes the window's 250 ms "
+              "delay that merges edits made in quick succession into one re-run. The same re-solve in core "
+              "alone (`core.pipeline.flatten` warm-started, no window) takes about 2.6 s."]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.out:

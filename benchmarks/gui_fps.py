@@ -45,7 +45,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
-from app.nonefix import keep_none_alive  # noqa: E402
+from app.nonefix import keep_none_alive
 
 keep_none_alive()  # before any Qt call
 

@@ -21,13 +21,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from core.darts import PlaneDart, curve_dart  # noqa: E402
-from core.drape import drape  # noqa: E402
-from core.examples import load_example  # noqa: E402
-from core.mesh import MATERIALS  # noqa: E402
-from core.pipeline import FlattenSettings, flatten, make_problem  # noqa: E402
-from core.solver import SolverOptions, State, iterate  # noqa: E402
-from tests.helpers import diameter, hausdorff, rigid_align  # noqa: E402
+from core.darts import PlaneDart, curve_dart
+from core.drape import drape
+from core.examples import load_example
+from core.mesh import MATERIALS
+from core.pipeline import FlattenSettings, flatten, make_problem
+from core.solver import SolverOptions, State, iterate
+from tests.helpers import diameter, hausdorff, rigid_align
 
 PAPER_TABLE1 = {  # EN, boundary error %, area error %
     ("isotropic", None): (8.53, 5.35, 0.37),
@@ -147,8 +147,8 @@ def solver_comparison(spacing: float, paper_seconds: float) -> str:
         for method, budget in (("fast", np.inf), ("paper", paper_seconds)):
             t0 = time.perf_counter()
             trace = []
-            gen = iterate(problem, State(d.mesh, d.uv), SolverOptions(method, refill=False, delete=False, max_iter=10**6,
-                                                                        max_seconds=budget, tol=1e-12))
+            options = SolverOptions(method, refill=False, delete=False, max_iter=10**6, max_seconds=budget, tol=1e-12)
+            gen = iterate(problem, State(d.mesh, d.uv), options)
             while True:
                 try:
                     snap = next(gen)

@@ -24,12 +24,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from core.darts import PlaneDart  # noqa: E402
-from core.examples import load_example  # noqa: E402
-from core.mesh import MATERIALS  # noqa: E402
-from core.pipeline import FlattenSettings, flatten  # noqa: E402
-from core.planar import PlanarSettings, flatten_planar  # noqa: E402
-from core.quadrature import region_area  # noqa: E402
+from core.darts import PlaneDart
+from core.examples import load_example
+from core.mesh import MATERIALS
+from core.pipeline import FlattenSettings, flatten
+from core.planar import PlanarSettings, flatten_planar
+from core.quadrature import region_area
 
 COLLAR = PlaneDart((1.0, 0.0, 0.0, -0.02), (-1, 1, 0.42, 1, -1, 1), name="collar dart")
 PAPER_TABLE3 = {"garment": (13.52, 4.10), "garment, collar dart": (5.32, 3.84)}

@@ -281,7 +281,8 @@ def report(results: list[dict], dart: dict, budget: float, gui: str | None,
         headline += ("\n\nAgainst the planar energy method (the paper's Table 3; full table in "
                      "`benchmarks/results/planar_compare.md`):\n\n" + "\n".join(verdicts))
         parts.append(planar.replace("# flatweave against", "## flatweave against", 1))
-    text = (f"# flatweave benchmarks\n\n{stamp}\n\n## Headline\n\n" + table(["measure", "flatweave", "target", "met"], hl)
+    headline = table(["measure", "flatweave", "target", "met"], hl)
+    text = (f"# flatweave benchmarks\n\n{stamp}\n\n## Headline\n\n" + headline
             + "\n\n" + "\n\n".join(parts) + "\n")
     return text, headline
 

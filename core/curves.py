@@ -881,7 +881,10 @@ def _merge(start, tangent, sweep, end) -> tuple[list, list, list, list]:
             if abs(sw - total) < 1e-9 and jump < 1e-11 and mid_dev < 1e-12 * max(cl, 1e-300):
                 W[-1], E[-1] = sw, p1
                 continue
-        S.append(start[k]); T.append(tangent[k]); W.append(sweep[k]); E.append(end[k])
+        S.append(start[k])
+        T.append(tangent[k])
+        W.append(sweep[k])
+        E.append(end[k])
     return S, T, W, E
 
 

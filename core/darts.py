@@ -44,8 +44,8 @@ from core.errors import SettingsError
 from core.geom import cumulative_length, interp_rows, nearest_segment, polyline_distance
 from core.nurbs import NurbsSurface
 
-__all__ = ["Dart", "DART_KINDS", "RESULT_DART_KEYS", "CUT_DART_KEYS", "dart_from_dict", "PlaneDart", "CurveDart", "segments_cross", "DartSet", "curve_dart", "curve_dart_from_file",
-           "curve_dart_through", "dart_handles"]
+__all__ = ["Dart", "DART_KINDS", "RESULT_DART_KEYS", "CUT_DART_KEYS", "dart_from_dict", "PlaneDart", "CurveDart",
+           "segments_cross", "DartSet", "curve_dart", "curve_dart_from_file", "curve_dart_through", "dart_handles"]
 
 
 def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:

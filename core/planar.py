@@ -711,7 +711,6 @@ def relax(xy0: np.ndarray, edges: np.ndarray, rest: np.ndarray, k: np.ndarray | 
         raise SettingsError(f"planar solver {solver!r} is not one of {', '.join(PLANAR_SOLVERS)}")
 
     a, b = edges[:, 0], edges[:, 1]
-    m = len(edges)
     sq = np.sqrt(kk)
     # sparsity of J^T J: a 2x2 block per (a, a), (b, b), (a, b), (b, a)
     ia = np.stack([2 * a, 2 * a + 1], axis=1)

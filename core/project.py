@@ -496,8 +496,8 @@ def load_project(path: str | os.PathLike) -> Project:
     except FlatweaveError:
         raise
     except (KeyError, TypeError, ValueError, IndexError) as exc:  # damage the checks above did not name
-        raise ProjectError(f"{name}: damaged project ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
-                           ) from None
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        raise ProjectError(f"{name}: damaged project ({type(exc).__name__}: {first})") from None
 
 
 # ---------------------------------------------------------------------- consistency

@@ -20,7 +20,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
-from app.nonefix import keep_none_alive  # noqa: E402
+from app.nonefix import keep_none_alive
 
 keep_none_alive()  # before any Qt call
 
@@ -42,7 +42,7 @@ def sphere(lon_deg: float, lat_deg: float) -> np.ndarray:
 
 def main() -> int:
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "docs/images/dart_tool.png"
-    app = QApplication.instance() or QApplication([])
+    _app = QApplication.instance() or QApplication([])  # kept: the loop needs a live application
     loop = QEventLoop()
 
     def wait(cond, timeout=300.0):

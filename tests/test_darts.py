@@ -209,8 +209,8 @@ def test_cli_curve_dart_file(tmp_path):
 
     dart = tmp_path / "dart.json"
     t = np.linspace(0, 1, 8)
-    dart.write_text(json.dumps({"points": np.column_stack([0.8 - 0.5 * t, 0.8 - 0.5 * t, np.full_like(t, 2.0)]).tolist(),
-                                "view_direction": [0, 0, -1]}))
+    points = np.column_stack([0.8 - 0.5 * t, 0.8 - 0.5 * t, np.full_like(t, 2.0)])
+    dart.write_text(json.dumps({"points": points.tolist(), "view_direction": [0, 0, -1]}))
     out = tmp_path / "r.json"
     p = subprocess.run([sys.executable, "-m", "core", "flatten", "octant", "--spacing", "0.1", "--material",
                         "isotropic", "--curve-dart", str(dart), "--plane-dart", "1,0,0,-0.3:-2,2,-2,2,-2,0.4",

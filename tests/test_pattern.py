@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.energy import Energy, YarnConstraint
+from core.energy import YarnConstraint
 from core.examples import load_example
 from core.mesh import MATERIALS
 from core.pattern import boundary_samples, make_pattern, polygon_area, polygon_perimeter

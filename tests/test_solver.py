@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from core.drape import DrapeSettings, drape
+from core.drape import drape
 from core.energy import Energy, YarnConstraint
 from core.errors import FlatweaveError, SettingsError, SolverError
 from core.examples import load_example
