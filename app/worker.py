@@ -50,12 +50,8 @@ DRAPE_FRAME_INTERVAL = 1 / 15
 the longest wait for Stop or Pause during a drape; the drape spaces its
 reports further when they are dear (at most a tenth of its time, see
 core.drape.REPORT_SHARE). Each frame has a new mesh (the views rebuild their
-geometry). Measured with benchmarks/gui_fps.py at 2,525 nodes (raster canvas,
-quiet machine): every 0.5 s left the first half second of a run blank and gave
-6.9-8.8 frames/s from Run to the result; every 0.1 s, 10.2-11.3; every 1/15 s,
-10.8-12.4, the run no longer within the spread (1.6-2.4 s). Headless, the
-frames cost 0.01 s of a 0.5 s drape at 2,527 nodes and 0.3 s of 2.3 s at
-10,117 (20 frames)."""
+geometry). The most frequent interval that did not lengthen the run
+(docs/decisions.md, "Engine threads and frames")."""
 PATTERN_INTERVAL = 0.25
 """Seconds between live patterns at least (more when a pattern is slow: at most
 about a seventh of the run goes into them)."""
@@ -73,19 +69,8 @@ def one_line(exc: BaseException) -> str:
 
 
 SOLVE_NICENESS = 5
-"""The solve thread's nice value. Measured with the event-loop test of
-tests/test_app_run.py (octant, ~650 nodes, Xvfb with software GL, 2 cores,
-other jobs keeping the load average at 2.6-3.5), 7 or 8 runs at each level,
-interleaved: the run's length (median) and the longest event-loop gap (median,
-range):
-
-* nice 10: 2.52 s, gap 154 ms (118-354 ms);
-* nice 5: 2.16 s, gap 167 ms (142-309 ms);
-* nice 0: 1.45 s, gap 202 ms (147-453 ms), and in 7 runs of 8 the test's
-  camera drag (a 30 ms timer) did not get its 7 events in during the run.
-
-5 is the lowest value that keeps the gap well under the test's 250 ms and the
-view answering a drag; it solves about 15 % faster than 10."""
+"""The solve thread's nice value: the lowest that keeps the window answering a
+camera drag during a solve (docs/decisions.md, "Engine threads and frames")."""
 
 
 def _lower_priority(niceness: int = SOLVE_NICENESS) -> None:

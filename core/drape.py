@@ -49,15 +49,8 @@ _NEWTON_MAXIT = 40
 
 BYTES_PER_NODE = 12_000
 """Memory a flattening takes per mesh node, in bytes, for refusing meshes the
-machine cannot hold (:func:`node_limit`).
-
-Measured as the peak resident size (``ru_maxrss``) of ``python -m core flatten
-garment --out r.json`` (fast solver, result written): 169 MB at 10,000 nodes
-(converged), 484 MB at 40,000 (converged), 1,615 MB at 160,000 (30 iterations).
-Less the interpreter and libraries (79 MB) that is 9.0, 10.1 and 9.6 kB per
-node; all included, 10.1 kB per node at 160,000. The sparse factorisation's
-fill grows like n log n; 12 kB leaves 19 % above the highest figure for that.
-The paper solver takes less (6.9 kB per node at 40,000, 20 iterations)."""
+machine cannot hold (:func:`node_limit`): the measured peak with a margin for
+the factorisation's n log n fill (docs/decisions.md, "Limits")."""
 
 REPORT_SHARE = 9.0
 """After a progress report the drape waits at least this many times the report's

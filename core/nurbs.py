@@ -25,17 +25,13 @@ __all__ = ["NurbsSurface", "SurfaceEval", "basis_functions", "MIN_SIZE", "MAX_SI
 
 MIN_SIZE, MAX_SIZE = 1e-40, 1e40
 """Smallest and largest control net (bounding-box diagonal) accepted, in model
-units. The pipeline squares lengths (energies, areas) and sums squared
-gradients (~ length^4); measured on the garment scaled by powers of ten, both
-solvers give the same pattern from 1e-60 to 1e75 and fail (underflow to zero
-areas, overflow in the normals) beyond 1e-80 and 1e80. The limits keep 20
-orders of magnitude from either failure."""
+units: 20 orders of magnitude inside the scales where the squared lengths and
+gradients underflow or overflow (docs/decisions.md, "Limits")."""
 
 MAX_WEIGHT_RATIO = 1e10
-"""Largest ratio of the largest to the smallest weight accepted. A weight far
-above its neighbours pulls a corner of the surface into a point: measured on
-the garment, a corner weight of 1e12 still gives a pattern, 1e20 leaves points
-whose normal is 0 / 0 even in the limit from the interior."""
+"""Largest ratio of the largest to the smallest weight accepted: a weight far
+above its neighbours pulls a corner into a point whose normal is 0 / 0
+(docs/decisions.md, "Limits")."""
 
 
 def _find_spans(knots: np.ndarray, degree: int, n_ctrl: int, x: np.ndarray) -> np.ndarray:
@@ -59,9 +55,8 @@ class _Basis:
     dx = x - t[s]: ``N_{s-p+r}(x) = sum_k C[s, r, k] dx^k``. The coefficients
     are the Taylor coefficients at t[s], found once by the Cox-de Boor
     recurrence (:meth:`_recurrence`); evaluation is then one gather and one
-    contraction, whatever the degree. (Measured at 30 points, the batch size of
-    the drape's fronts: the recurrence took 0.08-0.15 ms a direction, most of a
-    surface evaluation; at 2,500 points 0.25-0.4 ms.) Outside the domain the
+    contraction, whatever the degree, which is what the drape's small batches
+    need (docs/decisions.md, "Limits"). Outside the domain the
     end spans' polynomials extend the surface, as the recurrence did.
     """
 
