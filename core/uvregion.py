@@ -1,0 +1,229 @@
+"""Area and bounding box of a trimmed region of a NURBS surface.
+
+A region is given by polygons in the surface's (u, v) domain: an outer loop
+and holes (as :class:`core.cad.CadFace` carries them; any orientation, the
+holes are what lies inside the outer loop and inside a hole). Its area on the
+surface is
+
+    A = integral over the region of J(u, v) du dv,   J = |S_u x S_v|.
+
+:func:`region_area` computes it by Green's theorem on each knot-span cell
+separately: inside a cell the surface is one rational polynomial piece, so J
+is smooth there. With the region cut to the cell (shapely), and
+F(u, v) = integral of J(s, v) ds from the cell's left edge u_c to u,
+
+    integral over the piece of J du dv = loop integral of F dv
+
+around the piece's boundary (exterior counter-clockwise, holes clockwise).
+Each boundary segment is split into pieces no longer than an eighth of the
+cell and integrated by Gauss-Legendre with ``n_boundary`` nodes; F at each
+node by Gauss-Legendre with ``n_inner`` nodes on [u_c, u]. Both integrands
+are smooth on their intervals, so the error falls geometrically with the
+number of nodes; the polygon itself is the region (how closely it follows
+curved trims is the sampler's business). All surface evaluations are one
+vectorised :meth:`NurbsSurface.derivatives` call per block of points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.nurbs import NurbsSurface
+from core.quadrature import gauss_legendre_01, span_breaks
+
+__all__ = ["region_polygon", "region_area", "region_bbox"]
+
+_BLOCK = 60_000  # points per surface evaluation (the basis gather takes ~0.5 kB a point)
+
+
+def region_polygon(loops):
+    """A valid shapely (Multi)Polygon of the region: outer loop ``loops[0]``
+    minus every further loop (holes)."""
+    import shapely
+
+    outer = shapely.make_valid(shapely.Polygon(np.asarray(loops[0], float)))
+    holes = [shapely.make_valid(shapely.Polygon(np.asarray(h, float))) for h in loops[1:] if len(h) >= 3]
+    region = outer
+    if holes:
+        region = shapely.difference(outer, shapely.union_all(holes))
+    return region
+
+
+def _polygons(geom):
+    """The polygons of a shapely geometry (a cut can give lines and points too)."""
+    import shapely
+
+    out = []
+    for part in shapely.get_parts(geom):
+        if part.geom_type == "Polygon" and not part.is_empty:
+            out.append(part)
+        elif part.geom_type in ("MultiPolygon", "GeometryCollection"):
+            out.extend(_polygons(part))
+    return out
+
+
+def _rings(poly) -> list[np.ndarray]:
+    """Closed rings (first point repeated at the end) of a polygon: exterior
+    counter-clockwise, interiors clockwise."""
+    from shapely.geometry.polygon import orient
+
+    p = orient(poly, 1.0)
+    return [np.asarray(p.exterior.coords)] + [np.asarray(r.coords) for r in p.interiors]
+
+
+def _jacobian(surface: NurbsSurface, uv: np.ndarray) -> np.ndarray:
+    out = np.empty(len(uv))
+    for k in range(0, len(uv), _BLOCK):
+        _, su, sv = surface.derivatives(uv[k:k + _BLOCK])
+        out[k:k + _BLOCK] = np.linalg.norm(np.cross(su, sv), axis=1)
+    return out
+
+
+def region_area(surface: NurbsSurface, loops, n_boundary: int = 6, n_inner: int = 10) -> float:
+    """Area on ``surface`` of the (u, v) region bounded by ``loops`` (outer
+    loop first, then holes; (n, 2) arrays, closed implicitly or explicitly).
+
+    Accurate to about 1e-12 relative for the polygon region (measured on
+    B-spline, rational and analytic faces); see the module docstring.
+    """
+    import shapely
+
+    region = region_polygon(loops)
+    if region.is_empty:
+        return 0.0
+    nu, nv = surface.shape
+    bu = span_breaks(surface.knots_u, surface.degree_u, nu)
+    bv = span_breaks(surface.knots_v, surface.degree_v, nv)
+    # only the cells the region's box touches (the loops are clipped to the domain)
+    x0, y0, x1, y1 = region.bounds
+    iu = np.arange(max(0, np.searchsorted(bu, x0, "right") - 1), min(len(bu) - 1, np.searchsorted(bu, x1, "left")))
+    iv = np.arange(max(0, np.searchsorted(bv, y0, "right") - 1), min(len(bv) - 1, np.searchsorted(bv, y1, "left")))
+    I, K = np.meshgrid(iu, iv, indexing="ij")
+    I, K = I.ravel(), K.ravel()
+    boxes = shapely.box(bu[I], bv[K], bu[I + 1], bv[K + 1])
+    pieces = shapely.intersection(region, boxes)
+
+    xb, wb = gauss_legendre_01(n_boundary)
+    xi, wi = gauss_legendre_01(n_inner)
+    starts, ends, left, hmax = [], [], [], []
+    for cell, piece in enumerate(pieces):
+        if piece.is_empty:
+            continue
+        size = max(bu[I[cell] + 1] - bu[I[cell]], bv[K[cell] + 1] - bv[K[cell]])
+        for poly in _polygons(piece):
+            for ring in _rings(poly):
+                a, b = ring[:-1], ring[1:]
+                moving = b[:, 1] != a[:, 1]  # segments with dv = 0 add nothing
+                starts.append(a[moving])
+                ends.append(b[moving])
+                left.append(np.full(int(moving.sum()), bu[I[cell]]))
+                hmax.append(np.full(int(moving.sum()), size / 8.0))
+    if not starts:
+        return 0.0
+    a, b = np.vstack(starts), np.vstack(ends)
+    uc, hmax = np.concatenate(left), np.concatenate(hmax)
+    # split long segments into pieces no longer than hmax
+    m = np.maximum(1, np.ceil(np.linalg.norm(b - a, axis=1) / hmax).astype(int))
+    seg = np.repeat(np.arange(len(a)), m)
+    k = np.arange(len(seg)) - np.repeat(np.cumsum(m) - m, m)
+    t0 = (k / m[seg])[:, None]
+    t1 = ((k + 1) / m[seg])[:, None]
+    pa = a[seg] + t0 * (b[seg] - a[seg])
+    pb = a[seg] + t1 * (b[seg] - a[seg])
+    uc, hmax = uc[seg], hmax[seg]
+    # short pieces (most of a densely sampled curve) need only two boundary nodes
+    short = np.linalg.norm(pb - pa, axis=1) <= hmax / 32.0
+    total = 0.0
+    for group, (x, w) in ((short, gauss_legendre_01(2)), (~short, (xb, wb))):
+        if np.any(group):
+            total += _green(surface, pa[group], pb[group], uc[group], x, w, xi, wi)
+    return float(total)
+
+
+def _green(surface, pa, pb, uc, xb, wb, xi, wi) -> float:
+    """Sum over segments pa -> pb of the integral of F dv, F from uc."""
+    # boundary nodes: (pieces, nodes)
+    u = pa[:, None, 0] + xb[None, :] * (pb[:, None, 0] - pa[:, None, 0])
+    v = pa[:, None, 1] + xb[None, :] * (pb[:, None, 1] - pa[:, None, 1])
+    dv = (pb[:, 1] - pa[:, 1])[:, None] * wb[None, :]
+    # inner nodes on [uc, u]: (pieces, nodes, n_inner)
+    width = u - uc[:, None]
+    s = uc[:, None, None] + width[:, :, None] * xi[None, None, :]
+    uv = np.column_stack([s.ravel(), np.broadcast_to(v[:, :, None], s.shape).ravel()])
+    J = _jacobian(surface, uv).reshape(s.shape)
+    F = width * np.einsum("pbi,i->pb", J, wi)
+    return float(np.sum(F * dv))
+
+
+def _densify(loops, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Every loop's closed polyline with segments longer than step cut into
+    equal pieces: (points, next) where next[i] is the index of the point
+    after point i along its loop."""
+    pts, nxt, base = [], [], 0
+    for loop in loops:
+        p = np.asarray(loop, float)
+        if len(p) > 1 and np.all(p[-1] == p[0]):
+            p = p[:-1]
+        q = np.roll(p, -1, axis=0)
+        m = np.maximum(1, np.ceil(np.linalg.norm(q - p, axis=1) / step).astype(int))
+        seg = np.repeat(np.arange(len(p)), m)
+        k = np.arange(len(seg)) - np.repeat(np.cumsum(m) - m, m)
+        t = (k / m[seg])[:, None]
+        d = p[seg] + t * (q[seg] - p[seg])
+        pts.append(d)
+        nxt.append(base + (np.arange(len(d)) + 1) % len(d))
+        base += len(d)
+    return np.vstack(pts), np.concatenate(nxt)
+
+
+def region_bbox(surface: NurbsSurface, loops) -> tuple:
+    """(xmin, ymin, zmin, xmax, ymax, zmax) of the surface over the (u, v)
+    region bounded by ``loops`` (outer loop first, then holes).
+
+    Each extreme is the better of the boundary's and the interior's: the
+    boundary polyline (long segments cut to 1/64 of the region's size) and a
+    48 x 48 grid of interior points are evaluated, then the best sample of
+    each is polished, along its two boundary segments by Brent's method and
+    inside by L-BFGS-B (kept only if it stays in the region). Agrees with
+    the analytic box of spheres and tori to about 1e-12.
+    """
+    import shapely
+    from scipy.optimize import minimize, minimize_scalar
+
+    region = region_polygon(loops)
+    x0, y0, x1, y1 = region.bounds
+    diag = float(np.hypot(x1 - x0, y1 - y0)) or 1.0
+    B, nxt = _densify(loops, diag / 64.0)
+    prv = np.empty_like(nxt)
+    prv[nxt] = np.arange(len(nxt))
+    U, V = np.meshgrid(np.linspace(x0, x1, 50)[1:-1], np.linspace(y0, y1, 50)[1:-1], indexing="ij")
+    grid = np.column_stack([U.ravel(), V.ravel()])
+    inner = grid[shapely.contains_xy(region, grid[:, 0], grid[:, 1])]
+    PB = surface.points(B)
+    PI = surface.points(inner) if len(inner) else np.empty((0, 3))
+    lo = np.minimum(PB.min(axis=0), PI.min(axis=0) if len(PI) else np.inf)
+    hi = np.maximum(PB.max(axis=0), PI.max(axis=0) if len(PI) else -np.inf)
+    dom = surface.domain
+    for k in range(3):
+        for sign in (1.0, -1.0):  # minimise sign * x_k: the lower end, then the upper
+            # along the boundary, on both segments at the best sample
+            i = int(np.argmin(sign * PB[:, k]))
+            for a, b in ((B[prv[i]], B[i]), (B[i], B[nxt[i]])):
+                r = minimize_scalar(lambda t: sign * surface.points(a + t * (b - a))[0, k],
+                                    bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-10})
+                value = sign * float(r.fun)
+                lo[k], hi[k] = (min(lo[k], value), hi[k]) if sign > 0 else (lo[k], max(hi[k], value))
+            if not len(PI):
+                continue
+
+            def f(x):
+                S, Su, Sv = surface.derivatives(x[None, :])
+                return sign * S[0, k], sign * np.array([Su[0, k], Sv[0, k]])
+
+            j = int(np.argmin(sign * PI[:, k]))
+            r = minimize(f, inner[j], jac=True, method="L-BFGS-B", bounds=[tuple(dom[0]), tuple(dom[1])],
+                         options={"ftol": 1e-15, "gtol": 1e-13, "maxiter": 200})
+            if shapely.contains_xy(region, r.x[0], r.x[1]):
+                value = sign * float(r.fun)
+                lo[k], hi[k] = (min(lo[k], value), hi[k]) if sign > 0 else (lo[k], max(hi[k], value))
+    return tuple(float(x) for x in np.r_[lo, hi])
