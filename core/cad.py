@@ -164,8 +164,8 @@ class CadFace:
         implicitly (its last point joins its first; no point repeats)
     loop_breaks : (e_k,) int arrays, per loop the index of the point where
         each edge starts (0 first): the corners
-    trimmed : False when the outer loop is the domain's rectangle and there
-        are no holes
+    trimmed : False when the outer loop is the domain's rectangle (within the
+        face's tolerance, at most 0.1 % of the domain) and there are no holes
     area : the face's area by Open CASCADE (``BRepGProp``), in units^2
     bbox : (xmin, ymin, zmin, xmax, ymax, zmax) of the face's region on the
         surface (:func:`core.uvregion.region_bbox`)
@@ -387,13 +387,26 @@ def _clean_loop(p: np.ndarray, breaks: np.ndarray, domain: np.ndarray) -> tuple[
     return p[keep], np.unique(np.maximum(new_index[breaks], 0))
 
 
-def _is_domain_rectangle(p: np.ndarray, domain: np.ndarray) -> bool:
-    """Whether a loop runs along the domain's boundary all the way round."""
+def _is_domain_rectangle(p: np.ndarray, domain: np.ndarray, eps: np.ndarray) -> bool:
+    """Whether a loop runs along the domain's boundary all the way round,
+    within eps = (eps_u, eps_v) in parameter units."""
     size = domain[:, 1] - domain[:, 0]
-    eps = 1e-9 * size
     on_edge = ((np.abs(p[:, 0] - domain[0, 0]) <= eps[0]) | (np.abs(p[:, 0] - domain[0, 1]) <= eps[0])
                | (np.abs(p[:, 1] - domain[1, 0]) <= eps[1]) | (np.abs(p[:, 1] - domain[1, 1]) <= eps[1]))
-    return bool(np.all(on_edge)) and abs(abs(_signed_area(p)) - size[0] * size[1]) <= 1e-9 * size[0] * size[1]
+    slack = 2.0 * (eps[0] * size[1] + eps[1] * size[0])
+    return bool(np.all(on_edge)) and abs(abs(_signed_area(p)) - size[0] * size[1]) <= slack
+
+
+def _uv_tolerance(surface: NurbsSurface, loop: np.ndarray, tolerance: float) -> np.ndarray:
+    """The face's 3D tolerance in parameter units along the loop (by the
+    median speeds |S_u|, |S_v| there), at least 1e-9 and at most 1e-3 of the
+    domain: a trim closer to the domain's edge than that trims nothing."""
+    size = surface.domain[:, 1] - surface.domain[:, 0]
+    _, su, sv = surface.derivatives(loop[:: max(1, len(loop) // 200)])
+    speed = np.array([np.median(np.linalg.norm(su, axis=1)), np.median(np.linalg.norm(sv, axis=1))])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eps = np.where(speed > 0, tolerance / speed, np.inf)
+    return np.clip(eps, 1e-9 * size, 1e-3 * size)
 
 
 def flip_u(degree_u: int, knots_u: np.ndarray, ctrlpts: np.ndarray, weights: np.ndarray, loops):
@@ -437,7 +450,8 @@ def _make_face(name: str, d: dict) -> CadFace:
         out_loops.append(p)
         out_breaks.append(b)
     loops_t, breaks_t = tuple(out_loops), tuple(out_breaks)
-    trimmed = len(loops_t) > 1 or not _is_domain_rectangle(loops_t[0], domain)
+    trimmed = len(loops_t) > 1 or not _is_domain_rectangle(
+        loops_t[0], domain, _uv_tolerance(surface, loops_t[0], float(d["tolerance"])))
     return CadFace(index=index, kind=d["kind"], surface=surface, loops_uv=loops_t, loop_breaks=breaks_t,
                    trimmed=trimmed, area=float(d["area"]), bbox=region_bbox(surface, loops_t),
                    tolerance=float(d["tolerance"]), trim_deviation=float(d["trim_deviation"]),
@@ -730,42 +744,20 @@ def _sample_curve(occ: _Occ, curve, t0: float, t1: float, tol: float, straight: 
 
 
 def _drop_collinear(pts: np.ndarray, eps: float) -> np.ndarray:
-    """Indices of pts without the interior points that lie within eps of the line
-    through their neighbours (a straight B-spline pcurve needs its two ends).
-    Works on runs: a point stays when any point of its run would be off the
-    chord of the run's ends by more than eps."""
+    """Indices of the points to keep: the two ends alone when every point lies
+    within eps of the chord between them, in order (a straight B-spline
+    pcurve, as the NURBS conversion makes of lines); all of them otherwise."""
     if len(pts) <= 2:
         return np.arange(len(pts))
-    keep = [0]
-    i = 0
-    n = len(pts)
-    while i < n - 1:
-        j = i + 1  # furthest point such that every point between lies on chord i..j
-        lo, hi = j, n - 1
-        # galloping search for the longest straight run from i
-        step = 1
-        while j + step <= hi and _straight(pts, i, j + step, eps):
-            j += step
-            step *= 2
-        while step > 1:
-            step //= 2
-            if j + step <= hi and _straight(pts, i, j + step, eps):
-                j += step
-        keep.append(j)
-        i = j
-    return np.array(keep)
-
-
-def _straight(pts: np.ndarray, i: int, j: int, eps: float) -> bool:
-    a, b = pts[i], pts[j]
-    mid = pts[i + 1:j]
-    d = b - a
+    a, d = pts[0], pts[-1] - pts[0]
     length = float(np.hypot(*d))
-    if length == 0.0:
-        return False
-    dist = np.abs(d[0] * (mid[:, 1] - a[1]) - d[1] * (mid[:, 0] - a[0])) / length
-    along = ((mid - a) @ d) / length**2
-    return bool(np.all(dist <= eps) and np.all(np.diff(np.r_[0.0, along, 1.0]) > 0))
+    if length > 0:
+        rel = pts - a
+        dist = np.abs(d[0] * rel[:, 1] - d[1] * rel[:, 0]) / length
+        along = rel @ d / length**2
+        if np.all(dist <= eps) and np.all(np.diff(along) > 0):
+            return np.array([0, len(pts) - 1])
+    return np.arange(len(pts))
 
 
 def _wire_loop(occ: _Occ, wire, face, tol: float) -> tuple[np.ndarray, np.ndarray, float, float]:

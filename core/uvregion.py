@@ -180,15 +180,17 @@ def region_bbox(surface: NurbsSurface, loops) -> tuple:
     """(xmin, ymin, zmin, xmax, ymax, zmax) of the surface over the (u, v)
     region bounded by ``loops`` (outer loop first, then holes).
 
-    Each extreme is the better of the boundary's and the interior's: the
+    Each extreme is the better of the boundary's and the interior's. The
     boundary polyline (long segments cut to 1/64 of the region's size) and a
-    48 x 48 grid of interior points are evaluated, then the best sample of
-    each is polished, along its two boundary segments by Brent's method and
-    inside by L-BFGS-B (kept only if it stays in the region). Agrees with
-    the analytic box of spheres and tori to about 1e-12.
+    48 x 48 grid of interior points are evaluated; then the best boundary
+    sample of each extreme is polished along its two segments (four rounds
+    of 17 points, each zooming 8-fold) and the best interior sample by Newton
+    steps on the coordinate's gradient (kept only where it stays in the
+    region and improves). All six extremes are polished together, a few
+    vectorised evaluations in all. Agrees with the analytic box of spheres
+    and tori to about 1e-12.
     """
     import shapely
-    from scipy.optimize import minimize, minimize_scalar
 
     region = region_polygon(loops)
     x0, y0, x1, y1 = region.bounds
@@ -200,30 +202,49 @@ def region_bbox(surface: NurbsSurface, loops) -> tuple:
     grid = np.column_stack([U.ravel(), V.ravel()])
     inner = grid[shapely.contains_xy(region, grid[:, 0], grid[:, 1])]
     PB = surface.points(B)
-    PI = surface.points(inner) if len(inner) else np.empty((0, 3))
-    lo = np.minimum(PB.min(axis=0), PI.min(axis=0) if len(PI) else np.inf)
-    hi = np.maximum(PB.max(axis=0), PI.max(axis=0) if len(PI) else -np.inf)
-    dom = surface.domain
-    for k in range(3):
-        for sign in (1.0, -1.0):  # minimise sign * x_k: the lower end, then the upper
-            # along the boundary, on both segments at the best sample
-            i = int(np.argmin(sign * PB[:, k]))
-            for a, b in ((B[prv[i]], B[i]), (B[i], B[nxt[i]])):
-                r = minimize_scalar(lambda t: sign * surface.points(a + t * (b - a))[0, k],
-                                    bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-10})
-                value = sign * float(r.fun)
-                lo[k], hi[k] = (min(lo[k], value), hi[k]) if sign > 0 else (lo[k], max(hi[k], value))
-            if not len(PI):
-                continue
+    coord = np.repeat(np.arange(3), 2)           # extreme e is of coordinate coord[e] ...
+    sign = np.tile([1.0, -1.0], 3)               # ... minimising sign[e] * x (min, then max)
+    best = np.min(sign[None, :] * PB[:, coord], axis=0)  # (6,) best values of sign * x
 
-            def f(x):
-                S, Su, Sv = surface.derivatives(x[None, :])
-                return sign * S[0, k], sign * np.array([Su[0, k], Sv[0, k]])
+    # along the boundary: both segments at each extreme's best sample
+    i = np.argmin(sign[None, :] * PB[:, coord], axis=0)
+    seg_a = np.concatenate([B[prv[i]], B[i]])    # (12, 2): 6 segments before, 6 after
+    seg_b = np.concatenate([B[i], B[nxt[i]]])
+    e12 = np.tile(np.arange(6), 2)
+    lo_t, hi_t = np.zeros(12), np.ones(12)
+    ts = np.linspace(0.0, 1.0, 17)
+    for _ in range(4):
+        t = lo_t[:, None] + (hi_t - lo_t)[:, None] * ts[None, :]        # (12, 17)
+        uv = seg_a[:, None, :] + t[..., None] * (seg_b - seg_a)[:, None, :]
+        X = surface.points(uv.reshape(-1, 2)).reshape(12, 17, 3)
+        f = sign[e12][:, None] * X[np.arange(12)[:, None], np.arange(17)[None, :], coord[e12][:, None]]
+        k = np.argmin(f, axis=1)
+        np.minimum.at(best, e12, f[np.arange(12), k])
+        width = (hi_t - lo_t) / 16.0
+        tk = t[np.arange(12), k]
+        lo_t, hi_t = np.maximum(0.0, tk - width), np.minimum(1.0, tk + width)
 
-            j = int(np.argmin(sign * PI[:, k]))
-            r = minimize(f, inner[j], jac=True, method="L-BFGS-B", bounds=[tuple(dom[0]), tuple(dom[1])],
-                         options={"ftol": 1e-15, "gtol": 1e-13, "maxiter": 200})
-            if shapely.contains_xy(region, r.x[0], r.x[1]):
-                value = sign * float(r.fun)
-                lo[k], hi[k] = (min(lo[k], value), hi[k]) if sign > 0 else (lo[k], max(hi[k], value))
-    return tuple(float(x) for x in np.r_[lo, hi])
+    # inside: Newton on the gradient of sign * x_k from the best grid point
+    if len(inner):
+        PI = surface.points(inner)
+        x = inner[np.argmin(sign[None, :] * PI[:, coord], axis=0)].copy()   # (6, 2)
+        dom = surface.domain
+        for _ in range(25):
+            ev = surface.evaluate(x, second=True, normals=False)
+            r = np.arange(6)
+            g = sign[:, None] * np.column_stack([ev.su[r, coord], ev.sv[r, coord]])
+            H = sign[:, None, None] * np.stack([
+                np.column_stack([ev.suu[r, coord], ev.suv[r, coord]]),
+                np.column_stack([ev.suv[r, coord], ev.svv[r, coord]])], axis=1)
+            det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] ** 2
+            ok = (det > 1e-14 * np.maximum(np.abs(H).max(axis=(1, 2)), 1e-300) ** 2) & (H[:, 0, 0] > 0)
+            step = np.zeros_like(x)
+            step[ok] = np.linalg.solve(H[ok], g[ok][..., None])[..., 0]
+            x = np.clip(x - step, dom[:, 0], dom[:, 1])
+            if not np.any(ok) or np.max(np.abs(step)) <= 1e-15 * diag:
+                break
+        inside = shapely.contains_xy(region, x[:, 0], x[:, 1])
+        f = sign * surface.points(x)[np.arange(6), coord]
+        best = np.where(inside, np.minimum(best, f), best)
+    value = sign * best
+    return tuple(float(v) for v in np.r_[value[0::2], value[1::2]])

@@ -203,6 +203,36 @@ def face_mixed_outer():
     return trimmed_face(s, [free, (arc, 0.0, math.pi)])
 
 
+def sticking_out_surface():
+    return bspline_surface(wavy_net(seed=5))
+
+
+STICKING_OUT = [(-0.004, -0.002), (1.003, -0.002), (1.003, 1.0), (-0.004, 1.0)]
+"""The outer loop of the sticking-out faces: the domain [0, 1]^2 grown by up
+to 0.4 % (the surface is extrapolated there)."""
+
+
+def _rectangle(corners):
+    return [segment2d(corners[i], corners[(i + 1) % 4]) for i in range(4)]
+
+
+def faces_sticking_out():
+    """Two faces whose outer loop sticks out of the surface's domain by a
+    fraction of a percent: one without holes (clipped, it is the domain
+    rectangle: untrimmed) and one with a circular hole."""
+    s = sticking_out_surface()
+    return [trimmed_face(s, _rectangle(STICKING_OUT)),
+            trimmed_face(s, _rectangle(STICKING_OUT), [[circle2d(0.5, 0.5, 0.2, clockwise=True)]])]
+
+
+def faces_clipped():
+    """The faces of faces_sticking_out() with the outer loop on the domain."""
+    s = sticking_out_surface()
+    domain = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+    return [trimmed_face(s, _rectangle(domain)),
+            trimmed_face(s, _rectangle(domain), [[circle2d(0.5, 0.5, 0.2, clockwise=True)]])]
+
+
 def face_rational_hole():
     """A rational B-spline face (a bent patch with weights != 1) with a hole."""
     nu, nv = 3, 5

@@ -72,6 +72,7 @@ def files(cf, tmp_path_factory):
         "mm.step": cf.write_step(cf.face_circle_hole(), d / "mm.step", unit="MM", schema="AP242DIS"),
         "metre.igs": cf.write_iges(cf.face_rational_hole(), d / "metre.igs", unit="M"),
         "curve.igs": cf.write_iges_curve_only(d / "curve.igs"),
+        "sticking.step": cf.write_step(cf.compound(*cf.faces_sticking_out()), d / "sticking.step"),
     }
     return out
 
@@ -292,7 +293,8 @@ def test_faces_kinds_and_flags(files, name):
 
 
 @needs_ocp
-@pytest.mark.parametrize("name", ["main.step", "main.igs", "main144.iges", "assembly.step", "placed.igs", "seam.stp"])
+@pytest.mark.parametrize("name", ["main.step", "main.igs", "main144.iges", "assembly.step", "placed.igs", "seam.stp",
+                                  "sticking.step"])
 def test_surface_agrees_with_occ(files, name):
     cad, occ = read(files, name), Occ(files[name])
     assert len(occ.faces) == len(cad.faces)
@@ -417,6 +419,30 @@ def test_seam_face_area(files, cf):
     rel = abs(region_area(f.surface, f.loops_uv) - halves) / halves
     _record("region area relative error", rel)
     assert rel <= 1e-9
+
+
+@needs_ocp
+def test_loops_sticking_out_are_clipped(files, cf):
+    """Outer loops 0.4 % outside the domain: clipped to it. Without holes the
+    face is then the whole surface (untrimmed); the areas are those of the
+    faces bounded by the domain itself."""
+    cad = read(files, "sticking.step")
+    assert len(cad.faces) == 2
+    occ = Occ.__new__(Occ)
+    want = sorted(occ.area(f) for f in cf.faces_clipped())
+    by_area = sorted(cad.faces, key=lambda f: region_area(f.surface, f.loops_uv))
+    for f, area in zip(by_area, want):
+        d = f.surface.domain
+        assert np.allclose(d, [[0, 1], [0, 1]])
+        outer = f.loops_uv[0]
+        assert outer.min(axis=0) == pytest.approx([0, 0], abs=0) and outer.max(axis=0) == pytest.approx([1, 1], abs=0)
+        # OCCT's reader moves trims that leave a B-spline's domain back onto it
+        # (by 1.6e-5 of the domain where the loop ran along the domain's edge)
+        # and raises the edge tolerances to ~0.3: the areas agree to that
+        rel = abs(region_area(f.surface, f.loops_uv) - area) / area
+        _record("sticking-out faces: area vs the faces clipped by hand", rel)
+        assert rel < 1e-5 and f.tolerance > 0.1
+    assert [f.trimmed for f in by_area] == [True, False]  # the holed face has the smaller area
 
 
 @needs_ocp
