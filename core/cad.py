@@ -29,9 +29,14 @@ In the child:
   analytic surfaces, and the trims no longer fit). Faces are taken in
   ``TopExp_Explorer`` order: an assembly that places one face several times
   gives one :class:`CadFace` per placement, with the placement applied.
+  When OCCT refuses the whole shape (it does for a periodic B-spline face
+  that crosses the end of its knot range), faces are converted one by one,
+  and a B-spline or Bezier face that still fails is used as it is.
 - The original face's surface type is the face's :attr:`CadFace.kind`; its
   area is ``BRepGProp`` surface properties of the original face (adaptive, to
-  1e-10 relative); its tolerance the largest of its edges' tolerances.
+  1e-10 relative); its tolerance the largest of its edges' tolerances, and
+  its trim deviation the largest distance measured between an edge's curve
+  on the face and its 3D curve.
 - A periodic B-spline is made non-periodic (``SetUNotPeriodic``) after its
   origin is moved, when needed, to where the face's loops begin, so that the
   loops lie in the domain.
@@ -45,7 +50,16 @@ Back in the caller, a reversed face (its normal is -Su x Sv) is flipped by
 u -> a + b - u on the knots, the control rows, the weights and the loops,
 so that Su x Sv is the face's normal; loops are clipped to the domain (they
 may stick out by a fraction of a percent), the outer loop is made
-counter-clockwise and the holes clockwise.
+counter-clockwise and the holes clockwise (it is already, after the flip;
+a file that says otherwise is believed on the loops, not on their sense).
+The box is :func:`core.uvregion.region_bbox` of the loops' region.
+
+Measured on the test files (tests/test_cad.py, OCP 8.0.1): the surfaces
+agree with OCCT's evaluation to 6e-14, the loops lie on OCCT's 3D edges as
+closely as the file's own pcurves do (within 0.94 of max(tolerance,
+trim deviation)), the polygon regions' areas agree with ``BRepGProp`` to
+2.4e-7 relative, and a small file takes about 1.6-2 s to read, most of it
+the child's start and OCP's import.
 
 Errors
 ------
@@ -102,9 +116,11 @@ DEFAULT_TIMEOUT = 120.0
 
 DEFAULT_CHORD_TOL = 1e-7
 """Largest distance of a loop chord from its curve, relative to the diagonal
-of the face's (u, v) box. Measured on the test faces: the polygon region's
-area then agrees with Open CASCADE's area of the face to about 1e-8
-(a circle hole takes about 1,100 points)."""
+of the face's (u, v) box. The polygon is inscribed in curved trims, so its
+region's area is off by about (2/3) chord_tol x perimeter / area (in (u, v));
+measured on the test faces: at most 2.4e-7 relative (a free-curve outer
+loop), 1.9e-7 for a disc. A circle across the face takes about 6,600 points,
+one of a fifth of it 2,500-5,000."""
 
 FAULT_ENV = "FLATWEAVE_CAD_FAULT"
 """Testing hook read by the child: ``abort`` (die by SIGABRT), ``hang``

@@ -27,7 +27,10 @@ from core.cad import (CadFileError, CadUnavailableError, INSTALL_HINT, cad_info,
 from core.errors import FlatweaveError, SettingsError
 from core.uvregion import region_area
 
-HAVE_OCP = importlib.util.find_spec("OCP") is not None
+try:
+    HAVE_OCP = importlib.util.find_spec("OCP") is not None
+except (ImportError, ValueError):  # ValueError: OCP blocked by sys.modules["OCP"] = None
+    HAVE_OCP = False
 needs_ocp = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
 
 BAD = Path(__file__).parent / "data" / "bad"
@@ -185,14 +188,17 @@ class Occ:
             ex.Next()
         return curves, np.array(verts)
 
-    def area(self, shape) -> float:
-        from OCP.BRepGProp import BRepGProp
-        from OCP.GProp import GProp_GProps
 
-        from tests.cadfiles import _static
-        props = GProp_GProps()
-        _static(BRepGProp, "SurfaceProperties")(shape, props, 1e-10)
-        return props.Mass()
+
+def occ_area(shape) -> float:
+    """BRepGProp's area of a shape (adaptive, to 1e-10 relative)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    from tests.cadfiles import _static
+    props = GProp_GProps()
+    _static(BRepGProp, "SurfaceProperties")(shape, props, 1e-10)
+    return props.Mass()
 
 
 def distance_to_edges(points: np.ndarray, curves, verts: np.ndarray) -> np.ndarray:
@@ -394,7 +400,7 @@ def test_region_area_agrees_with_brepgprop(files, name):
     worst = 0.0
     for f in cad.faces:
         ours = region_area(f.surface, f.loops_uv)
-        theirs = occ.area(occ.originals[f.index])
+        theirs = occ_area(occ.originals[f.index])
         assert f.area == pytest.approx(theirs, rel=1e-12)  # both BRepGProp to 1e-10
         worst = max(worst, abs(ours - theirs) / theirs)
     _record("region area relative error", worst)
@@ -414,8 +420,7 @@ def test_seam_face_area(files, cf):
     assert hi - lo == pytest.approx(6.5) and f.surface.domain[0, 1] - f.surface.domain[0, 0] == pytest.approx(8.0)
     from OCP.BRep import BRep_Tool
     s = cf._static(BRep_Tool, "Surface")(cf.face_periodic_bspline())
-    occ = Occ.__new__(Occ)
-    halves = sum(occ.area(BRepBuilderAPI_MakeFace(s, a, b, 0.0, 1.0, 1e-9).Face()) for a, b in ((5.5, 8.0), (0.0, 4.0)))
+    halves = sum(occ_area(BRepBuilderAPI_MakeFace(s, a, b, 0.0, 1.0, 1e-9).Face()) for a, b in ((5.5, 8.0), (0.0, 4.0)))
     rel = abs(region_area(f.surface, f.loops_uv) - halves) / halves
     _record("region area relative error", rel)
     assert rel <= 1e-9
@@ -428,8 +433,7 @@ def test_loops_sticking_out_are_clipped(files, cf):
     faces bounded by the domain itself."""
     cad = read(files, "sticking.step")
     assert len(cad.faces) == 2
-    occ = Occ.__new__(Occ)
-    want = sorted(occ.area(f) for f in cf.faces_clipped())
+    want = sorted(occ_area(f) for f in cf.faces_clipped())
     by_area = sorted(cad.faces, key=lambda f: region_area(f.surface, f.loops_uv))
     for f, area in zip(by_area, want):
         d = f.surface.domain
@@ -570,6 +574,61 @@ def test_small_file_reads_quickly(files):
     elapsed = time.perf_counter() - t
     _record("read seconds (small file, child start included)", elapsed)
     assert elapsed < 8.0  # ~1.5-2.5 s here; the margin is for a loaded machine
+
+
+# ====================================================================== without Open CASCADE
+def _domain_loop(surface) -> np.ndarray:
+    (u0, u1), (v0, v1) = surface.domain
+    return np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]])
+
+
+@pytest.mark.parametrize("name", ["cone", "octant", "dome", "saddle", "half_cylinder", "garment"])
+def test_region_area_of_the_whole_domain(name):
+    """The domain as a region: the examples' independent reference areas."""
+    from core.examples import example_info, load_example
+    surface, info = load_example(name), example_info(name)
+    assert region_area(surface, [_domain_loop(surface)]) == pytest.approx(info["reference_area"], rel=1e-10)
+
+
+def test_region_area_and_box_of_flat_polygons():
+    """A flat patch x = 2u, y = 3v: area = 6 x polygon area, holes out."""
+    from core.nurbs import NurbsSurface
+    from core.uvregion import region_bbox
+    P = np.array([[[0, 0, 1.0], [0, 3, 1.0]], [[2, 0, 1.0], [2, 3, 1.0]]])
+    s = NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], P)
+    outer = np.array([[0.1, 0.1], [0.9, 0.1], [0.9, 0.8], [0.1, 0.8]])
+    hole = np.array([[0.3, 0.3], [0.3, 0.5], [0.5, 0.5], [0.5, 0.3]])  # clockwise
+    tri = np.array([[0.6, 0.2], [0.7, 0.6], [0.8, 0.2]])[::-1]
+    want = 6.0 * (0.8 * 0.7 - 0.04 - 0.5 * 0.2 * 0.4)
+    assert region_area(s, [outer, hole, tri]) == pytest.approx(want, rel=1e-13)
+    assert region_area(s, [outer[::-1], hole[::-1], tri]) == pytest.approx(want, rel=1e-13)  # any sense
+    assert np.allclose(region_bbox(s, [outer, hole]), [0.2, 0.3, 1.0, 1.8, 2.4, 1.0], atol=1e-13)
+
+
+def test_region_box_of_the_octant():
+    from core.examples import load_example
+    from core.uvregion import region_bbox
+    s = load_example("octant")
+    assert np.allclose(region_bbox(s, [_domain_loop(s)]), [0, 0, 0, 1, 1, 1], atol=1e-12)
+
+
+def test_loop_helpers():
+    """Reversal keeps point 0 and maps the corners; cleaning clips to the
+    domain and drops repeats; flip_u mirrors knots, rows and loops."""
+    from core.cad import _clean_loop, _reverse_loop, flip_u
+    p = np.array([[0, 0], [1, 0], [2, 0], [2, 1], [1, 1], [0, 1.0]])
+    q, b = _reverse_loop(p, np.array([0, 2, 3, 5]))
+    assert np.array_equal(q, p[[0, 5, 4, 3, 2, 1]]) and list(b) == [0, 1, 3, 4]
+    assert all(np.array_equal(q[i], p[j]) for i, j in zip(b, [0, 5, 3, 2]))  # corners stay corners
+    dom = np.array([[0.0, 2.0], [0.0, 1.0]])
+    r, b = _clean_loop(np.array([[-0.01, 0], [0, 0], [2.003, -0.002], [2, 1], [0, 1], [-0.01, 0]]),
+                       np.array([0, 2, 3]), dom)
+    assert np.array_equal(r, [[0, 0], [2, 0], [2, 1], [0, 1]]) and list(b) == [0, 1, 2]
+    knots = np.array([0, 0, 0, 0.3, 1, 1, 1.0])
+    ctrl = np.arange(4 * 2 * 3, dtype=float).reshape(4, 2, 3)
+    k2, c2, w2, (l2,) = flip_u(2, knots, ctrl, np.ones((4, 2)), [np.array([[0.25, 0.5]])])
+    assert np.allclose(k2, [0, 0, 0, 0.7, 1, 1, 1]) and np.array_equal(c2, ctrl[::-1])
+    assert np.allclose(l2, [[0.75, 0.5]])
 
 
 # ====================================================================== bad input
