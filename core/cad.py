@@ -670,7 +670,9 @@ def _bspline(occ: _Occ, face, uv_box, kind: str) -> dict:
             s = None
         if not isinstance(s, Geom_BSplineSurface):
             raise CadFileError(f"the {kind} surface could not be converted to NURBS")
-    s = Geom_BSplineSurface(s)  # a copy: the shape's own surface stays as it is
+    s = s.Copy()  # the shape's own surface stays as it is (OCP gives the copy its own type)
+    if not isinstance(s, Geom_BSplineSurface):
+        raise CadFileError(f"the copy of the {kind} surface is not a B-spline")
     shifts = {}
     for d, lo, hi in (("U", uv_box[0], uv_box[1]), ("V", uv_box[2], uv_box[3])):
         shifts[d] = 0.0
@@ -703,13 +705,15 @@ def _full_knots(values, mults) -> np.ndarray:
 
 def _surface_arrays(s) -> dict:
     nu, nv = s.NbUPoles(), s.NbVPoles()
+    rational = bool(s.IsURational() or s.IsVRational())
     P = np.empty((nu, nv, 3))
-    W = np.empty((nu, nv))
+    W = np.ones((nu, nv))
     for i in range(nu):
         for j in range(nv):
             p = s.Pole(i + 1, j + 1)
             P[i, j] = (p.X(), p.Y(), p.Z())
-            W[i, j] = s.Weight(i + 1, j + 1)
+            if rational:  # (OCCT 7.9 answers 0 for a polynomial surface made non-periodic)
+                W[i, j] = s.Weight(i + 1, j + 1)
     ku = _full_knots([s.UKnot(i) for i in range(1, s.NbUKnots() + 1)],
                      [s.UMultiplicity(i) for i in range(1, s.NbUKnots() + 1)])
     kv = _full_knots([s.VKnot(i) for i in range(1, s.NbVKnots() + 1)],
