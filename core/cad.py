@@ -287,7 +287,9 @@ def _sniff(path: Path, fmt: str) -> None:
             raise CadFileError(f"{name}: the STEP file is truncated (no END-ISO-10303-21; at its end)")
     else:
         first = head.lstrip(b"\r\n").split(b"\n", 1)[0].rstrip(b"\r")
-        if len(first) < 73 or first[72:73] not in (b"S", b"G", b"C", b"B"):
+        if len(first) >= 73 and first[72:73] == b"B":
+            raise CadFileError(f"{name}: binary IGES files cannot be read; save it as ASCII IGES")
+        if len(first) < 73 or first[72:73] not in (b"S", b"G", b"C"):
             raise CadFileError(f"{name}: not an IGES file (its first line has no section letter in column 73)")
 
 
@@ -330,6 +332,10 @@ def _run_child(path: Path, fmt: str, chord_tol: float, timeout: float) -> dict:
             proc.communicate()
             raise CadFileError(f"{path.name}: Open CASCADE took longer than {timeout:g} s to read the file; "
                                f"stopped (set FLATWEAVE_CAD_TIMEOUT for more)") from None
+        except BaseException:  # interrupted (Ctrl-C, a GUI cancelling): no child left behind
+            proc.kill()
+            proc.communicate()
+            raise
         if out.exists() and proc.returncode == 0:
             with open(out, "rb") as fh:
                 result = pickle.load(fh)

@@ -95,9 +95,10 @@ _READS: dict[str, object] = {}
 
 def read(files, name: str):
     """core.cad's reading of a test file (each file read once per session)."""
-    if name not in _READS:
-        _READS[name] = read_cad_faces(files[name])
-    return _READS[name]
+    key = str(files[name])
+    if key not in _READS:
+        _READS[key] = read_cad_faces(files[name])
+    return _READS[key]
 
 
 # ---------------------------------------------------------------------- the oracle
