@@ -79,8 +79,11 @@ class Files(QObject):
 
     # ------------------------------------------------------------------ open
     def open_file(self, path: str | Path) -> bool:
-        """Open a project (.flatweave) or a surface file; on failure show the error, keep the document."""
+        """Open a project (.flatweave) or a surface file; on failure show the error, keep the document.
+        Unsaved work is asked about first (:meth:`may_replace`); False if the user keeps it."""
         path = Path(path)
+        if not self.may_replace(f"opening {path.name}"):
+            return False
         try:
             opened = open_path(path)
             if opened.project is not None:
@@ -95,16 +98,23 @@ class Files(QObject):
         return True
 
     def open_example(self, name: str) -> bool:
-        """Open a bundled example with its recommended spacing and units."""
+        """Open a bundled example with its recommended spacing and units (asking about unsaved work first)."""
         try:
             info = example_info(name)
+        except (FlatweaveError, OSError) as exc:
+            self.window.show_error(f"Cannot open example {name}: {exc}")
+            return False
+        title = info.get("title") or name
+        if not self.may_replace(f"opening the example {name}"):
+            return False
+        try:
             opened = open_path(example_path(name))
         except (FlatweaveError, OSError) as exc:
             self.window.show_error(f"Cannot open example {name}: {exc}")
             return False
         self.window.set_surface(opened.surface, opened.path, spacing=opened.spacing,
                                 units=example_units(opened.units))
-        self._status(f"Opened the example {info.get('title') or name}", 5000)
+        self._status(f"Opened the example {title}", 5000)
         return True
 
     def fill_examples_menu(self, menu) -> None:
@@ -165,15 +175,31 @@ class Files(QObject):
         self._status(f"Saved {path}", 5000)
         return True
 
-    def confirm_close(self) -> bool:
-        """Ask what to do with unsaved work: Save (and close if it saved), Discard, or Cancel."""
+    def ask_to_save(self, doing: str) -> bool:
+        """Ask what to do with the document's unsaved work before ``doing``
+        ("closing", "opening cone"): Save (True only if it saved; a failed or
+        cancelled save is False), Discard (True) or Cancel (False)."""
         buttons = QMessageBox.StandardButton
         answer = QMessageBox.question(
-            self.window, "flatweave", f"Save the changes to {self.window.document.project.name} before closing?",
+            self.window, "flatweave", f"Save the changes to {self.window.document_name} before {doing}?",
             buttons.Save | buttons.Discard | buttons.Cancel, buttons.Save)
         if answer == buttons.Save:
             return self.save()
         return answer == buttons.Discard
+
+    def confirm_close(self) -> bool:
+        """Ask what to do with unsaved work: Save (and close if it saved), Discard, or Cancel."""
+        return self.ask_to_save("closing")
+
+    def may_replace(self, doing: str) -> bool:
+        """May the document be replaced (by ``doing``: an open, an example, a
+        recovery)? Always when nothing would be lost or the window does not ask
+        (``window.confirm_close``, the launcher's and not the tests' default);
+        otherwise the answer to :meth:`ask_to_save`."""
+        w = self.window
+        if not w.confirm_close or w.document is None or not w.document.unsaved_work:
+            return True
+        return self.ask_to_save(doing)
 
     # ------------------------------------------------------------------ autosave and recovery
     def autosave(self) -> Future | None:
@@ -219,9 +245,8 @@ class Files(QObject):
         box.addButton("Later", QMessageBox.ButtonRole.RejectRole)
         box.setDefaultButton(recover)
         box.setWindowModality(Qt.WindowModality.NonModal)
-        box.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
 
-        def answered(_result):
+        def answered(_result):  # deleted at its end, not on close: recover may ask a (modal) question first
             clicked = box.clickedButton()
             self.recovery_box = None
             if clicked is recover:
@@ -233,6 +258,7 @@ class Files(QObject):
                 offered.release()
             if rest and clicked in (recover, discard):
                 QTimer.singleShot(0, lambda: self.check_recovery(folder))
+            box.deleteLater()
 
         box.finished.connect(answered)
         self.recovery_box = box
@@ -242,7 +268,11 @@ class Files(QObject):
     def recover(self, orphan: Orphan) -> bool:
         """Open ``orphan``'s autosave as the document (unsaved; Save writes it
         where it was saved before), then delete the recovery file once this
-        session's own autosave holds the work."""
+        session's own autosave holds the work. Unsaved work in the open
+        document is asked about first; kept, the offer stays for later (False)."""
+        if not self.may_replace(f"recovering the autosaved {orphan.name}"):
+            orphan.release()
+            return False
         try:
             project = orphan.load()
         except FlatweaveError as exc:

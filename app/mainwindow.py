@@ -40,7 +40,7 @@ from app.files import Files
 from app.panels import MetricsPanel, SettingsPanel
 from app.plot import EnergyPlot
 from app.presenter import Presenter
-from app.runcontrol import RunControl
+from app.runcontrol import NO_DOCUMENT, RunControl
 from app.tooling import TOOLS, ToolControl
 from app.view2d import PatternView
 from app.view3d import SurfaceView
@@ -106,7 +106,7 @@ class MainWindow(QMainWindow):
         self.settings_panel = SettingsPanel(self)
         self.dart_panel = DartPanel(self)
         self.energy_plot = EnergyPlot(self)
-        self.progress = QLabel("Open a surface or pick an example, then Run.", self)
+        self.progress = QLabel(NO_DOCUMENT, self)
         self.progress.setWordWrap(True)
         self._hover_label = QLabel(self)
         self._name_label = QLabel(self)
@@ -212,8 +212,8 @@ class MainWindow(QMainWindow):
         if doc is None:
             self.setWindowTitle("flatweave")
             return
-        name = doc.path.name if doc.path is not None else self.surface_name
-        self.setWindowTitle(f"flatweave - {name}{' *' if doc.dirty else ''}")
+        # "*": work that would be lost, not merely "never saved" (an untouched example has none)
+        self.setWindowTitle(f"flatweave - {self.document_name}{' *' if doc.unsaved_work else ''}")
 
     # ------------------------------------------------------------------ the document
     @property
@@ -223,6 +223,16 @@ class MainWindow(QMainWindow):
     @property
     def surface(self) -> NurbsSurface | None:
         return None if self.document is None else self.document.project.surface
+
+    @property
+    def document_name(self) -> str | None:
+        """What the title and the save question call the document: its file's
+        name (``saddle.flatweave``, or the surface file it was opened from),
+        else the project's name."""
+        doc = self.document
+        if doc is None:
+            return None
+        return doc.path.name if doc.path is not None else doc.project.name
 
     @property
     def surface_name(self) -> str | None:
@@ -252,7 +262,7 @@ class MainWindow(QMainWindow):
         aspects = aspects_of(change.aspects)  # core's strings become Aspect flags here, once
         self.runs.before_change(change.cause, aspects)
         self.presenter.document_changed(project, change.cause, aspects)
-        self.runs.after_change(project, change.cause, aspects)
+        self.runs.after_change(project, change.cause, aspects, change.label)
         self.update_actions()
         self._update_title()
 
