@@ -14,6 +14,7 @@ from __future__ import annotations
 import sys
 import traceback
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import fields, replace
 from pathlib import Path
 
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
@@ -26,11 +27,22 @@ from core.project import PROJECT_SUFFIX, UNITS, Project
 from core.recovery import Orphan, Session, find_orphans, save_with_backups
 from core.readers import dialog_filter, open_path, reader_for
 
+from app.actions import view_choices
 from app.worker import one_line
 
-__all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS"]
+__all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS", "STORES_VIEW", "stored_view"]
 
 AUTOSAVE_MS = 60_000  # the document is autosaved this often when it has changed (and after each solve)
+
+STORES_VIEW = "view" in {f.name for f in fields(Project)}
+"""The project file keeps the window's view choices (``Project.view``, saved in
+the file's "display" entry). Until core has that field the window saves and
+restores nothing of its view (this flag is the one place that knows)."""
+
+
+def stored_view(project: Project) -> dict:
+    """The view choices saved with ``project`` ({} when none are)."""
+    return dict(getattr(project, "view", None) or ())
 
 
 def open_filter() -> str:
@@ -164,7 +176,7 @@ class Files(QObject):
         if path.suffix.lower() != PROJECT_SUFFIX:
             path = path.with_name(path.name + PROJECT_SUFFIX)
         try:
-            save_with_backups(doc.project, path)
+            save_with_backups(self.as_saved(doc.project), path)
         except Exception as exc:  # any failure is said, in one line; the document stays unsaved (dirty)
             if not isinstance(exc, FlatweaveError):  # a bug, not a user error: keep its traceback
                 traceback.print_exc(file=sys.stderr)
@@ -186,6 +198,14 @@ class Files(QObject):
         if answer == buttons.Save:
             return self.save()
         return answer == buttons.Discard
+
+    def as_saved(self, project: Project) -> Project:
+        """``project`` as a file keeps it: with the window's view choices (strain
+        or shear, the springs shown, ...). They are view state, not edits: no
+        undo step, no "*"; they are written whenever the project is."""
+        if not STORES_VIEW:
+            return project
+        return replace(project, view=tuple(sorted(view_choices(self.window.actions).items())))
 
     def confirm_close(self) -> bool:
         """Ask what to do with unsaved work: Save (and close if it saved), Discard, or Cancel."""
@@ -212,7 +232,7 @@ class Files(QObject):
             return None
         self._autosaved_revision = doc.revision
         if doc.unsaved_work:
-            self.last_autosave = self._autosaver.submit(self._write_recovery, doc.project, doc.path)
+            self.last_autosave = self._autosaver.submit(self._write_recovery, self.as_saved(doc.project), doc.path)
         else:
             self.last_autosave = self._autosaver.submit(self.session.clear)
         return self.last_autosave

@@ -32,11 +32,11 @@ from core.errors import FlatweaveError
 from core.nurbs import NurbsSurface
 from core.project import Project, new_project
 
-from app.actions import UiState, build_actions, build_menus, build_toolbar, update_actions
+from app.actions import UiState, build_actions, build_menus, build_toolbar, show_view_choices, update_actions
 from app.aspects import aspects_of
 from app.dartpanel import DartPanel
 from app.exporting import Exports
-from app.files import Files
+from app.files import Files, stored_view
 from app.panels import MetricsPanel, SettingsPanel
 from app.plot import EnergyPlot
 from app.presenter import Presenter
@@ -96,7 +96,8 @@ class MainWindow(QMainWindow):
         self.last_error: str | None = None  # the last error shown, one line
         self.error_box: QMessageBox | None = None
         self.last_hint: str | None = None  # the last hint a tool gave (also in the status bar)
-        self.confirm_close = False  # ask before closing with unsaved work (the launcher turns it on)
+        # ask before closing, opening or recovering over unsaved work (the launcher turns it on)
+        self.confirm_close = False
         self._unsubscribe = None
         self._shown = False
 
@@ -240,8 +241,10 @@ class MainWindow(QMainWindow):
 
     def set_project(self, project: Project, path: str | Path | None = None, saved: bool = True) -> None:
         """Make ``project`` the document (a new history); any run is abandoned.
-        ``saved=False``: it is not what ``path`` holds (a recovered autosave)."""
+        ``saved=False``: it is not what ``path`` holds (a recovered autosave).
+        The view choices saved with it (strain or shear, ...) are shown."""
         self.runs.abandon()
+        show_view_choices(self.actions, stored_view(project))
         if self.document is None:
             self.document = Document(project, path)
             if not saved:
