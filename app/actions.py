@@ -16,7 +16,7 @@ from PySide6.QtGui import QAction, QActionGroup, QKeySequence
 from app.tooling import TOOLS
 
 __all__ = ["ActionSpec", "ACTIONS", "MENUS", "UiState", "build_actions", "build_menus",
-           "build_toolbar", "update_actions"]
+           "build_toolbar", "update_actions", "view_choices", "show_view_choices"]
 
 Keys = QKeySequence.StandardKey
 
@@ -243,3 +243,36 @@ def update_actions(actions: dict[str, QAction], state: UiState, specs=ACTIONS) -
             a.blockSignals(True)
             a.setChecked(state.tools.checked(spec.tool))
             a.blockSignals(False)
+
+
+def _view_specs(specs=ACTIONS):
+    return [s for s in specs if s.option is not None and s.tool is None]
+
+
+def view_choices(actions: dict[str, QAction], specs=ACTIONS) -> dict[str, object]:
+    """The view choices the actions hold ({"mode": "shear", "weft": True, ...}: the
+    checkable view actions' ViewOptions fields), as a project file keeps them."""
+    out: dict[str, object] = {}
+    for spec in _view_specs(specs):
+        on = actions[spec.key].isChecked()
+        if spec.value is None:
+            out[spec.option] = on
+        elif on:
+            out[spec.option] = spec.value
+    return out
+
+
+def show_view_choices(actions: dict[str, QAction], choices, specs=ACTIONS) -> None:
+    """Check the view actions for ``choices`` (a mapping as :func:`view_choices`
+    makes; missing or unknown entries leave an action as it is). The actions'
+    toggles set the views' options, so the views and the toolbar follow."""
+    choices = dict(choices)
+    for spec in _view_specs(specs):
+        if spec.option not in choices:
+            continue
+        value = choices[spec.option]
+        if spec.value is None:
+            if isinstance(value, bool):
+                actions[spec.key].setChecked(value)
+        elif value == spec.value:
+            actions[spec.key].setChecked(True)  # the exclusive group unchecks the others

@@ -14,6 +14,7 @@ from __future__ import annotations
 import sys
 import traceback
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import fields, replace
 from pathlib import Path
 
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
@@ -26,11 +27,22 @@ from core.project import PROJECT_SUFFIX, UNITS, Project
 from core.recovery import Orphan, Session, find_orphans, save_with_backups
 from core.readers import dialog_filter, open_path, reader_for
 
+from app.actions import view_choices
 from app.worker import one_line
 
-__all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS"]
+__all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS", "STORES_VIEW", "stored_view"]
 
 AUTOSAVE_MS = 60_000  # the document is autosaved this often when it has changed (and after each solve)
+
+STORES_VIEW = "view" in {f.name for f in fields(Project)}
+"""The project file keeps the window's view choices (``Project.view``, saved in
+the file's "display" entry). Until core has that field the window saves and
+restores nothing of its view (this flag is the one place that knows)."""
+
+
+def stored_view(project: Project) -> dict:
+    """The view choices saved with ``project`` ({} when none are)."""
+    return dict(getattr(project, "view", None) or ())
 
 
 def open_filter() -> str:
@@ -79,8 +91,11 @@ class Files(QObject):
 
     # ------------------------------------------------------------------ open
     def open_file(self, path: str | Path) -> bool:
-        """Open a project (.flatweave) or a surface file; on failure show the error, keep the document."""
+        """Open a project (.flatweave) or a surface file; on failure show the error, keep the document.
+        Unsaved work is asked about first (:meth:`may_replace`); False if the user keeps it."""
         path = Path(path)
+        if not self.may_replace(f"opening {path.name}"):
+            return False
         try:
             opened = open_path(path)
             if opened.project is not None:
@@ -95,16 +110,23 @@ class Files(QObject):
         return True
 
     def open_example(self, name: str) -> bool:
-        """Open a bundled example with its recommended spacing and units."""
+        """Open a bundled example with its recommended spacing and units (asking about unsaved work first)."""
         try:
             info = example_info(name)
+        except (FlatweaveError, OSError) as exc:
+            self.window.show_error(f"Cannot open example {name}: {exc}")
+            return False
+        title = info.get("title") or name
+        if not self.may_replace(f"opening the example {name}"):
+            return False
+        try:
             opened = open_path(example_path(name))
         except (FlatweaveError, OSError) as exc:
             self.window.show_error(f"Cannot open example {name}: {exc}")
             return False
         self.window.set_surface(opened.surface, opened.path, spacing=opened.spacing,
                                 units=example_units(opened.units))
-        self._status(f"Opened the example {info.get('title') or name}", 5000)
+        self._status(f"Opened the example {title}", 5000)
         return True
 
     def fill_examples_menu(self, menu) -> None:
@@ -154,7 +176,7 @@ class Files(QObject):
         if path.suffix.lower() != PROJECT_SUFFIX:
             path = path.with_name(path.name + PROJECT_SUFFIX)
         try:
-            save_with_backups(doc.project, path)
+            save_with_backups(self.as_saved(doc.project), path)
         except Exception as exc:  # any failure is said, in one line; the document stays unsaved (dirty)
             if not isinstance(exc, FlatweaveError):  # a bug, not a user error: keep its traceback
                 traceback.print_exc(file=sys.stderr)
@@ -165,15 +187,39 @@ class Files(QObject):
         self._status(f"Saved {path}", 5000)
         return True
 
-    def confirm_close(self) -> bool:
-        """Ask what to do with unsaved work: Save (and close if it saved), Discard, or Cancel."""
+    def ask_to_save(self, doing: str) -> bool:
+        """Ask what to do with the document's unsaved work before ``doing``
+        ("closing", "opening cone"): Save (True only if it saved; a failed or
+        cancelled save is False), Discard (True) or Cancel (False)."""
         buttons = QMessageBox.StandardButton
         answer = QMessageBox.question(
-            self.window, "flatweave", f"Save the changes to {self.window.document.project.name} before closing?",
+            self.window, "flatweave", f"Save the changes to {self.window.document_name} before {doing}?",
             buttons.Save | buttons.Discard | buttons.Cancel, buttons.Save)
         if answer == buttons.Save:
             return self.save()
         return answer == buttons.Discard
+
+    def as_saved(self, project: Project) -> Project:
+        """``project`` as a file keeps it: with the window's view choices (strain
+        or shear, the springs shown, ...). They are view state, not edits: no
+        undo step, no "*"; they are written whenever the project is."""
+        if not STORES_VIEW:
+            return project
+        return replace(project, view=tuple(sorted(view_choices(self.window.actions).items())))
+
+    def confirm_close(self) -> bool:
+        """Ask what to do with unsaved work: Save (and close if it saved), Discard, or Cancel."""
+        return self.ask_to_save("closing")
+
+    def may_replace(self, doing: str) -> bool:
+        """May the document be replaced (by ``doing``: an open, an example, a
+        recovery)? Always when nothing would be lost or the window does not ask
+        (``window.confirm_close``, the launcher's and not the tests' default);
+        otherwise the answer to :meth:`ask_to_save`."""
+        w = self.window
+        if not w.confirm_close or w.document is None or not w.document.unsaved_work:
+            return True
+        return self.ask_to_save(doing)
 
     # ------------------------------------------------------------------ autosave and recovery
     def autosave(self) -> Future | None:
@@ -186,7 +232,7 @@ class Files(QObject):
             return None
         self._autosaved_revision = doc.revision
         if doc.unsaved_work:
-            self.last_autosave = self._autosaver.submit(self._write_recovery, doc.project, doc.path)
+            self.last_autosave = self._autosaver.submit(self._write_recovery, self.as_saved(doc.project), doc.path)
         else:
             self.last_autosave = self._autosaver.submit(self.session.clear)
         return self.last_autosave
@@ -219,9 +265,8 @@ class Files(QObject):
         box.addButton("Later", QMessageBox.ButtonRole.RejectRole)
         box.setDefaultButton(recover)
         box.setWindowModality(Qt.WindowModality.NonModal)
-        box.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
 
-        def answered(_result):
+        def answered(_result):  # deleted at its end, not on close: recover may ask a (modal) question first
             clicked = box.clickedButton()
             self.recovery_box = None
             if clicked is recover:
@@ -233,6 +278,7 @@ class Files(QObject):
                 offered.release()
             if rest and clicked in (recover, discard):
                 QTimer.singleShot(0, lambda: self.check_recovery(folder))
+            box.deleteLater()
 
         box.finished.connect(answered)
         self.recovery_box = box
@@ -242,7 +288,11 @@ class Files(QObject):
     def recover(self, orphan: Orphan) -> bool:
         """Open ``orphan``'s autosave as the document (unsaved; Save writes it
         where it was saved before), then delete the recovery file once this
-        session's own autosave holds the work."""
+        session's own autosave holds the work. Unsaved work in the open
+        document is asked about first; kept, the offer stays for later (False)."""
+        if not self.may_replace(f"recovering the autosaved {orphan.name}"):
+            orphan.release()
+            return False
         try:
             project = orphan.load()
         except FlatweaveError as exc:

@@ -32,15 +32,15 @@ from core.errors import FlatweaveError
 from core.nurbs import NurbsSurface
 from core.project import Project, new_project
 
-from app.actions import UiState, build_actions, build_menus, build_toolbar, update_actions
+from app.actions import UiState, build_actions, build_menus, build_toolbar, show_view_choices, update_actions
 from app.aspects import aspects_of
 from app.dartpanel import DartPanel
 from app.exporting import Exports
-from app.files import Files
+from app.files import Files, stored_view
 from app.panels import MetricsPanel, SettingsPanel
 from app.plot import EnergyPlot
 from app.presenter import Presenter
-from app.runcontrol import RunControl
+from app.runcontrol import NO_DOCUMENT, RunControl
 from app.tooling import TOOLS, ToolControl
 from app.view2d import PatternView
 from app.view3d import SurfaceView
@@ -96,7 +96,8 @@ class MainWindow(QMainWindow):
         self.last_error: str | None = None  # the last error shown, one line
         self.error_box: QMessageBox | None = None
         self.last_hint: str | None = None  # the last hint a tool gave (also in the status bar)
-        self.confirm_close = False  # ask before closing with unsaved work (the launcher turns it on)
+        # ask before closing, opening or recovering over unsaved work (the launcher turns it on)
+        self.confirm_close = False
         self._unsubscribe = None
         self._shown = False
 
@@ -106,7 +107,7 @@ class MainWindow(QMainWindow):
         self.settings_panel = SettingsPanel(self)
         self.dart_panel = DartPanel(self)
         self.energy_plot = EnergyPlot(self)
-        self.progress = QLabel("Open a surface or pick an example, then Run.", self)
+        self.progress = QLabel(NO_DOCUMENT, self)
         self.progress.setWordWrap(True)
         self._hover_label = QLabel(self)
         self._name_label = QLabel(self)
@@ -212,8 +213,8 @@ class MainWindow(QMainWindow):
         if doc is None:
             self.setWindowTitle("flatweave")
             return
-        name = doc.path.name if doc.path is not None else self.surface_name
-        self.setWindowTitle(f"flatweave - {name}{' *' if doc.dirty else ''}")
+        # "*": work that would be lost, not merely "never saved" (an untouched example has none)
+        self.setWindowTitle(f"flatweave - {self.document_name}{' *' if doc.unsaved_work else ''}")
 
     # ------------------------------------------------------------------ the document
     @property
@@ -225,13 +226,25 @@ class MainWindow(QMainWindow):
         return None if self.document is None else self.document.project.surface
 
     @property
+    def document_name(self) -> str | None:
+        """What the title and the save question call the document: its file's
+        name (``saddle.flatweave``, or the surface file it was opened from),
+        else the project's name."""
+        doc = self.document
+        if doc is None:
+            return None
+        return doc.path.name if doc.path is not None else doc.project.name
+
+    @property
     def surface_name(self) -> str | None:
         return None if self.document is None else self.document.project.name
 
     def set_project(self, project: Project, path: str | Path | None = None, saved: bool = True) -> None:
         """Make ``project`` the document (a new history); any run is abandoned.
-        ``saved=False``: it is not what ``path`` holds (a recovered autosave)."""
+        ``saved=False``: it is not what ``path`` holds (a recovered autosave).
+        The view choices saved with it (strain or shear, ...) are shown."""
         self.runs.abandon()
+        show_view_choices(self.actions, stored_view(project))
         if self.document is None:
             self.document = Document(project, path)
             if not saved:
@@ -252,7 +265,7 @@ class MainWindow(QMainWindow):
         aspects = aspects_of(change.aspects)  # core's strings become Aspect flags here, once
         self.runs.before_change(change.cause, aspects)
         self.presenter.document_changed(project, change.cause, aspects)
-        self.runs.after_change(project, change.cause, aspects)
+        self.runs.after_change(project, change.cause, aspects, change.label)
         self.update_actions()
         self._update_title()
 

@@ -5,16 +5,21 @@ reports every committed edit as ``settings_edited(label, changes)`` (fields of
 FlattenSettings) or ``display_edited(label, changes)`` (units, shear angles);
 it never changes the document itself: the window turns each report into one
 undoable edit, and shows the project again (so a refused value snaps back).
+
+Undo keys in a field: while a field holds text not yet committed, Ctrl+Z
+(and Redo) edit that text, as in any text field; once it is committed (Enter,
+or focus moved on) they go to the window's Undo and Redo, so they undo the
+document's edit (:class:`DocumentUndoKeys`).
 """
 
 from __future__ import annotations
 
 import math
 
-from PySide6.QtCore import Qt, Signal
-from PySide6.QtGui import QDoubleValidator
-from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout,
-                               QLabel, QLineEdit, QSpinBox, QVBoxLayout, QWidget)
+from PySide6.QtCore import QEvent, QObject, Qt, Signal
+from PySide6.QtGui import QDoubleValidator, QKeySequence
+from PySide6.QtWidgets import (QAbstractSpinBox, QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox,
+                               QHBoxLayout, QLabel, QLineEdit, QSpinBox, QVBoxLayout, QWidget)
 
 from core.errors import SettingsError
 from core.mesh import MATERIALS, Material, parse_material
@@ -22,7 +27,37 @@ from core.project import UNITS, Project
 
 from app.choices import solver_labels
 
-__all__ = ["NumberEdit", "SettingsPanel", "MetricsPanel"]
+__all__ = ["NumberEdit", "SettingsPanel", "MetricsPanel", "DocumentUndoKeys"]
+
+
+def _is_history_key(event) -> bool:
+    keys = QKeySequence.StandardKey
+    if event.matches(keys.Undo) or event.matches(keys.Redo):
+        return True
+    combo = event.keyCombination()
+    return combo.key() == Qt.Key.Key_Y and combo.keyboardModifiers() == Qt.KeyboardModifier.ControlModifier
+
+
+class DocumentUndoKeys(QObject):
+    """An event filter on line edits and spin boxes: with no uncommitted text
+    in the field (its line edit's ``isModified()`` is false), the undo and redo
+    keys are not the field's, so the window's Undo and Redo shortcuts get them.
+    :meth:`watch` installs it and clears a field's modified flag when it commits."""
+
+    def watch(self, field: QLineEdit | QAbstractSpinBox) -> None:
+        edit = field.lineEdit() if isinstance(field, QAbstractSpinBox) else field
+        for target in {field, edit}:  # a spin box hands the key on to its line edit itself
+            target.installEventFilter(self)
+        field.editingFinished.connect(lambda: edit.setModified(False))
+
+    def eventFilter(self, obj, event) -> bool:
+        if event.type() != QEvent.Type.ShortcutOverride:
+            return False
+        edit = obj.lineEdit() if isinstance(obj, QAbstractSpinBox) else obj
+        if isinstance(edit, QLineEdit) and not edit.isModified() and _is_history_key(event):
+            event.ignore()  # not overridden: the window's shortcut takes it
+            return True
+        return False
 
 
 class NumberEdit(QLineEdit):
@@ -155,6 +190,10 @@ class SettingsPanel(QWidget):
         form.addRow("Shear limit", self.shear_limit)
         layout.addWidget(show_box)
 
+        self.undo_keys = DocumentUndoKeys(self)
+        for field in (self.ratio, self.spacing, self.spacing_warp, self.tol, self.seed_u, self.seed_v, self.angle,
+                      self.max_iter, self.shear_warning, self.shear_limit):
+            self.undo_keys.watch(field)
         self._connect()
 
     # ------------------------------------------------------------------ wiring

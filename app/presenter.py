@@ -23,7 +23,7 @@ from app.aspects import HISTORY, WHOLE, Aspect
 from app.frames import FrameMaker
 from app.viewbase import ViewOptions
 
-__all__ = ["Presenter", "surface_grid", "GRID_POINTS"]
+__all__ = ["Presenter", "surface_grid", "history_rows", "GRID_POINTS"]
 
 GRID_POINTS = 60
 CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
@@ -42,6 +42,25 @@ def surface_grid(surface: NurbsSurface, n: int = GRID_POINTS):
     return uv, ev.xyz.reshape(n, n, 3), ev.normal.reshape(n, n, 3)
 
 
+def history_rows(history, iterations=None) -> list[tuple[float, float, bool]]:
+    """The energy plot's (iteration, energy, changed) rows for a stored result's
+    energy trace. The trace has one entry per snapshot, and a refill round adds
+    a snapshot at the same iteration, so it can be longer than the solver's
+    ``iterations``; the entries are then spread evenly over iterations 1 to
+    ``iterations``, so the plot's last iteration is the metrics' count."""
+    n = len(history)
+    if not n:
+        return []
+    if not isinstance(iterations, int) or isinstance(iterations, bool) or iterations < 1 or iterations == n:
+        return [(k + 1, e, False) for k, e in enumerate(history)]
+    if n == 1:
+        return [(float(iterations), history[0], False)]
+    step = (iterations - 1) / (n - 1)
+    rows = [(1 + k * step, e, False) for k, e in enumerate(history)]
+    rows[-1] = (float(iterations), history[-1], False)  # exactly: the plot says int(last)
+    return rows
+
+
 class Presenter:
     """The window's views of the document. ``window`` gives the views, panels,
     metrics, energy plot, progress label, runner and tools; the status labels
@@ -54,6 +73,7 @@ class Presenter:
         self.view_options = ViewOptions()
         self.frame = None  # the frame on screen
         self.first_nodes: int | None = None  # nodes of the run's first frame after the drape
+        self.surface_info = ""  # the surface's description (the status bar's, with no result)
         self._curve_cache: dict = {}
         self.view.hover_callback = self.show_hover
         self.pattern_view.hover_callback = self.show_hover
@@ -89,6 +109,18 @@ class Presenter:
         elif self.frame is not None:
             w.metrics.show_frame(self.frame, project, stale=not project.result_is_current)
         self.name_label.setText(project.name)
+        if not w.runner.active:  # a run's frames say how it goes; otherwise the document's state
+            self.info_label.setText(self.idle_info(project))
+
+    def idle_info(self, project: Project) -> str:
+        """The status bar's right-hand text with no run in flight: the current
+        result's numbers, or the surface's description when there is none."""
+        r = project.result
+        if r is None or r.surface is not project.surface:
+            return self.surface_info
+        m = r.metrics
+        text = f"{m.get('iterations', 0)} iterations  EN {m.get('energy', 0):.4g}  {m.get('nodes', 0):,} nodes"
+        return text if project.result_is_current else f"{text} (settings changed since)"
 
     def _show_surface(self, surface: NurbsSurface) -> None:
         _, xyz, normals = surface_grid(surface)
@@ -97,7 +129,8 @@ class Presenter:
         self.frame = None
         kind = "rational" if surface.rational else "polynomial"
         (nu, nv), p, q = surface.shape, surface.degree_u, surface.degree_v
-        self.info_label.setText(f"{kind}, degree {p}x{q}, {nu}x{nv} control points")
+        self.surface_info = f"{kind}, degree {p}x{q}, {nu}x{nv} control points"
+        self.info_label.setText(self.surface_info)
 
     # ------------------------------------------------------------------ darts and yarns
     def dart_curve(self, surface: NurbsSurface, dart) -> np.ndarray:
@@ -154,7 +187,7 @@ class Presenter:
                            r.metrics.get("area_3d")).from_result(r)
         self.pattern_view.request_fit()
         self.draw_frame(frame)
-        w.energy_plot.set_history([(k + 1, e, False) for k, e in enumerate(r.history)])
+        w.energy_plot.set_history(history_rows(r.history, r.metrics.get("iterations")))
 
     def draw_frame(self, frame) -> None:
         w = self.window

@@ -13,9 +13,32 @@ from app.aspects import HISTORY, Aspect
 from app.runner import Runner
 from app.worker import RunOutcome
 
-__all__ = ["RunControl", "RERUN_DELAY_MS"]
+__all__ = ["RunControl", "RERUN_DELAY_MS", "NO_DOCUMENT", "NOT_SOLVED", "result_text", "status_text"]
 
 RERUN_DELAY_MS = 250  # settings edits closer together than this make one re-run
+
+NO_DOCUMENT = "Open a surface or pick an example, then Run."
+NOT_SOLVED = "Not solved yet: Run (F5) drapes the mesh and solves it."
+
+
+def result_text(metrics: dict) -> str:
+    """One line on a solve from its metrics: status, iterations, nodes, EN, time."""
+    m = metrics
+    return (f"{str(m.get('solver_status', 'done')).capitalize()}: {m.get('iterations', 0)} iterations, "
+            f"{m.get('nodes', 0):,} nodes, EN {m.get('energy', 0):.6g}, {m.get('seconds', 0.0):.2f} s.")
+
+
+def status_text(project: Project | None) -> str:
+    """The line under Run for the document as it is (no run in flight): its
+    current result's numbers, or what to do next."""
+    if project is None:
+        return NO_DOCUMENT
+    r = project.result
+    if r is None or r.surface is not project.surface:
+        return NOT_SOLVED
+    if not project.result_is_current:
+        return f"The settings changed since the last solve ({result_text(r.metrics)[:-1]}): Run (F5) to update."
+    return result_text(r.metrics)
 
 
 class RunControl:
@@ -79,9 +102,15 @@ class RunControl:
                 and aspects & (Aspect.SURFACE | Aspect.SETTINGS):
             self.runner.cancel()
 
-    def after_change(self, project: Project, cause: str, aspects: Aspect) -> None:
+    def after_change(self, project: Project, cause: str, aspects: Aspect, label: str = "") -> None:
         """A settings edit re-runs (after a short delay) when "auto re-run" is on and there is
-        a result or a run to replace."""
+        a result or a run to replace. With no run in flight, the line under Run
+        (and, after an undo or redo, the status bar) says what the document holds now."""
+        if not self.runner.active:
+            text = status_text(project)
+            self.window.progress.setText(text)
+            if cause in HISTORY:
+                self.window.statusBar().showMessage(f"{cause.capitalize()} {label}: {text}" if label else text, 8000)
         if (cause == "edit" and aspects & Aspect.SETTINGS and self.window.settings_panel.auto_rerun.isChecked()
                 and (project.result is not None or self.runner.busy)):
             self.rerun_timer.start()
@@ -110,9 +139,7 @@ class RunControl:
             if attached:
                 w.energy_plot.set_history(self.runner.last_history)
                 w.files.autosave()
-                text = (f"{m.get('solver_status', 'done').capitalize()}: {m.get('iterations', 0)} iterations, "
-                        f"{m.get('nodes', 0):,} nodes, EN {m.get('energy', 0):.6g}, "
-                        f"{m.get('seconds', 0.0):.2f} s.")
+                text = result_text(m)
             else:
                 text = "The settings changed during the run; its result was set aside."
                 w.presenter.show_result(w.project)

@@ -40,7 +40,7 @@ def test_a_solve_is_autosaved_and_a_save_clears_it(make_window, qtbot, recovery_
     win.last_autosave.result(timeout=30)
     [path] = recovery_files(recovery_dir)
     saved = load_project(path)
-    assert project_to_dict(saved) == project_to_dict(win.project)  # the solved document, result and all
+    assert project_to_dict(saved) == project_to_dict(win.files.as_saved(win.project))  # the solved document, all of it
     assert saved.result is not None and project_problems(saved) == []
     assert json.loads(path.read_text())["recovery"]["document_path"] is None
     # saving it: nothing left to recover; the save itself is a project
@@ -123,7 +123,7 @@ def test_work_survives_the_app_being_killed(make_window, qtbot, recovery_dir, tm
     assert len(win.energy_plot.iterations) == len(saved_doc["result"]["history"]) > 0
     assert not autosaved.exists()  # the crashed session's file is gone...
     [own] = recovery_files(recovery_dir)  # ...because this session's autosave holds the work now
-    assert project_to_dict(load_project(own)) == project_to_dict(doc.project)
+    assert project_to_dict(load_project(own)) == project_to_dict(win.files.as_saved(doc.project))
     assert win.pattern_view.outline is not None  # and it is on screen
 
 

@@ -419,7 +419,7 @@ def test_save_then_open_restores_the_document(make_window, qtbot, tmp_path):
     run_to_end(qtbot, win)
     win.edit_display("Units", {"units": "cm"})
     win.edit_display("Shear warning angle", {"shear_warning_deg": 12.0})
-    saved = project_to_dict(win.project)
+    saved = project_to_dict(win.files.as_saved(win.project))  # as the file keeps it (view choices too)
     idx, rgb = shown_rgb(win.view)
     path = tmp_path / "job"
     assert win.save_to(path)

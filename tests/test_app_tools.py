@@ -411,7 +411,7 @@ def test_a_saved_project_with_darts_and_yarns_reopens_identically(solved, qtbot,
     win.tool.pick(node, "warp")
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
         win.finish_tool()
-    saved = project_to_dict(win.project)
+    saved = project_to_dict(win.files.as_saved(win.project))  # as the file keeps it (view choices too)
     assert len(saved["darts"]) == 2 and len(saved["yarns"]) == 1 and saved["darts"][1]["visible"] is False
     assert win.save_to(tmp_path / "darts")
 
