@@ -14,7 +14,7 @@ from __future__ import annotations
 import sys
 import traceback
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import fields, replace
+from dataclasses import replace
 from pathlib import Path
 
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
@@ -30,19 +30,14 @@ from core.readers import dialog_filter, open_path, reader_for
 from app.actions import view_choices
 from app.worker import one_line
 
-__all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS", "STORES_VIEW", "stored_view"]
+__all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS", "stored_view"]
 
 AUTOSAVE_MS = 60_000  # the document is autosaved this often when it has changed (and after each solve)
 
-STORES_VIEW = "view" in {f.name for f in fields(Project)}
-"""The project file keeps the window's view choices (``Project.view``, saved in
-the file's "display" entry). Until core has that field the window saves and
-restores nothing of its view (this flag is the one place that knows)."""
-
-
 def stored_view(project: Project) -> dict:
-    """The view choices saved with ``project`` ({} when none are)."""
-    return dict(getattr(project, "view", None) or ())
+    """The view choices saved with ``project`` (``Project.view``, kept in the
+    file's "display" entry; {} when none are)."""
+    return dict(project.view)
 
 
 def open_filter() -> str:
@@ -203,8 +198,6 @@ class Files(QObject):
         """``project`` as a file keeps it: with the window's view choices (strain
         or shear, the springs shown, ...). They are view state, not edits: no
         undo step, no "*"; they are written whenever the project is."""
-        if not STORES_VIEW:
-            return project
         return replace(project, view=tuple(sorted(view_choices(self.window.actions).items())))
 
     def confirm_close(self) -> bool:

@@ -112,6 +112,7 @@ class Project:
     shear_warning_deg: float = 15.0
     shear_limit_deg: float = 30.0
     result: FlattenResult | None = None
+    view: tuple = ()  # the window's view choices, ((key, value), ...): view state, not an edit
 
     def __post_init__(self):
         if not isinstance(self.surface, NurbsSurface):
@@ -348,7 +349,7 @@ def project_to_dict(project: Project) -> dict:
         "darts": _darts_to_list(p.settings.darts),
         "yarns": _yarns_to_list(p.settings.yarns),
         "display": {"units": p.units, "shear_warning_deg": float(p.shear_warning_deg),
-                    "shear_limit_deg": float(p.shear_limit_deg)},
+                    "shear_limit_deg": float(p.shear_limit_deg), **({"view": dict(p.view)} if p.view else {})},
         "result": None if p.result is None else _result_doc(p.result, p.source),
     }
 
@@ -445,6 +446,9 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
         raise ProjectError(str(exc)) from None
     settings = settings_from_dict(f.get(d, "settings", "project"), d.get("darts", []), d.get("yarns", []), where)
     display = f.obj(d.get("display", {}), "display")
+    view = f.obj(display.get("view", {}), "display.view")
+    if not all(isinstance(k, str) and isinstance(v, (str, bool)) for k, v in view.items()):
+        raise f.fail("display.view must map names to strings or true/false")
     name = d.get("name", "untitled")
     source = d.get("source")
     try:
@@ -454,7 +458,8 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
             source=None if source is None else f.string(source, "source"),
             units=f.string(display.get("units", "m"), "display.units"),
             shear_warning_deg=f.number(display.get("shear_warning_deg", 15.0), "display.shear_warning_deg"),
-            shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"))
+            shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"),
+            view=tuple(sorted(view.items())))
     except SettingsError as exc:
         raise ProjectError(f"{where}: {exc}") from None
     if d.get("result") is not None:

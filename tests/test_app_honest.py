@@ -17,7 +17,6 @@ from core.examples import example_path
 from core.project import load_project
 
 from app.actions import show_view_choices, view_choices
-from app.files import STORES_VIEW
 from app.presenter import history_rows
 from app.runcontrol import NOT_SOLVED, result_text
 
@@ -300,7 +299,6 @@ def test_ctrl_z_after_a_committed_spin_box_undoes_the_document(make_window, qtbo
 
 
 # ---------------------------------------------------------------------- item 9: the view comes back with the project
-@pytest.mark.skipif(not STORES_VIEW, reason="core's Project has no 'view' field yet (the file cannot keep it)")
 def test_the_view_mode_comes_back_with_the_project(make_window, qtbot, tmp_path):
     win = make_window(small_project(0.1))
     run_to_end(qtbot, win)

@@ -388,3 +388,19 @@ def test_history_is_bounded(octant):
     while d.undo():
         pass
     assert d.project.settings.angle_deg == 7.0 and not math.isnan(d.project.settings.angle_deg)
+
+
+def test_the_view_choices_travel_with_the_file_but_are_no_edit(octant, tmp_path):
+    from core.document import changed_aspects
+
+    p = Project(octant, FlattenSettings(spacing=0.1), name="octant")
+    viewed = replace(p, view=(("mode", "shear"), ("show_weft", False)))
+    assert changed_aspects(p, viewed) == frozenset()  # view state: no undo step, no redraw of the document
+    back = load_project(save_project(viewed, tmp_path / "v.flatweave"))
+    assert dict(back.view) == {"mode": "shear", "show_weft": False}
+    assert "view" not in project_to_dict(p)["display"]  # a project without view choices writes none
+    doc = project_to_dict(viewed)
+    doc["display"]["view"] = {"mode": 3}
+    with pytest.raises(ProjectError) as exc:
+        project_from_dict(doc)
+    assert "display.view" in str(exc.value) and "\n" not in str(exc.value)
