@@ -194,7 +194,15 @@ def _cmd_flatten(args) -> int:
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
               f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
+    _print_warnings(result.warnings)
     return 0
+
+
+def _print_warnings(warnings) -> None:
+    """Each warning as ``flatweave: warning: ...`` on stderr, even with --quiet
+    (warnings are about the result, not progress); the exit status stays 0."""
+    for w in warnings:
+        print(f"flatweave: warning: {w}", file=sys.stderr)
 
 
 def _cmd_flatten_planar(args, out: Path) -> int:
@@ -226,6 +234,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
               f"max edge strain {m['max_edge_strain_pct']:.3g} %, {m['flipped_triangles']} flipped, "
               f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s -> {out}",
               file=sys.stderr)
+    _print_warnings(result.warnings)
     return 0
 
 
