@@ -93,8 +93,10 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--warm-start", metavar="RESULT.json", default=None,
                    help="start the solver from the nodes of an earlier result instead of a new drape")
     f.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    f.add_argument("--yarn", action="append", default=[], metavar="weft:I|warp:J",
-                   help="hold a weft row I or warp column J to --yarn-plane (repeatable)")
+    f.add_argument("--yarn", action="append", default=[], metavar="weft:I|warp:J|weft@X,Y,Z|warp@X,Y,Z",
+                   help="hold a weft row I or warp column J, or the weft row or warp column through the "
+                        "lattice node nearest the point (X, Y, Z) (found after the drape, so it stays the "
+                        "same thread at any spacing), to --yarn-plane (repeatable)")
     f.add_argument("--yarn-plane", action="append", default=[], metavar="A,B,C,D",
                    help="plane A x + B y + C z + D = 0 for the matching --yarn")
     f.add_argument("--yarn-k", action="append", type=float, default=[], metavar="K",

@@ -20,7 +20,7 @@ import core
 from core.coverage import cell_diagonal, coverage_grid, uncovered_regions
 from core.darts import DART_KINDS, RESULT_DART_KEYS, DartSet
 from core.drape import DrapeSettings, drape, refill
-from core.energy import Energy, YarnConstraint
+from core.energy import Energy, YarnConstraint, resolve_yarns
 from core.geom import outline_errors, require_finite
 from core.errors import SettingsError, SolverError
 from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
@@ -344,6 +344,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
 
     Yields the solver's :class:`core.solver.Snapshot` s; returns the
     :class:`FlattenResult`. Closing it stops the solve at once.
+    A yarn with a picked point (:class:`~core.energy.YarnConstraint`) is
+    resolved on the drape's (or the warm start's) lattice: the result's
+    settings hold it with the index it resolved to.
     ``drape_progress(mesh, uv, xyz)``, if given, sees the mesh laid so far
     during the drape, at most every ``drape_interval`` seconds, built as the solver will build it
     (springs across darts cut); an exception it raises ends the drape. A NaN or
@@ -369,6 +372,12 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     else:
         uv = np.asarray(initial.uv, dtype=float)
         state, stats = State(problem.build(initial.mesh.ij, uv), uv), {"warm_start": True, "seconds": 0.0}
+    if any(y.point is not None for y in settings.yarns):
+        # a picked yarn is the thread through its point on this lattice (after every drape and warm start)
+        yarns = resolve_yarns(settings.yarns, state.mesh, surface.points(state.uv))
+        if yarns != settings.yarns:
+            settings = replace(settings, yarns=yarns)
+        problem.yarns = yarns
     solve = None
     if solver_entry(settings.solver).iterative:
         solve = yield from iterate(problem, state, settings.solver_options())
