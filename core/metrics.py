@@ -154,9 +154,10 @@ def result_warnings(metrics: dict, settings, limits: dict[str, tuple[float, floa
         far = f", parts of it {gap:.1f} spacings from the nearest node" if gap is not None else ""
         text = f"{unc:.1f} % of the surface is not covered by the cloth{far}: "
         if darts:
-            text += ("where a cut's two sides pull apart on the surface (negative curvature: the cloth is short "
-                     "of material) the wedge between them has no lattice positions left to fill; it needs an "
-                     "inserted piece (a gusset), not a dart (the result's uncovered_regions give its outline)")
+            text += ("if it is the wedge between a dart's two sides (on negative curvature the cloth is short "
+                     "of material, the cut lets the sides pull apart and no lattice positions are left between "
+                     "them), it needs an inserted piece (a gusset), not a dart: the result's uncovered_regions "
+                     "give its outline; otherwise try another seed or a smaller spacing")
         else:
             text += ("the threads cannot reach it from this seed; try another seed or a smaller spacing, "
                      "or split the surface there")
