@@ -124,7 +124,7 @@ def test_the_cli_takes_a_yarn_by_point(tmp_path, picked, capsys):
     x, y, z = picked.point
     a, b, c, d = (float(v) for v in picked.plane)
     assert main(["flatten", "octant", "--spacing", str(FINE), "--quiet", "--out", str(out),
-                 "--yarn", f"weft@{x!r},{y!r},{z!r}", "--yarn-plane", f"{a!r},{b!r},{c!r},{d!r}"]) == 0
+                 f"--yarn=weft@{x!r},{y!r},{z!r}", f"--yarn-plane={a!r},{b!r},{c!r},{d!r}"]) == 0
     doc = json.loads(out.read_text())
     yarn = doc["settings"]["yarns"][0]
     assert yarn["point"] == pytest.approx([x, y, z]) and yarn["index"] == 2 * ROW
