@@ -180,3 +180,10 @@ def test_warnings_survive_a_project_file_and_old_files_get_theirs(tmp_path):
     assert old.result.warnings == warnings_for(old.result)
     assert 0 < old.result.metrics["uncovered_pct"] < 5  # measured on the rebuilt (the saved) mesh
     assert old.settings.yarns[0].point is None and old.settings.yarns[0].index == 2
+
+
+def test_a_stopped_solve_says_so_in_its_warnings():
+    octant = load_example("octant")
+    r = flatten(octant, FlattenSettings(spacing=0.1), callback=lambda snap: snap.iteration >= 2)
+    assert r.metrics["solver_status"] == "stopped by the caller"
+    assert r.warnings[-1].startswith("the solve was stopped by the caller")
