@@ -93,8 +93,10 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--warm-start", metavar="RESULT.json", default=None,
                    help="start the solver from the nodes of an earlier result instead of a new drape")
     f.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    f.add_argument("--yarn", action="append", default=[], metavar="weft:I|warp:J",
-                   help="hold a weft row I or warp column J to --yarn-plane (repeatable)")
+    f.add_argument("--yarn", action="append", default=[], metavar="weft:I|warp:J|weft@X,Y,Z|warp@X,Y,Z",
+                   help="hold a weft row I or warp column J, or the weft row or warp column through the "
+                        "lattice node nearest the point (X, Y, Z) (found after the drape, so it stays the "
+                        "same thread at any spacing), to --yarn-plane (repeatable)")
     f.add_argument("--yarn-plane", action="append", default=[], metavar="A,B,C,D",
                    help="plane A x + B y + C z + D = 0 for the matching --yarn")
     f.add_argument("--yarn-k", action="append", type=float, default=[], metavar="K",
@@ -194,7 +196,15 @@ def _cmd_flatten(args) -> int:
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
               f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
+    _print_warnings(result.warnings)
     return 0
+
+
+def _print_warnings(warnings) -> None:
+    """Each warning as ``flatweave: warning: ...`` on stderr, even with --quiet
+    (warnings are about the result, not progress); the exit status stays 0."""
+    for w in warnings:
+        print(f"flatweave: warning: {w}", file=sys.stderr)
 
 
 def _cmd_flatten_planar(args, out: Path) -> int:
@@ -226,6 +236,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
               f"max edge strain {m['max_edge_strain_pct']:.3g} %, {m['flipped_triangles']} flipped, "
               f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s -> {out}",
               file=sys.stderr)
+    _print_warnings(result.warnings)
     return 0
 
 

@@ -230,7 +230,7 @@ class Document:
     def add_yarn(self, yarn) -> Edit | None:
         """Add a yarn constraint (:class:`core.energy.YarnConstraint`)."""
         yarns = self._project.settings.yarns + (yarn,)
-        return self.apply(f"Constrain {yarn.kind} {yarn.index}", self._project.with_settings(yarns=yarns))
+        return self.apply(f"Constrain {yarn.label()}", self._project.with_settings(yarns=yarns))
 
     def replace_yarn(self, index: int, yarn, label: str = "Edit yarn constraint") -> Edit | None:
         yarns = list(self._project.settings.yarns)
@@ -240,7 +240,7 @@ class Document:
     def remove_yarn(self, index: int) -> Edit | None:
         yarns = list(self._project.settings.yarns)
         gone = yarns.pop(self._yarn_index(index))
-        return self.apply(f"Remove {gone.kind} {gone.index} constraint",
+        return self.apply(f"Remove {gone.label()} constraint",
                           self._project.with_settings(yarns=tuple(yarns)))
 
     def undo(self) -> bool:

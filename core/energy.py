@@ -17,15 +17,17 @@ arithmetic.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from core.errors import SettingsError
 from core.mesh import SpringMesh
 from core.nurbs import NurbsSurface
 
-__all__ = ["YarnConstraint", "Energy", "parse_yarn", "yarn_index", "yarn_nodes", "yarn_plane", "turn_plane"]
+__all__ = ["YarnConstraint", "Energy", "parse_yarn", "yarn_index", "yarn_nodes", "yarn_plane", "turn_plane",
+           "resolve_yarns"]
 
 
 @dataclass(frozen=True)
@@ -33,19 +35,35 @@ class YarnConstraint:
     """A weft row or warp column held to a plane (paper section 2.3).
 
     kind : "weft" (a row, lattice index i) or "warp" (a column, index j)
-    index : the row or column, in lattice indices (the seed node is M[0, 0])
+    index : the row or column, in lattice indices (the seed node is M[0, 0]);
+        with a ``point``, the row or column that point resolved to on the
+        current lattice (:meth:`resolved`)
     plane : (a, b, c, d) of a x + b y + c z + d = 0
     k : weight
+    point : (x, y, z) the designer picked on the surface, or None. A yarn
+        with a point is the thread through it: after every drape the
+        pipeline takes the row (weft) or column (warp) of the node nearest
+        the point (:func:`resolve_yarns`), so it stays the same thread when
+        the spacing, seed or angle change the lattice. Without a point the
+        index is explicit and kept as it is.
     """
 
     kind: str
     index: int
     plane: tuple[float, float, float, float]
     k: float
+    point: tuple[float, float, float] | None = None
 
     def __post_init__(self):
         if self.kind not in ("weft", "warp"):
             raise SettingsError(f"yarn kind must be 'weft' or 'warp', got {self.kind!r}")
+        if isinstance(self.index, bool) or not isinstance(self.index, (int, np.integer)):
+            raise SettingsError(f"yarn index must be an integer, got {self.index!r}")
+        if self.point is not None:
+            q = np.asarray(self.point, dtype=float) if _numbers(self.point) else np.zeros(0)
+            if q.shape != (3,) or not np.all(np.isfinite(q)):
+                raise SettingsError(f"yarn point {self.point!r} must be three finite numbers X,Y,Z")
+            object.__setattr__(self, "point", tuple(float(x) for x in q))
         p = np.asarray(self.plane, dtype=float)
         if p.shape != (4,) or not np.all(np.isfinite(p)) or np.linalg.norm(p[:3]) == 0:
             raise SettingsError(f"yarn plane {self.plane!r} must be four numbers A,B,C,D with (A,B,C) != 0")
@@ -53,18 +71,51 @@ class YarnConstraint:
             raise SettingsError(f"yarn weight k must be a non-negative number, got {self.k!r}")
 
     def to_dict(self) -> dict:
-        """The constraint as a JSON object (project and result files)."""
-        return {"kind": self.kind, "index": int(self.index), "plane": [float(x) for x in self.plane],
-                "k": float(self.k)}
+        """The constraint as a JSON object (project and result files): kind,
+        index (as resolved), plane, k and, for a picked yarn, point."""
+        out = {"kind": self.kind, "index": int(self.index), "plane": [float(x) for x in self.plane],
+               "k": float(self.k)}
+        if self.point is not None:
+            out["point"] = [float(x) for x in self.point]
+        return out
 
     @classmethod
     def from_dict(cls, item: dict, read, what: str) -> "YarnConstraint":
         """The inverse of :meth:`to_dict`; ``read`` does the typed reads (as
-        for darts, :func:`core.darts.dart_from_dict`)."""
+        for darts, :func:`core.darts.dart_from_dict`). ``point`` is optional
+        (files before it hold the index only)."""
+        point = item.get("point")
         return cls(read.string(read.get(item, "kind", what), f"{what}.kind"),
                    read.integer(read.get(item, "index", what), f"{what}.index"),
                    read.numbers(read.get(item, "plane", what), 4, f"{what}.plane"),
-                   read.number(read.get(item, "k", what), f"{what}.k"))
+                   read.number(read.get(item, "k", what), f"{what}.k"),
+                   None if point is None else read.numbers(point, 3, f"{what}.point"))
+
+    def label(self) -> str:
+        """What the designer picked: "weft through (0.12, 0.34, 0.56)" for a
+        yarn with a point, "weft row -12" / "warp column 3" for an index."""
+        if self.point is not None:
+            return f"{self.kind} through ({', '.join(f'{x:.3g}' for x in self.point)})"
+        return f"{self.kind} {'row' if self.kind == 'weft' else 'column'} {int(self.index)}"
+
+    def identity(self) -> dict:
+        """What decides the constraint, for comparing settings: a picked yarn
+        is its point (its index follows from the point and the drape)."""
+        d = self.to_dict()
+        if self.point is not None:
+            del d["index"]
+        return d
+
+    def resolved(self, mesh: SpringMesh, xyz: np.ndarray, tree: cKDTree | None = None) -> "YarnConstraint":
+        """This yarn on the lattice of ``mesh`` (nodes at ``xyz (n, 3)``): with
+        a point, the row (weft) or column (warp) of the node nearest it in
+        3D; without one, itself."""
+        if self.point is None or mesh.n_nodes == 0:
+            return self
+        tree = cKDTree(np.asarray(xyz, dtype=float)) if tree is None else tree
+        node = int(tree.query(np.asarray(self.point, dtype=float))[1])
+        index = yarn_index(mesh, node, self.kind)
+        return self if index == self.index else replace(self, index=index)
 
     def nodes(self, mesh: SpringMesh) -> np.ndarray:
         """Indices of the mesh nodes on this yarn."""
@@ -77,20 +128,51 @@ class YarnConstraint:
         return p / np.linalg.norm(p[:3])
 
 
-def parse_yarn(spec: str, plane: str, k: float) -> YarnConstraint:
-    """``weft:I`` or ``warp:J`` and ``A,B,C,D`` into a YarnConstraint."""
+def _numbers(value) -> bool:
     try:
-        kind, idx = spec.split(":")
-        index = int(idx)
-    except ValueError:
-        raise SettingsError(f"yarn {spec!r} must be weft:ROW or warp:COLUMN (an integer)") from None
+        return all(isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+                   for x in value)
+    except TypeError:
+        return False
+
+
+def resolve_yarns(yarns, mesh: SpringMesh, xyz: np.ndarray) -> tuple:
+    """Every yarn on the lattice of ``mesh`` (:meth:`YarnConstraint.resolved`)."""
+    yarns = tuple(yarns)
+    if not any(y.point is not None for y in yarns) or mesh.n_nodes == 0:
+        return yarns
+    tree = cKDTree(np.asarray(xyz, dtype=float))
+    return tuple(y.resolved(mesh, xyz, tree) for y in yarns)
+
+
+def parse_yarn(spec: str, plane: str, k: float) -> YarnConstraint:
+    """``weft:I`` or ``warp:J`` (a lattice index) or ``weft@X,Y,Z`` /
+    ``warp@X,Y,Z`` (the thread through the lattice node nearest that point,
+    found after the drape) and ``A,B,C,D`` into a YarnConstraint."""
+    point = None
+    if "@" in spec:
+        kind, _, at = spec.partition("@")
+        try:
+            point = tuple(float(x) for x in at.split(","))
+        except ValueError:
+            point = ()
+        if len(point) != 3 or not all(np.isfinite(point)):
+            raise SettingsError(f"yarn {spec!r} must be weft@X,Y,Z or warp@X,Y,Z (three numbers)")
+        index = 0  # resolved after the drape
+    else:
+        try:
+            kind, idx = spec.split(":")
+            index = int(idx)
+        except ValueError:
+            raise SettingsError(f"yarn {spec!r} must be weft:ROW, warp:COLUMN (an integer), "
+                                f"weft@X,Y,Z or warp@X,Y,Z") from None
     try:
         values = tuple(float(x) for x in plane.split(","))
     except ValueError:
         values = ()
     if len(values) != 4:
         raise SettingsError(f"yarn plane {plane!r} must be four numbers A,B,C,D")
-    return YarnConstraint(kind.strip().lower(), index, values, float(k))
+    return YarnConstraint(kind.strip().lower(), index, values, float(k), point)
 
 
 def yarn_index(mesh: SpringMesh, node: int, kind: str) -> int:

@@ -17,13 +17,15 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import core
+from core.coverage import cell_diagonal, coverage_grid, uncovered_regions
 from core.darts import DART_KINDS, RESULT_DART_KEYS, DartSet
 from core.drape import DrapeSettings, drape, refill
-from core.energy import Energy, YarnConstraint
+from core.energy import Energy, YarnConstraint, resolve_yarns
 from core.geom import outline_errors, require_finite
 from core.errors import SettingsError, SolverError
 from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
-from core.metrics import cell_shear_deg, deformation_summary, spring_lengths
+from core.metrics import (cell_areas, cell_shear_deg, deformation_summary, metric_limits, result_warnings,
+                          spring_lengths)
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
@@ -33,7 +35,8 @@ from core.solvers import solver_entry, solver_names
 
 __all__ = ["FlattenSettings", "FlattenResult", "flatten", "flatten_iter", "result_to_dict",
            "make_problem", "compute_metrics", "state_from_dict", "check_result_finite", "SOLVERS",
-           "validate_settings", "settings_to_dict", "SETTINGS_KEYS", "stopped_result"]
+           "validate_settings", "settings_to_dict", "SETTINGS_KEYS", "stopped_result", "coverage_metrics",
+           "warnings_for"]
 
 SOLVERS = solver_names("spring")
 """The spring method's solver choices, 'none' (the drape only) included (:mod:`core.solvers`)."""
@@ -172,6 +175,10 @@ class FlattenResult:
     drape_stats : dict from the drape; solve : SolveResult or None
     history : the energy EN after each solver iteration (kept in project files,
         so it outlives ``solve``, which is not saved)
+    warnings : one-line warnings about the result (:func:`warnings_for`,
+        :func:`core.metrics.result_warnings`): uncovered region, implausible
+        thread strain, shear beyond the lock angle, many nodes deleted, a
+        budget reached, a stopped solve; empty when all is within limits
     """
 
     surface: NurbsSurface
@@ -184,6 +191,7 @@ class FlattenResult:
     drape_stats: dict = field(default_factory=dict)
     solve: SolveResult | None = None
     history: tuple = ()
+    warnings: tuple[str, ...] = ()
 
     def state(self) -> State:
         """The mesh state, to warm-start another solve."""
@@ -200,10 +208,35 @@ def compute_metrics(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, pa
     m = {"energy": Energy(surface, mesh, yarns).value_xyz(xyz),
          **outline_errors(pattern.perimeter, L3, pattern.area, A3)}
     m.update(deformation_summary(xyz, mesh))
+    m.update(coverage_metrics(surface, xyz, mesh.r_weft, mesh.r_warp))
     m["nodes"] = mesh.n_nodes
     m["springs"] = mesh.n_springs
     m["cells"] = int(len(mesh.cells))
     return m
+
+
+def coverage_metrics(surface: NurbsSurface, xyz: np.ndarray, r_weft: float, r_warp: float) -> dict:
+    """``uncovered_pct``: 100 x the share of the region's area farther than a
+    cell diagonal from every node (:mod:`core.coverage`), and
+    ``max_gap_spacings``: the largest distance from a point of the region to
+    the nearest node, in spacings (max(r_weft, r_warp)); about half a diagonal
+    when the mesh covers the region, half the width of the widest gap when not."""
+    reach = cell_diagonal(r_weft, r_warp)
+    grid = coverage_grid(surface, reach)
+    d = cKDTree(xyz).query(grid.xyz)[0]
+    far = d > reach
+    total = float(grid.area.sum())
+    return {"uncovered_pct": float(100 * grid.area[far].sum() / total) if total > 0 else 0.0,
+            "max_gap_spacings": float(d.max(initial=0.0) / max(r_weft, r_warp))}
+
+
+def warnings_for(result: "FlattenResult", warn_deg: float = 15.0, lock_deg: float = 30.0) -> tuple[str, ...]:
+    """The result's warnings (:func:`core.metrics.result_warnings`) against
+    :func:`core.metrics.metric_limits` of its material and the shear angles
+    (the project's display settings; 15 and 30 degrees by default)."""
+    return result_warnings(result.metrics, result.settings,
+                           metric_limits(result.settings.material, warn_deg, lock_deg),
+                           shear=(cell_shear_deg(result.xyz, result.mesh), cell_areas(result.xyz, result.mesh)))
 
 
 def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
@@ -311,6 +344,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
 
     Yields the solver's :class:`core.solver.Snapshot` s; returns the
     :class:`FlattenResult`. Closing it stops the solve at once.
+    A yarn with a picked point (:class:`~core.energy.YarnConstraint`) is
+    resolved on the drape's (or the warm start's) lattice: the result's
+    settings hold it with the index it resolved to.
     ``drape_progress(mesh, uv, xyz)``, if given, sees the mesh laid so far
     during the drape, at most every ``drape_interval`` seconds, built as the solver will build it
     (springs across darts cut); an exception it raises ends the drape. A NaN or
@@ -336,6 +372,12 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     else:
         uv = np.asarray(initial.uv, dtype=float)
         state, stats = State(problem.build(initial.mesh.ij, uv), uv), {"warm_start": True, "seconds": 0.0}
+    if any(y.point is not None for y in settings.yarns):
+        # a picked yarn is the thread through its point on this lattice (after every drape and warm start)
+        yarns = resolve_yarns(settings.yarns, state.mesh, surface.points(state.uv))
+        if yarns != settings.yarns:
+            settings = replace(settings, yarns=yarns)
+        problem.yarns = yarns
     solve = None
     if solver_entry(settings.solver).iterative:
         solve = yield from iterate(problem, state, settings.solver_options())
@@ -354,6 +396,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "solver_status": solve.message if solve else "no solver",
         "nodes_deleted": solve.deleted if solve else 0,
         "nodes_refilled": solve.added if solve else 0,
+        # of the nodes the solve started with
+        "nodes_deleted_pct": (100.0 * solve.deleted / max(state.mesh.n_nodes + solve.deleted - solve.added, 1)
+                              if solve else 0.0),
         "drape_seconds": stats.get("seconds", 0.0),
         "solve_seconds": solve.seconds if solve else 0.0,
         "seconds": time.perf_counter() - t0,
@@ -361,8 +406,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "unmapped_points": pattern.unmapped,
     })
     check_result_finite(state.uv, xyz, pattern, metrics)
-    return FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
-                         tuple(float(e) for e in solve.history) if solve else ())
+    result = FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
+                           tuple(float(e) for e in solve.history) if solve else ())
+    return replace(result, warnings=warnings_for(result))
 
 
 def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
@@ -405,8 +451,9 @@ def stopped_result(surface: NurbsSurface, settings: FlattenSettings, snap, area:
     metrics = dict(result.metrics)
     metrics.update({"iterations": solve.nit, "energy_evaluations": solve.nfev, "solver_status": solve.message,
                     "solve_seconds": solve.seconds})
-    return replace(result, settings=settings, metrics=metrics, solve=solve,
-                   history=tuple(float(e) for e in history))
+    result = replace(result, settings=settings, metrics=metrics, solve=solve,
+                     history=tuple(float(e) for e in history))
+    return replace(result, warnings=warnings_for(result))
 
 
 def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:
@@ -463,6 +510,10 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
                        for pc in pattern.pieces],
         },
         "darts": _darts_dict(result),
+        "uncovered_regions": [g.to_dict() for g in uncovered_regions(
+            result.surface, xyz, cell_diagonal(mesh.r_weft, mesh.r_warp))]
+        if result.metrics.get("uncovered_pct") else [],
+        "warnings": list(result.warnings),
     }
 
 

@@ -102,7 +102,9 @@ from core.darts import RESULT_DART_KEYS, _boundary_distance
 from core.errors import SettingsError, SolverError
 from core.geom import nan_word, outline_errors, require_finite
 from core.nurbs import NurbsSurface
-from core.pipeline import check_result_finite
+from core.mesh import MATERIALS
+from core.metrics import metric_limits, result_warnings
+from core.pipeline import check_result_finite, coverage_metrics
 from core.pattern import DartOpening, Pattern, Piece, _resample_uv, polygon_area
 from core.quadrature import boundary_length, edge_lengths, region_area
 
@@ -804,6 +806,7 @@ class PlanarResult:
     pattern: Pattern
     metrics: dict
     stats: dict = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
 
 
 def flatten_planar(surface: NurbsSurface, settings: PlanarSettings, area: float | None = None) -> PlanarResult:
@@ -834,8 +837,10 @@ def flatten_planar(surface: NurbsSurface, settings: PlanarSettings, area: float 
         "seconds": time.perf_counter() - t0,
     })
     check_result_finite(tess.uv, tess.xyz, pattern, metrics)
+    # the spring method's limits; the planar metrics have no thread strain or cell shear to judge
+    warnings = result_warnings(metrics, settings, metric_limits(MATERIALS["isotropic"]))
     return PlanarResult(surface, settings, tess, edges, rest, unf, rr, xy, pattern, metrics,
-                        {"seeds": list(unf.seeds)})
+                        {"seeds": list(unf.seeds)}, warnings)
 
 
 def _separate_pieces(xy: np.ndarray, tri: np.ndarray, gap: float) -> np.ndarray:
@@ -917,9 +922,12 @@ def planar_pattern(tess: Tessellation, xy: np.ndarray) -> Pattern:
 def planar_metrics(surface: NurbsSurface, tess: Tessellation, edges: np.ndarray, rest: np.ndarray,
                    xy: np.ndarray, pattern: Pattern, area: float | None = None) -> dict:
     """Boundary and area errors (as :func:`core.pipeline.compute_metrics`: L3 and
-    A3 exact on the surface, L2 and A2 of the outline), edge strain, flips, sizes."""
+    A3 exact on the surface, L2 and A2 of the outline), coverage
+    (:func:`core.pipeline.coverage_metrics`, the median edge length as the spacing), edge strain,
+    flips, sizes."""
     L3 = boundary_length(surface)
     A3 = region_area(surface) if area is None else area
+    h = float(np.median(rest)) if len(rest) else 1.0  # the edges' length: about the spacing
     l2 = np.linalg.norm(xy[edges[:, 0]] - xy[edges[:, 1]], axis=1)
     strain = np.abs(l2 / rest - 1.0)
     a2 = _uv_area(xy, tess.tri)
@@ -933,6 +941,7 @@ def planar_metrics(surface: NurbsSurface, tess: Tessellation, edges: np.ndarray,
         L3_mesh += float(seg[p.on_boundary & np.roll(p.on_boundary, -1)].sum())
     return {
         **outline_errors(pattern.perimeter, L3, pattern.area, A3),
+        **coverage_metrics(surface, tess.xyz, h, h),
         "boundary_length_3d_mesh": L3_mesh, "area_3d_mesh": float(a3.sum()),
         "max_edge_strain_pct": float(100 * strain.max(initial=0.0)),
         "mean_edge_strain_pct": float(100 * strain.mean()) if strain.size else 0.0,
@@ -983,4 +992,5 @@ def planar_result_to_dict(result: PlanarResult, surface_source: str | None = Non
                        for pc in pattern.pieces],
         },
         "darts": out_darts,
+        "warnings": list(result.warnings),
     }

@@ -9,7 +9,7 @@ them (:mod:`core.document`) and an autosave writes one without locking.
 
 The file (``.flatweave``) is JSON::
 
-    {"format": "flatweave-project", "version": 2, "flatweave": "0.1.0",
+    {"format": "flatweave-project", "version": 3, "flatweave": "0.1.0",
      "name": "octant", "source": "resources/surfaces/octant.json",
      "surface": {geomdl JSON document},
      "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
@@ -17,13 +17,18 @@ The file (``.flatweave``) is JSON::
      "darts": [{"kind": "plane", "name", "visible", "plane": [a, b, c, d], "box": [6] or null}
                or {"kind": "curve", "name", "visible", "uv": [[u, v], ...],
                    "handles": [[u, v], ...] (optional), "view_dir": [dx, dy, dz] (optional)}],
-     "yarns": [{"kind": "weft" or "warp", "index", "plane": [a, b, c, d], "k"}],
+     "yarns": [{"kind": "weft" or "warp", "index", "plane": [a, b, c, d], "k",
+                "point": [x, y, z] (optional: the picked point; index is then as resolved)}],
      "display": {"units": "m", "shear_warning_deg": 15.0, "shear_limit_deg": 30.0},
-     "result": a result document (core.pipeline.result_to_dict) with
-               "history": [EN after each iteration, ...], or null}
+     "result": a result document (core.pipeline.result_to_dict, its
+               "warnings" included) with "history": [EN after each iteration, ...], or null}
 
 Versions. Version 2 added the result's ``history`` (the energy trace, so the
-energy plot comes back with the project). A dart's ``visible``, ``handles``
+energy plot comes back with the project). Version 3 added the result's
+``warnings`` and ``metrics.uncovered_pct`` and a yarn's ``point``; an older
+result gets its warnings made from its saved metrics when read (its coverage
+measured on the rebuilt mesh, which is the saved one), an older yarn is an
+explicit index. A dart's ``visible``, ``handles``
 and ``view_dir`` came during version 1 and are optional (a dart without them
 is visible and has no drawn points). Older files are read by upgrading their
 document one version at a time (:data:`UPGRADES`) before it is read as the
@@ -59,7 +64,8 @@ from core.fileio import write_json
 from core.mesh import MATERIALS, Material
 from core.nurbs import NurbsSurface
 from core.pipeline import SETTINGS_KEYS as _SETTINGS_KEYS
-from core.pipeline import FlattenResult, FlattenSettings, flatten_iter, result_to_dict, state_from_dict
+from core.pipeline import (FlattenResult, FlattenSettings, flatten_iter, result_to_dict, state_from_dict,
+                           warnings_for)
 from core.pipeline import settings_to_dict as pipeline_settings_to_dict
 from core.pipeline import validate_settings as pipeline_validate_settings
 from core.quadrature import region_area
@@ -73,7 +79,7 @@ __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSIO
            "load_project", "result_from_dict", "project_problems", "new_project", "UPGRADES"]
 
 PROJECT_FORMAT = "flatweave-project"
-PROJECT_VERSION = 2
+PROJECT_VERSION = 3
 PROJECT_SUFFIX = ".flatweave"
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
@@ -301,7 +307,8 @@ def _settings_key(s: FlattenSettings) -> str:
     d = settings_to_dict(s)
     if d["spacing_warp"] is None:  # the same drape as an explicit warp spacing equal to the weft's
         d["spacing_warp"] = d["spacing"]
-    return json.dumps([d, _darts_to_list(s.darts, labels=False), _yarns_to_list(s.yarns)], sort_keys=True)
+    # a picked yarn is its point: the index it resolves to follows from the drape
+    return json.dumps([d, _darts_to_list(s.darts, labels=False), [y.identity() for y in s.yarns]], sort_keys=True)
 
 
 def settings_equal(a: FlattenSettings, b: FlattenSettings) -> bool:
@@ -369,7 +376,16 @@ def _upgrade_1_to_2(d: dict) -> dict:
     return d
 
 
-UPGRADES = {1: _upgrade_1_to_2}
+def _upgrade_2_to_3(d: dict) -> dict:
+    """Version 2 had no result warnings (they are made from the saved metrics
+    when the result is read) and no picked yarn points (its yarns are
+    explicit lattice indices, as version 3 reads a yarn without a point)."""
+    d = dict(d)
+    d["version"] = 3
+    return d
+
+
+UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3}
 """Version -> the function that turns a document of that version into one of the next."""
 
 
@@ -414,8 +430,21 @@ def result_from_dict(d: Any, surface: NurbsSurface, where: str = "project") -> F
     if not (isinstance(history, list) and all(isinstance(e, (int, float)) and not isinstance(e, bool)
                                                and math.isfinite(e) for e in history)):
         raise f.fail("result.history must be a list of finite energies")
-    return replace(rebuilt, settings=settings, metrics=dict(metrics), drape_stats=dict(stats),
-                   history=tuple(float(e) for e in history))
+    metrics = dict(metrics)
+    for key in ("uncovered_pct", "max_gap_spacings"):  # files before version 3: measured on the rebuilt mesh
+        metrics.setdefault(key, rebuilt.metrics[key])
+    if "nodes_deleted_pct" not in metrics:
+        deleted, refilled, n = (metrics.get(k) for k in ("nodes_deleted", "nodes_refilled", "nodes"))
+        if all(isinstance(v, int) and not isinstance(v, bool) for v in (deleted, refilled, n)):
+            metrics["nodes_deleted_pct"] = 100.0 * deleted / max(n + deleted - refilled, 1)
+    result = replace(rebuilt, settings=settings, metrics=metrics, drape_stats=dict(stats),
+                     history=tuple(float(e) for e in history))
+    warnings = d.get("warnings")
+    if warnings is None:  # before version 3: made from the saved metrics
+        return replace(result, warnings=warnings_for(result))
+    if not (isinstance(warnings, list) and all(isinstance(w, str) for w in warnings)):
+        raise f.fail("result.warnings must be a list of texts")
+    return replace(result, warnings=tuple(warnings))
 
 
 def project_from_dict(d: Any, where: str = "project") -> Project:

@@ -817,10 +817,13 @@ def _iterate_fast(run: _Run):
                 if not np.isfinite(uv_try[pinned]).all():
                     raise _not_finite("the (u, v) of the node held to the weft plane", uv_try[pinned], run.nit + 1,
                                       _surface_cause(surface, before) or "its retraction onto the plane diverged")
-            ev2 = surface.evaluate(uv_try, second=True, normals=False)
+            # a trial step far out of the domain may overflow the surface's extension there: the
+            # non-finite energy is handled below (rejected, or an error when it is broken inside)
+            with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+                ev2 = surface.evaluate(uv_try, second=True, normals=False)
+                rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
+                E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
             run.nfev += 1
-            rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
-            E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
             run.nit += 1
             if not np.isfinite(E2) and _broken_inside(surface, uv_try, ev2.xyz, ev2.su, ev2.sv):
                 raise _not_finite("the energy", E2, run.nit, _cause(surface, uv_try, ev2))

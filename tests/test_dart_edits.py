@@ -151,8 +151,8 @@ def test_dart_and_yarn_edits_undo_exactly(solved, octant):
         states.append(project_to_dict(doc.project))
     assert doc.project.settings.darts[0].name == "new name"
     labels = [e.label for e in doc.history]
-    assert labels == ["Add front", "Add side", "Rename dart", "Hide dart", "Edit dart", "Constrain weft 1",
-                      "Edit yarn constraint", "Delete side", "Remove weft 1 constraint"]
+    assert labels == ["Add front", "Add side", "Rename dart", "Hide dart", "Edit dart", "Constrain weft row 1",
+                      "Edit yarn constraint", "Delete side", "Remove weft row 1 constraint"]
     # a rename and a hide keep the result current; nothing waits for a solve after them
     assert [e.answers_solve for e in doc.history][2:4] == [False, False]
     for k in range(len(steps), 0, -1):
