@@ -41,8 +41,7 @@ def format_numbers(values) -> str:
 
 
 def yarn_label(y) -> str:
-    what = "weft row" if y.kind == "weft" else "warp column"
-    return f"{what} {y.index}  (k {y.k:g})"
+    return f"{y.label()}  (k {y.k:g})"
 
 
 class DartPanel(QWidget):

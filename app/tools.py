@@ -518,6 +518,7 @@ class PendingYarn:
     k: float = DEFAULT_YARN_K
     replaces: int | None = None
     ij: tuple | None = None
+    point: tuple | None = None  # what the designer picked: the yarn is found through it after every drape
 
 
 class YarnTool(Tool):
@@ -593,8 +594,9 @@ class YarnTool(Tool):
 
     def pick(self, node: int, kind: str = "weft") -> None:
         """Pick ``node``'s weft row or warp column (with the default plane)."""
-        mesh = self.result.mesh
-        self.pending = PendingYarn(node, kind, yarn_index(mesh, node, kind), None, ij=tuple(mesh.ij[node]))
+        mesh, xyz = self.result.mesh, self.result.xyz
+        self.pending = PendingYarn(node, kind, yarn_index(mesh, node, kind), None, ij=tuple(mesh.ij[node]),
+                                   point=tuple(float(c) for c in xyz[node]))
         self.update()
 
     def edit(self, index: int) -> None:
@@ -604,13 +606,14 @@ class YarnTool(Tool):
         if r is None:
             self.hint("Run a solve first: the constraint's yarn is shown on the mesh.")
             return
+        y = y.resolved(r.mesh, r.xyz)  # its row in this mesh (a picked yarn is found by its point)
         nodes = yarn_nodes(r.mesh, y.kind, y.index)
         if not len(nodes):
-            self.hint(f"The mesh has no {y.kind} {y.index} now; remove the constraint or run again.")
+            self.hint(f"The mesh has no {y.label()} now; remove the constraint or run again.")
             return
         anchor = int(nodes[len(nodes) // 2])
         self.pending = PendingYarn(anchor, y.kind, y.index, tuple(y.plane), 0.0, y.k, index,
-                                   ij=tuple(r.mesh.ij[anchor]))
+                                   ij=tuple(r.mesh.ij[anchor]), point=y.point)
         self.update()
 
     def set_choice(self, kind: str | None = None, angle_deg: float | None = None, k: float | None = None) -> None:
@@ -656,7 +659,7 @@ class YarnTool(Tool):
             self.hint("Pick a node first." if p is None else "This yarn has no plane to hold it to.")
             return False
         try:
-            yarn = YarnConstraint(p.kind, p.index, self.plane, p.k)
+            yarn = YarnConstraint(p.kind, p.index, self.plane, p.k, point=p.point)
         except SettingsError as exc:
             self.hint(str(exc))
             return False
@@ -668,7 +671,7 @@ class YarnTool(Tool):
         self.view.set_picked_yarn()
         self.view.set_preview()
         self.host.editors.show_yarn_editor(None)
-        self.hint(f"Constrained {yarn.kind} {yarn.index}. Click another node, or Esc.")
+        self.hint(f"Constrained the {yarn.label()}. Click another node, or Esc.")
         return True
 
     def cancel(self) -> None:

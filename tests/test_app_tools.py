@@ -308,7 +308,9 @@ def test_a_yarn_picked_by_clicking_a_node(solved, qtbot):
     (yarn,) = win.project.settings.yarns
     assert (yarn.kind, yarn.index, yarn.k) == ("warp", j, 20000.0)
     np.testing.assert_allclose(yarn.plane, turned)
-    assert panel.yarn_list.count() == 1 and "warp column" in panel.yarn_list.item(0).text()
+    # kept by what was picked (the node's point), so a new drape finds the column again, and shown so
+    np.testing.assert_array_equal(yarn.point, r.xyz[node])
+    assert panel.yarn_list.count() == 1 and panel.yarn_list.item(0).text().startswith("warp through (")
     # the constraint changes the pattern and pulls the column towards its plane
     after = win.project.result
     assert win.project.result_is_current and project_problems(win.project) == []
@@ -326,7 +328,7 @@ def test_a_yarn_picked_by_clicking_a_node(solved, qtbot):
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
         qtbot.mouseClick(panel.yarn_apply_button, Qt.MouseButton.LeftButton)
     (edited,) = win.project.settings.yarns
-    assert (edited.kind, edited.index, edited.k) == ("warp", j, 20000.0)
+    assert (edited.kind, edited.index, edited.k) == ("warp", j, 20000.0) and edited.point == yarn.point
     assert np.dot(edited.plane[:3], turned[:3]) == pytest.approx(np.cos(np.radians(5.0)), abs=1e-9)
     # listed and removable like darts
     panel.yarn_list.setCurrentRow(0)
