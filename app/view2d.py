@@ -17,7 +17,9 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkTextActor
 
-from app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry
+from core.geom import polyline_distance
+
+from app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
 __all__ = ["PatternView", "nice_length"]
 
@@ -78,6 +80,10 @@ class PatternView(ViewBase):
         for t in (self.scale_label, self.grain_label):
             p.renderer.AddViewProp(t)
         self.options = ViewOptions()
+        self._grain = None
+        self._grain_obstacles: list = []
+        for event in ("MouseWheelForwardEvent", "MouseWheelBackwardEvent"):  # after the style's zoom
+            p.iren.interactor.AddObserver(event, self._on_wheel, -1.0)
         self.scale_length: float | None = None
         self._fit_pending = True
         self._pattern = None
@@ -91,6 +97,7 @@ class PatternView(ViewBase):
         for t in (self.scale_label, self.grain_label):
             t.SetVisibility(False)
         self._pattern = None
+        self._grain = None
         self.scale_length = None
         self._fit_pending = True
 
@@ -113,6 +120,8 @@ class PatternView(ViewBase):
         if self._fit_pending:
             self._fit_pending = False
             self.fit(render=False)
+        elif new_topology:
+            self.update_density()
         self.render()
 
     def restyle(self, options: ViewOptions) -> None:
@@ -137,7 +146,7 @@ class PatternView(ViewBase):
         hi = np.max([np.asarray(p.points).max(axis=0) for p in polys], axis=0)
         centre = (lo + hi) / 2
         half = np.maximum((hi - lo) / 2, 1e-12)
-        w, h = self._plotter.window_size
+        w, h = self.device_size()  # the widget's: the canvas's render window takes it only when it paints
         aspect = w / h if w > 0 and h > 0 else 1.0
         cam = self._plotter.renderer.GetActiveCamera()
         cam.ParallelProjectionOn()
@@ -147,8 +156,83 @@ class PatternView(ViewBase):
         cam.SetViewUp(0.0, 1.0, 0.0)
         cam.SetParallelScale(1.12 * max(half[1], half[0] / aspect))
         self._plotter.renderer.ResetCameraClippingRange()
+        self._zoomed()
         if render:
             self.render()
+
+    def _zoomed(self) -> None:
+        """The scale on screen changed: the label's size in model units and the springs' density did."""
+        if self.grain_label.GetVisibility():
+            self._place_grain_label()
+        self.update_density()
+
+    def _on_wheel(self, *_args) -> None:
+        if not self._closed:
+            self._zoomed()
+
+    # ------------------------------------------------------------------ the grain label
+    def _obstacles(self, frame) -> list[np.ndarray]:
+        """What the grain label must not cover: the darts' legs and nodes, and the outline, as (k, 2) polylines."""
+        lines = []
+        pattern = frame.pattern if frame.pattern is not None else self._pattern
+        if pattern is not None:
+            for d in pattern.darts:
+                lines.extend([np.asarray(d.leg_a, dtype=float), np.asarray(d.leg_b, dtype=float)])
+            pieces = pattern.pieces if len(pattern.pieces) else ()
+            loops = [p.outline for p in pieces] + [h for p in pieces for h in p.holes]
+            if not pieces:
+                loops = [pattern.outline, *pattern.holes]
+            lines.extend(np.vstack([loop, loop[:1]]) for loop in (np.asarray(lp, dtype=float) for lp in loops)
+                         if len(loop) >= 2)
+        nodes = np.concatenate([frame.dart_positive, frame.dart_negative]) if len(frame.xy) else []
+        if len(nodes):
+            lines.extend(frame.xy[np.asarray(nodes, dtype=np.int64)][:, None, :])  # each node a one-point line
+        return [line[np.all(np.isfinite(line), axis=1)] for line in lines if len(line)]
+
+    def _label_size(self) -> tuple[float, float]:
+        """(width, height) of the grain label in model units at the current zoom."""
+        w, h = text_size(self.grain_label.GetTextProperty(), self.grain_label.GetInput() or "",
+                         int(self._plotter.render_window.GetDPI()))
+        ppu = self.pixels_per_unit()
+        return (w + 6) / ppu, (h + 4) / ppu
+
+    def _place_grain_label(self) -> None:
+        """Put the grain label beside the grain line where it is farthest from the
+        darts (legs and nodes) and the outline: along the line, on either side."""
+        if getattr(self, "_grain", None) is None:
+            return
+        cx, cy, half, z = self._grain
+        w, h = self._label_size()
+        gap = 0.4 * h
+        ts = np.linspace(-0.8, 0.8, 17)
+        right = np.repeat([True, False], len(ts))
+        t = np.tile(ts, 2)
+        x0 = np.where(right, cx + gap, cx - gap - w)
+        y = cy + t * half
+        f = np.array([(fx, fy) for fx in (0.0, 0.5, 1.0) for fy in (-0.5, 0.0, 0.5)])
+        pts = np.stack([x0[:, None] + f[None, :, 0] * w, y[:, None] + f[None, :, 1] * h], axis=-1)  # (c, 9, 2)
+        flat = pts.reshape(-1, 2)
+        clear = np.full(len(flat), np.inf)
+        for line in self._grain_obstacles:
+            d = (polyline_distance(flat, line) if len(line) > 1 else np.linalg.norm(flat - line[0], axis=1))
+            clear = np.minimum(clear, d)
+        clear = clear.reshape(len(x0), -1).min(axis=1)
+        score = np.minimum(clear, 3.0 * h) - 0.05 * h * np.abs(t - 0.1) - np.where(right, 0.0, 0.02 * h)
+        k = int(np.argmax(score))
+        best = (float(x0[k]), float(y[k]), bool(right[k]), float(clear[k]))
+        x0, y, right, clear = best
+        prop = self.grain_label.GetTextProperty()
+        if right:
+            prop.SetJustificationToLeft()
+            self.grain_label.GetPositionCoordinate().SetValue(x0, y, z)
+        else:
+            prop.SetJustificationToRight()
+            self.grain_label.GetPositionCoordinate().SetValue(x0 + w, y, z)
+        self._grain_box = (x0, y - h / 2, x0 + w, y + h / 2)
+
+    def grain_label_box(self) -> tuple[float, float, float, float] | None:
+        """(x0, y0, x1, y1) in model units: the grain label's box as placed (None when not shown)."""
+        return getattr(self, "_grain_box", None) if self.grain_label.GetVisibility() else None
 
     # ------------------------------------------------------------------ pieces
     def _draw_pattern(self, pattern) -> None:
@@ -192,7 +276,9 @@ class PatternView(ViewBase):
         gp[:, 2] = z
         replace_geometry(self.grain, gp, lines=gc)
         self.grain_label.SetInput("grain (warp)")
-        self.grain_label.GetPositionCoordinate().SetValue(cx + 0.02 * size[0], cy + 0.1 * half, z)
+        self._grain = (float(cx), float(cy), float(half), float(z))
+        self._grain_obstacles = self._obstacles(frame)
+        self._place_grain_label()
         self.grain_label.SetVisibility(True)
 
         length = nice_length(0.4 * max(size[0], 1e-12))
