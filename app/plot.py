@@ -105,3 +105,7 @@ class EnergyPlot(QWidget):
         self._text(painter, QRectF(plot.left() + plot.width() * 0.45, 2, plot.width() * 0.55 - 2, fm.height()),
                    Qt.AlignmentFlag.AlignRight, f"EN {self.energies[ok][-1]:.4g}")
         painter.end()
+
+    def _text(self, painter: QPainter, box: QRectF, flags, text: str) -> None:
+        self.text_rects.append((text, painter.boundingRect(box, flags, text)))
+        painter.drawText(box, flags, text)

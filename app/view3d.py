@@ -36,6 +36,7 @@ YARN_COLOR = "#6a3d9a"
 PICK_COLOR = "#00a0d0"
 TEXT_COLOR = (0.1, 0.1, 0.1)
 TOOL_PRIORITY = 10.0  # above the camera style (0) and VTK's widgets (0.5): tools see clicks first
+VIEW_ANGLE = 30.0  # degrees, vertical (VTK's default)
 WHEEL_ZOOM = 1.2  # per wheel step (VTK's trackball style dollies by 1.1 ** 2)
 HANDLE_FILL = (1.0, 1.0, 1.0)
 HANDLE_EDGE = (0.07, 0.07, 0.07)
@@ -159,6 +160,7 @@ class SurfaceView(ViewBase):
             p.renderer.AddViewProp(bar)
         self._bar = self._bars[0]
         self._bar_layout = None
+        self._framed = None  # (size, camera) of the last home framing
         self._bar_width_px = self._bar_column()
         p.renderer.AddObserver("StartEvent", self._on_render_start)
         self.options = ViewOptions()
@@ -271,24 +273,42 @@ class SurfaceView(ViewBase):
         so it fills the view left of the colour bars."""
         if self._closed:
             return
-        p = self._plotter
         if self._surface is None:
-            p.reset_camera(render=False)
-            self.render()
-            return
+            self._plotter.reset_camera(render=False)
+        else:
+            self._fit_home()
+            self.update_density()
+        self.render()
+
+    def _fit_home(self) -> None:
+        p = self._plotter
         w, h = self.device_size()
         frame = fit_view(np.asarray(self._surface.points), *self._home, aspect=w / h,
-                         region=(0.0, 1.0 - self.bar_column_fraction(), 0.0, 1.0),
-                         view_angle=p.renderer.GetActiveCamera().GetViewAngle())
+                         region=(0.0, 1.0 - self.bar_column_fraction(), 0.0, 1.0), view_angle=VIEW_ANGLE)
         cam = p.renderer.GetActiveCamera()
         cam.ParallelProjectionOff()
+        cam.SetViewAngle(VIEW_ANGLE)
         cam.SetFocalPoint(*frame.focal_point)
         cam.SetPosition(*frame.position)
         cam.SetViewUp(*frame.view_up)
         cam.SetWindowCenter(*frame.window_center)
         p.renderer.ResetCameraClippingRange()
-        self.update_density()
-        self.render()
+        self._framed = ((w, h), self._camera_state())
+
+    def _camera_state(self) -> tuple:
+        cam = self._plotter.renderer.GetActiveCamera()
+        return (*cam.GetPosition(), *cam.GetFocalPoint(), *cam.GetViewUp(), *cam.GetWindowCenter(),
+                cam.GetViewAngle(), cam.GetParallelProjection())
+
+    def _refit_if_resized(self) -> None:
+        """The view changed size while the camera still shows the home framing
+        (nobody moved it): frame again for the new size (the window's first
+        layout, a moved splitter, a resized window)."""
+        framed = self._framed
+        if framed is not None and self._surface is not None and framed[0] != self.device_size() \
+                and framed[1] == self._camera_state():
+            self._fit_home()
+            self.update_density()
 
     # ------------------------------------------------------------------ the wheel
     def zoom_at(self, x: float, y: float, factor: float) -> None:
@@ -369,6 +389,7 @@ class SurfaceView(ViewBase):
         self._layout_bars()
 
     def _on_render_start(self, *_args) -> None:
+        self._refit_if_resized()
         self._layout_bars()
 
     def _layout_bars(self) -> None:
