@@ -17,11 +17,9 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkTextActor
 
-from core.geom import polyline_distance
-
 from app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
-__all__ = ["PatternView", "nice_length"]
+__all__ = ["PatternView", "nice_length", "segment_distances"]
 
 OUTLINE_COLOR = "#111111"
 GRAIN_COLOR = "#444444"
@@ -34,6 +32,25 @@ def nice_length(limit: float) -> float:
         return 1.0
     p = 10.0 ** math.floor(math.log10(limit))
     return max(m * p for m in (1.0, 2.0, 5.0) if m * p <= limit * (1 + 1e-12))
+
+
+def segment_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray, cap: float = np.inf) -> np.ndarray:
+    """(k,) distance from each point ``p`` (k, 2) to the nearest segment a[i]-b[i]
+    (s, 2 each; a point where a[i] == b[i]), or ``cap`` when none is nearer:
+    segments out of reach of every point are dropped first, so a long outline
+    costs little."""
+    if not len(a) or not len(p):
+        return np.full(len(p), cap)
+    lo, hi = p.min(axis=0) - cap, p.max(axis=0) + cap
+    near = ~((np.maximum(a, b) < lo).any(axis=1) | (np.minimum(a, b) > hi).any(axis=1))
+    a, b = a[near], b[near]
+    if not len(a):
+        return np.full(len(p), cap)
+    ab = b - a
+    L2 = np.maximum((ab * ab).sum(axis=1), 1e-300)
+    t = np.clip(((p[:, None, :] - a[None]) * ab[None]).sum(axis=2) / L2[None], 0.0, 1.0)
+    d = np.linalg.norm(p[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=2)
+    return np.minimum(d.min(axis=1), cap)
 
 
 def _text(size: int, bold: bool = False) -> vtkTextActor:
@@ -81,7 +98,7 @@ class PatternView(ViewBase):
             p.renderer.AddViewProp(t)
         self.options = ViewOptions()
         self._grain = None
-        self._grain_obstacles: list = []
+        self._grain_segments = (np.zeros((0, 2)), np.zeros((0, 2)))  # what the grain label keeps clear of
         for event in ("MouseWheelForwardEvent", "MouseWheelBackwardEvent"):  # after the style's zoom
             p.iren.interactor.AddObserver(event, self._on_wheel, -1.0)
         self.scale_length: float | None = None
@@ -118,7 +135,8 @@ class PatternView(ViewBase):
         if new_topology or frame.final or self.scale_length is None:
             self._draw_guides(frame)
         if self._fit_pending:
-            self._fit_pending = False
+            # the drape's frames grow: frame the pattern again when the solve's first frame comes
+            self._fit_pending = bool(frame.draping)
             self.fit(render=False)
         elif new_topology:
             self.update_density()
@@ -212,12 +230,9 @@ class PatternView(ViewBase):
         f = np.array([(fx, fy) for fx in (0.0, 0.5, 1.0) for fy in (-0.5, 0.0, 0.5)])
         pts = np.stack([x0[:, None] + f[None, :, 0] * w, y[:, None] + f[None, :, 1] * h], axis=-1)  # (c, 9, 2)
         flat = pts.reshape(-1, 2)
-        clear = np.full(len(flat), np.inf)
-        for line in self._grain_obstacles:
-            d = (polyline_distance(flat, line) if len(line) > 1 else np.linalg.norm(flat - line[0], axis=1))
-            clear = np.minimum(clear, d)
-        clear = clear.reshape(len(x0), -1).min(axis=1)
-        score = np.minimum(clear, 3.0 * h) - 0.05 * h * np.abs(t - 0.1) - np.where(right, 0.0, 0.02 * h)
+        cap = 3.0 * h  # clearances beyond this count alike
+        clear = segment_distances(flat, *self._grain_segments, cap).reshape(len(x0), -1).min(axis=1)
+        score = np.minimum(clear, cap) - 0.05 * h * np.abs(t - 0.1) - np.where(right, 0.0, 0.02 * h)
         k = int(np.argmax(score))
         best = (float(x0[k]), float(y[k]), bool(right[k]), float(clear[k]))
         x0, y, right, clear = best
@@ -277,7 +292,11 @@ class PatternView(ViewBase):
         replace_geometry(self.grain, gp, lines=gc)
         self.grain_label.SetInput("grain (warp)")
         self._grain = (float(cx), float(cy), float(half), float(z))
-        self._grain_obstacles = self._obstacles(frame)
+        lines = self._obstacles(frame)
+        starts = [ln[:-1] if len(ln) > 1 else ln for ln in lines]
+        ends = [ln[1:] if len(ln) > 1 else ln for ln in lines]
+        self._grain_segments = ((np.vstack(starts), np.vstack(ends)) if lines else
+                                (np.zeros((0, 2)), np.zeros((0, 2))))
         self._place_grain_label()
         self.grain_label.SetVisibility(True)
 

@@ -40,7 +40,7 @@ KINDS = ("weft", "warp", "diag")
 BACKGROUND = "#e9edf1"
 HOVER_INTERVAL = 0.04  # seconds between two hover picks at most
 THIN_LINES_ABOVE = 4000  # springs; denser meshes are drawn with 1-pixel lines
-DENSE_PIXELS = 5.0  # springs shorter than this on screen: draw coloured cells, not a moire of lines
+DENSE_PIXELS = 7.0  # threads closer than this on screen: draw coloured cells, not a moire of lines
 
 
 @dataclass(frozen=True)
