@@ -111,6 +111,18 @@ class GLPlotter(QtInteractor):
             iren.EnableRenderOn()
             iren.RemoveObserver(tag)
 
+    def wheelEvent(self, ev):
+        """pyvistaqt hands the wheel to VTK without its position (the last mouse
+        move's stands): give it, so the 3D view zooms about the cursor."""
+        iren = self.iren.interactor if self.iren is not None else None
+        if iren is not None:
+            dpr = self.devicePixelRatioF()
+            pos = ev.position()
+            iren.SetEventInformationFlipY(round(pos.x() * dpr), round(pos.y() * dpr),
+                                          int(bool(ev.modifiers() & Qt.KeyboardModifier.ControlModifier)),
+                                          int(bool(ev.modifiers() & Qt.KeyboardModifier.ShiftModifier)), "\0", 0, None)
+        super().wheelEvent(ev)
+
     def is_ready(self) -> bool:
         rw = self.render_window
         return bool(rw is not None and rw.GetReadyForRendering())

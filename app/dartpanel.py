@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from PySide6.QtCore import QSignalBlocker, Qt, Signal
+from PySide6.QtCore import QSignalBlocker, QSize, Qt, Signal
 from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox,
                                QHBoxLayout, QLabel, QLineEdit, QListWidget, QListWidgetItem, QPushButton,
                                QToolButton, QVBoxLayout, QWidget)
@@ -21,7 +21,7 @@ from core.project import Project
 
 from app.panels import NumberEdit
 
-__all__ = ["DartPanel", "parse_numbers", "format_numbers", "yarn_label"]
+__all__ = ["DartPanel", "ShortList", "parse_numbers", "format_numbers", "yarn_label"]
 
 
 def parse_numbers(text: str, n: int, what: str) -> tuple[float, ...]:
@@ -38,6 +38,24 @@ def parse_numbers(text: str, n: int, what: str) -> tuple[float, ...]:
 
 def format_numbers(values) -> str:
     return ", ".join(f"{float(v):.6g}" for v in values)
+
+
+class ShortList(QListWidget):
+    """A list that asks for ``rows`` rows (a QListWidget asks for about ten):
+    the side panel's scroll area sizes the dock by its parts' preferred
+    heights, so two tall lists pushed the energy plot below the fold and added
+    a scroll bar. It still grows into the room there is (expanding policy)."""
+
+    def __init__(self, rows: int, parent=None):
+        super().__init__(parent)
+        self.rows = rows
+
+    def sizeHint(self) -> QSize:
+        h = self.rows * max(self.sizeHintForRow(0), self.fontMetrics().height() + 4) + 2 * self.frameWidth() + 4
+        return QSize(super().sizeHint().width(), h)
+
+    def minimumSizeHint(self) -> QSize:
+        return QSize(super().minimumSizeHint().width(), min(self.minimumHeight() or 10**6, self.sizeHint().height()))
 
 
 def yarn_label(y) -> str:
@@ -72,20 +90,21 @@ class DartPanel(QWidget):
 
         darts = QGroupBox("Darts")
         col = QVBoxLayout(darts)
-        self.dart_list = QListWidget()
+        self.dart_list = ShortList(4)
         self.dart_list.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
         self.dart_list.setEditTriggers(QAbstractItemView.EditTrigger.DoubleClicked
                                        | QAbstractItemView.EditTrigger.EditKeyPressed)
         self.dart_list.setToolTip("Tick to show a dart; double-click to rename it. Select a curve dart to drag "
                                   "its points on the surface")
-        self.dart_list.setMinimumHeight(90)
+        self.dart_list.setMinimumHeight(72)
         col.addWidget(self.dart_list)
         row = QHBoxLayout()
         self.draw_curve = QToolButton()
         self.draw_plane = QToolButton()
-        self.edit_dart = QPushButton("Edit")
+        # tool buttons: compact, so the row fits the dock (a push button's style minimum is wider)
+        self.edit_dart = QToolButton(text="Edit")
         self.edit_dart.setToolTip("Move the selected plane dart's plane and box")
-        self.delete_dart = QPushButton("Delete")
+        self.delete_dart = QToolButton(text="Delete")
         for w in (self.draw_curve, self.draw_plane, self.edit_dart, self.delete_dart):
             row.addWidget(w)
         row.addStretch(1)
@@ -117,14 +136,14 @@ class DartPanel(QWidget):
 
         yarns = QGroupBox("Constrained yarns")
         col = QVBoxLayout(yarns)
-        self.yarn_list = QListWidget()
+        self.yarn_list = ShortList(3)
         self.yarn_list.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
-        self.yarn_list.setMinimumHeight(60)
+        self.yarn_list.setMinimumHeight(56)
         col.addWidget(self.yarn_list)
         row = QHBoxLayout()
         self.pick_yarn = QToolButton()
-        self.edit_yarn = QPushButton("Edit")
-        self.remove_yarn = QPushButton("Remove")
+        self.edit_yarn = QToolButton(text="Edit")
+        self.remove_yarn = QToolButton(text="Remove")
         for w in (self.pick_yarn, self.edit_yarn, self.remove_yarn):
             row.addWidget(w)
         row.addStretch(1)

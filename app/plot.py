@@ -19,6 +19,7 @@ LINE = QColor("#1f5fa8")
 CHANGE = QColor("#e08a00")
 GRID = QColor("#dddddd")
 TEXT = QColor("#222222")
+MIN_HEIGHT = 120  # pixels: the title, the axis labels and a readable curve
 
 
 class EnergyPlot(QWidget):
@@ -29,7 +30,8 @@ class EnergyPlot(QWidget):
         self.iterations = np.zeros(0)
         self.energies = np.zeros(0)
         self.changes = np.zeros(0, dtype=bool)
-        self.setMinimumHeight(110)
+        self.text_rects: list = []
+        self.setMinimumHeight(MIN_HEIGHT)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Preferred)
         self.setToolTip("Energy EN (log scale) against iteration; orange ticks: nodes deleted or refilled")
 
@@ -50,6 +52,7 @@ class EnergyPlot(QWidget):
         self.update()
 
     def paintEvent(self, _event) -> None:
+        self.text_rects = []  # (text, QRectF it took) of every text drawn, for the layout tests
         painter = QPainter(self)
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         painter.fillRect(self.rect(), QColor("white"))
@@ -62,10 +65,11 @@ class EnergyPlot(QWidget):
         painter.setPen(QPen(GRID, 1))
         painter.drawRect(plot)
         painter.setPen(TEXT)
-        painter.drawText(QPointF(4, fm.ascent() + 2), "energy EN (log)")
+        self._text(painter, QRectF(4, 2, plot.width() * 0.55, fm.height()), Qt.AlignmentFlag.AlignLeft,
+                   "energy EN (log)")
         ok = np.isfinite(self.energies) & (self.energies > 0)
         if ok.sum() < 1:
-            painter.drawText(plot, Qt.AlignmentFlag.AlignCenter, "no solve yet")
+            self._text(painter, plot, Qt.AlignmentFlag.AlignCenter, "no solve yet")
             painter.end()
             return
         it, en = self.iterations[ok], np.log10(self.energies[ok])
@@ -80,8 +84,9 @@ class EnergyPlot(QWidget):
             painter.drawLine(QPointF(plot.left(), y), QPointF(plot.right(), y))
             if d in (y0, y1) or (y1 - y0) <= 4:
                 painter.setPen(TEXT)
-                painter.drawText(QRectF(0, y - fm.height() / 2, left - 3, fm.height()),
-                                 Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter, f"1e{d}")
+                box = QRectF(0, y - fm.height() / 2, left - 3, fm.height())
+                box.moveTop(min(max(box.top(), 0.0), self.height() - fm.height()))  # the end labels stay inside
+                self._text(painter, box, Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter, f"1e{d}")
         xs = plot.left() + (it - x0) / (x1 - x0) * plot.width()
         ys = plot.bottom() - (en - y0) / (y1 - y0) * plot.height()
         painter.setPen(QPen(CHANGE, 1))
@@ -93,10 +98,14 @@ class EnergyPlot(QWidget):
         else:
             painter.drawPolyline(QPolygonF([QPointF(x, y) for x, y in zip(xs, ys)]))
         painter.setPen(TEXT)
-        painter.drawText(QRectF(plot.left(), plot.bottom() + 2, plot.width(), fm.height()),
-                         Qt.AlignmentFlag.AlignLeft, f"{int(x0)}")
-        painter.drawText(QRectF(plot.left(), plot.bottom() + 2, plot.width(), fm.height()),
-                         Qt.AlignmentFlag.AlignRight, f"iteration {int(it.max())}")
-        painter.drawText(QRectF(plot.left(), 2, plot.width() - 2, fm.height()), Qt.AlignmentFlag.AlignRight,
-                         f"EN {self.energies[ok][-1]:.4g}")
+        self._text(painter, QRectF(plot.left(), plot.bottom() + 2, plot.width(), fm.height()),
+                   Qt.AlignmentFlag.AlignLeft, f"{int(x0)}")
+        self._text(painter, QRectF(plot.left(), plot.bottom() + 2, plot.width(), fm.height()),
+                   Qt.AlignmentFlag.AlignRight, f"iteration {int(it.max())}")
+        self._text(painter, QRectF(plot.left() + plot.width() * 0.45, 2, plot.width() * 0.55 - 2, fm.height()),
+                   Qt.AlignmentFlag.AlignRight, f"EN {self.energies[ok][-1]:.4g}")
         painter.end()
+
+    def _text(self, painter: QPainter, box: QRectF, flags, text: str) -> None:
+        self.text_rects.append((text, painter.boundingRect(box, flags, text)))
+        painter.drawText(box, flags, text)

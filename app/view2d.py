@@ -17,9 +17,9 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkTextActor
 
-from app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry
+from app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
-__all__ = ["PatternView", "nice_length"]
+__all__ = ["PatternView", "nice_length", "segment_distances"]
 
 OUTLINE_COLOR = "#111111"
 GRAIN_COLOR = "#444444"
@@ -32,6 +32,25 @@ def nice_length(limit: float) -> float:
         return 1.0
     p = 10.0 ** math.floor(math.log10(limit))
     return max(m * p for m in (1.0, 2.0, 5.0) if m * p <= limit * (1 + 1e-12))
+
+
+def segment_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray, cap: float = np.inf) -> np.ndarray:
+    """(k,) distance from each point ``p`` (k, 2) to the nearest segment a[i]-b[i]
+    (s, 2 each; a point where a[i] == b[i]), or ``cap`` when none is nearer:
+    segments out of reach of every point are dropped first, so a long outline
+    costs little."""
+    if not len(a) or not len(p):
+        return np.full(len(p), cap)
+    lo, hi = p.min(axis=0) - cap, p.max(axis=0) + cap
+    near = ~((np.maximum(a, b) < lo).any(axis=1) | (np.minimum(a, b) > hi).any(axis=1))
+    a, b = a[near], b[near]
+    if not len(a):
+        return np.full(len(p), cap)
+    ab = b - a
+    L2 = np.maximum((ab * ab).sum(axis=1), 1e-300)
+    t = np.clip(((p[:, None, :] - a[None]) * ab[None]).sum(axis=2) / L2[None], 0.0, 1.0)
+    d = np.linalg.norm(p[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=2)
+    return np.minimum(d.min(axis=1), cap)
 
 
 def _text(size: int, bold: bool = False) -> vtkTextActor:
@@ -78,6 +97,10 @@ class PatternView(ViewBase):
         for t in (self.scale_label, self.grain_label):
             p.renderer.AddViewProp(t)
         self.options = ViewOptions()
+        self._grain = None
+        self._grain_segments = (np.zeros((0, 2)), np.zeros((0, 2)))  # what the grain label keeps clear of
+        for event in ("MouseWheelForwardEvent", "MouseWheelBackwardEvent"):  # after the style's zoom
+            p.iren.interactor.AddObserver(event, self._on_wheel, -1.0)
         self.scale_length: float | None = None
         self._fit_pending = True
         self._pattern = None
@@ -91,6 +114,7 @@ class PatternView(ViewBase):
         for t in (self.scale_label, self.grain_label):
             t.SetVisibility(False)
         self._pattern = None
+        self._grain = None
         self.scale_length = None
         self._fit_pending = True
 
@@ -111,8 +135,11 @@ class PatternView(ViewBase):
         if new_topology or frame.final or self.scale_length is None:
             self._draw_guides(frame)
         if self._fit_pending:
-            self._fit_pending = False
+            # the drape's frames grow: frame the pattern again when the solve's first frame comes
+            self._fit_pending = bool(frame.draping)
             self.fit(render=False)
+        elif new_topology:
+            self.update_density()
         self.render()
 
     def restyle(self, options: ViewOptions) -> None:
@@ -137,7 +164,7 @@ class PatternView(ViewBase):
         hi = np.max([np.asarray(p.points).max(axis=0) for p in polys], axis=0)
         centre = (lo + hi) / 2
         half = np.maximum((hi - lo) / 2, 1e-12)
-        w, h = self._plotter.window_size
+        w, h = self.device_size()  # the widget's: the canvas's render window takes it only when it paints
         aspect = w / h if w > 0 and h > 0 else 1.0
         cam = self._plotter.renderer.GetActiveCamera()
         cam.ParallelProjectionOn()
@@ -147,8 +174,80 @@ class PatternView(ViewBase):
         cam.SetViewUp(0.0, 1.0, 0.0)
         cam.SetParallelScale(1.12 * max(half[1], half[0] / aspect))
         self._plotter.renderer.ResetCameraClippingRange()
+        self._zoomed()
         if render:
             self.render()
+
+    def _zoomed(self) -> None:
+        """The scale on screen changed: the label's size in model units and the springs' density did."""
+        if self.grain_label.GetVisibility():
+            self._place_grain_label()
+        self.update_density()
+
+    def _on_wheel(self, *_args) -> None:
+        if not self._closed:
+            self._zoomed()
+
+    # ------------------------------------------------------------------ the grain label
+    def _obstacles(self, frame) -> list[np.ndarray]:
+        """What the grain label must not cover: the darts' legs and nodes, and the outline, as (k, 2) polylines."""
+        lines = []
+        pattern = frame.pattern if frame.pattern is not None else self._pattern
+        if pattern is not None:
+            for d in pattern.darts:
+                lines.extend([np.asarray(d.leg_a, dtype=float), np.asarray(d.leg_b, dtype=float)])
+            pieces = pattern.pieces if len(pattern.pieces) else ()
+            loops = [p.outline for p in pieces] + [h for p in pieces for h in p.holes]
+            if not pieces:
+                loops = [pattern.outline, *pattern.holes]
+            lines.extend(np.vstack([loop, loop[:1]]) for loop in (np.asarray(lp, dtype=float) for lp in loops)
+                         if len(loop) >= 2)
+        nodes = np.concatenate([frame.dart_positive, frame.dart_negative]) if len(frame.xy) else []
+        if len(nodes):
+            lines.extend(frame.xy[np.asarray(nodes, dtype=np.int64)][:, None, :])  # each node a one-point line
+        return [line[np.all(np.isfinite(line), axis=1)] for line in lines if len(line)]
+
+    def _label_size(self) -> tuple[float, float]:
+        """(width, height) of the grain label in model units at the current zoom."""
+        w, h = text_size(self.grain_label.GetTextProperty(), self.grain_label.GetInput() or "",
+                         int(self._plotter.render_window.GetDPI()))
+        ppu = self.pixels_per_unit()
+        return (w + 6) / ppu, (h + 4) / ppu
+
+    def _place_grain_label(self) -> None:
+        """Put the grain label beside the grain line where it is farthest from the
+        darts (legs and nodes) and the outline: along the line, on either side."""
+        if getattr(self, "_grain", None) is None:
+            return
+        cx, cy, half, z = self._grain
+        w, h = self._label_size()
+        gap = 0.4 * h
+        ts = np.linspace(-0.8, 0.8, 17)
+        right = np.repeat([True, False], len(ts))
+        t = np.tile(ts, 2)
+        x0 = np.where(right, cx + gap, cx - gap - w)
+        y = cy + t * half
+        f = np.array([(fx, fy) for fx in (0.0, 0.5, 1.0) for fy in (-0.5, 0.0, 0.5)])
+        pts = np.stack([x0[:, None] + f[None, :, 0] * w, y[:, None] + f[None, :, 1] * h], axis=-1)  # (c, 9, 2)
+        flat = pts.reshape(-1, 2)
+        cap = 3.0 * h  # clearances beyond this count alike
+        clear = segment_distances(flat, *self._grain_segments, cap).reshape(len(x0), -1).min(axis=1)
+        score = np.minimum(clear, cap) - 0.05 * h * np.abs(t - 0.1) - np.where(right, 0.0, 0.02 * h)
+        k = int(np.argmax(score))
+        best = (float(x0[k]), float(y[k]), bool(right[k]), float(clear[k]))
+        x0, y, right, clear = best
+        prop = self.grain_label.GetTextProperty()
+        if right:
+            prop.SetJustificationToLeft()
+            self.grain_label.GetPositionCoordinate().SetValue(x0, y, z)
+        else:
+            prop.SetJustificationToRight()
+            self.grain_label.GetPositionCoordinate().SetValue(x0 + w, y, z)
+        self._grain_box = (x0, y - h / 2, x0 + w, y + h / 2)
+
+    def grain_label_box(self) -> tuple[float, float, float, float] | None:
+        """(x0, y0, x1, y1) in model units: the grain label's box as placed (None when not shown)."""
+        return getattr(self, "_grain_box", None) if self.grain_label.GetVisibility() else None
 
     # ------------------------------------------------------------------ pieces
     def _draw_pattern(self, pattern) -> None:
@@ -192,7 +291,13 @@ class PatternView(ViewBase):
         gp[:, 2] = z
         replace_geometry(self.grain, gp, lines=gc)
         self.grain_label.SetInput("grain (warp)")
-        self.grain_label.GetPositionCoordinate().SetValue(cx + 0.02 * size[0], cy + 0.1 * half, z)
+        self._grain = (float(cx), float(cy), float(half), float(z))
+        lines = self._obstacles(frame)
+        starts = [ln[:-1] if len(ln) > 1 else ln for ln in lines]
+        ends = [ln[1:] if len(ln) > 1 else ln for ln in lines]
+        self._grain_segments = ((np.vstack(starts), np.vstack(ends)) if lines else
+                                (np.zeros((0, 2)), np.zeros((0, 2))))
+        self._place_grain_label()
         self.grain_label.SetVisibility(True)
 
         length = nice_length(0.4 * max(size[0], 1e-12))

@@ -20,10 +20,12 @@ import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkDoubleArray
 from vtkmodules.vtkInteractionWidgets import vtkBoxWidget, vtkImplicitPlaneWidget
 from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
+from vtkmodules.vtkRenderingCore import vtkActor2D, vtkCoordinate, vtkPolyDataMapper2D
 
-from app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry
+from app.camera import fit_view, home_view
+from app.viewbase import SCALE_TITLES, ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
-__all__ = ["SurfaceView", "grid_faces", "grid_boundary"]
+__all__ = ["SurfaceView", "grid_faces", "grid_boundary", "bar_labels"]
 
 SURFACE_COLOR = "#d8c3a5"
 EDGE_COLOR = "#3b3b3b"
@@ -34,6 +36,15 @@ YARN_COLOR = "#6a3d9a"
 PICK_COLOR = "#00a0d0"
 TEXT_COLOR = (0.1, 0.1, 0.1)
 TOOL_PRIORITY = 10.0  # above the camera style (0) and VTK's widgets (0.5): tools see clicks first
+VIEW_ANGLE = 30.0  # degrees, vertical (VTK's default)
+WHEEL_ZOOM = 1.2  # per wheel step (VTK's trackball style dollies by 1.1 ** 2)
+HANDLE_FILL = (1.0, 1.0, 1.0)
+HANDLE_EDGE = (0.07, 0.07, 0.07)
+HANDLE_SIZE, HANDLE_EDGE_SIZE = 11.0, 17.0  # pixels: white squares ringed in black, over everything
+BAR_MARGIN = 8  # pixels between a colour bar and the view's right edge
+BAR_PAD = 10  # pixels round a bar's text inside its frame
+BAR_RATIO = 0.26  # of a bar's frame width: the colour swatch
+BAR_SAMPLE_LABEL = "-00.00"  # the widest label the bars are sized for (format %-#6.3g)
 
 
 def grid_faces(nu: int, nv: int) -> np.ndarray:
@@ -60,27 +71,38 @@ def grid_boundary(nu: int, nv: int) -> np.ndarray:
 def _scalar_bar() -> vtkScalarBarActor:
     bar = vtkScalarBarActor()
     bar.SetOrientationToVertical()
-    coord = bar.GetPositionCoordinate()
-    coord.SetCoordinateSystemToNormalizedViewport()
-    coord.SetValue(0.87, 0.1)
-    bar.SetWidth(0.125)
-    bar.SetHeight(0.55)
-    bar.SetBarRatio(0.28)
+    bar.GetPositionCoordinate().SetCoordinateSystemToNormalizedViewport()
+    bar.SetBarRatio(BAR_RATIO)
     bar.DrawBackgroundOn()
     bar.GetBackgroundProperty().SetColor(1.0, 1.0, 1.0)
     bar.GetBackgroundProperty().SetOpacity(0.85)
     bar.SetLabelFormat("%-#6.3g")
-    bar.SetVerticalTitleSeparation(8)
+    bar.SetVerticalTitleSeparation(6)
+    bar.SetTextPad(4)
     bar.UnconstrainedFontSizeOn()
-    for prop, size, bold in ((bar.GetTitleTextProperty(), 15, True), (bar.GetLabelTextProperty(), 13, False)):
+    for prop, size, bold in ((bar.GetTitleTextProperty(), 14, True), (bar.GetLabelTextProperty(), 13, False)):
         prop.SetColor(*TEXT_COLOR)
         prop.SetFontSize(size)
         prop.SetBold(bold)
         prop.SetItalic(False)
         prop.SetShadow(False)
+    bar.GetTitleTextProperty().SetJustificationToCentered()
     bar.SetUseCustomLabels(True)
     bar.SetPickable(False)
+    bar.SetVisibility(False)
     return bar
+
+
+def bar_labels(lo: float, hi: float, gap: float = 0.09) -> list[float]:
+    """The labelled values of a strain bar from ``lo`` (< 0) to ``hi`` (> 0):
+    both ends, then 0 and the halves, each only if it is at least ``gap`` of
+    the span from every label kept (an asymmetric scale's labels never overlap)."""
+    span = max(hi - lo, 1e-300)
+    kept = [lo, hi]
+    for v in (0.0, lo / 2, hi / 2):
+        if all(abs(v - k) >= gap * span for k in kept):
+            kept.append(v)
+    return sorted(kept)
 
 
 class SurfaceView(ViewBase):
@@ -108,7 +130,23 @@ class SurfaceView(ViewBase):
         self._pick_node, self._pick_node_actor = overlay(PICK_COLOR, points=True, size=16.0)
         self._preview, self._preview_actor = overlay(PREVIEW_COLOR, 5.0)
         self._preview_points, self._preview_points_actor = overlay(PREVIEW_COLOR, points=True, size=13.0)
-        self._handles, self._handles_actor = overlay(SELECTED_COLOR, points=True, size=15.0)
+        # a curve dart's handles: 2D squares (white, ringed in black) drawn over everything,
+        # unlike the round red and blue dart nodes among which they sit
+        self._handles = pv.PolyData()
+        self._handle_actors = []
+        for colour, size in ((HANDLE_EDGE, HANDLE_EDGE_SIZE), (HANDLE_FILL, HANDLE_SIZE)):
+            world = vtkCoordinate()
+            world.SetCoordinateSystemToWorld()
+            mapper = vtkPolyDataMapper2D()
+            mapper.SetInputData(self._handles)
+            mapper.SetTransformCoordinate(world)
+            actor = vtkActor2D()
+            actor.SetMapper(mapper)
+            actor.GetProperty().SetColor(*colour)
+            actor.GetProperty().SetPointSize(size)
+            actor.SetPickable(False)
+            p.renderer.AddViewProp(actor)
+            self._handle_actors.append(actor)
         self.dart_curves: list = []  # the document's darts as drawn: (k, 3) each, or None when hidden
         self.selected_dart: int | None = None
         self.plane_widget: vtkImplicitPlaneWidget | None = None
@@ -117,11 +155,18 @@ class SurfaceView(ViewBase):
         iren = p.iren.interactor
         self._tool_tags = {event: iren.AddObserver(event, self._on_tool_event, TOOL_PRIORITY)
                            for event in ("LeftButtonPressEvent", "MouseMoveEvent", "LeftButtonReleaseEvent")}
-        self._bar = _scalar_bar()
-        self._bar.SetVisibility(False)
-        p.renderer.AddViewProp(self._bar)
+        self._bars = [_scalar_bar(), _scalar_bar()]  # threads (or shear) above, diagonals below
+        for bar in self._bars:
+            p.renderer.AddViewProp(bar)
+        self._bar = self._bars[0]
+        self._bar_layout = None
+        self._framed = None  # (size, camera) of the last home framing
+        self._bar_width_px = self._bar_column()
+        p.renderer.AddObserver("StartEvent", self._on_render_start)
         self.options = ViewOptions()
-        self._home = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)
+        self._home = (np.array([-1.0, 1.0, -1.0]) / np.sqrt(3.0), np.array([0.0, 0.0, 1.0]))
+        self._wheel_tags = {event: iren.AddObserver(event, self._on_wheel, TOOL_PRIORITY)
+                            for event in ("MouseWheelForwardEvent", "MouseWheelBackwardEvent")}
 
     # ------------------------------------------------------------------ access
     @property
@@ -136,11 +181,47 @@ class SurfaceView(ViewBase):
 
     @property
     def colour_bar_title(self) -> str | None:
+        """The first colour bar's title (threads, or shear), None when no bar is shown."""
         return self._bar.GetTitle() if self._bar.GetVisibility() else None
 
     @property
     def colour_bar_range(self) -> tuple[float, float]:
         return self.layer.active_scale.range
+
+    @property
+    def colour_bars(self) -> list[tuple[str, tuple[float, float]]]:
+        """(title, (lo, hi)) of every colour bar shown, top to bottom."""
+        return [(bar.GetTitle(), (float(bar.GetLookupTable().GetRange()[0]), float(bar.GetLookupTable().GetRange()[1])))
+                for bar in self._bars if bar.GetVisibility()]
+
+    def colour_bar_boxes(self) -> list[tuple[float, float, float, float]]:
+        """(x0, y0, x1, y1) display pixels of every colour bar shown (its frame)."""
+        w, h = self.device_size()
+        out = []
+        for bar in self._bars:
+            if bar.GetVisibility():
+                x, y = bar.GetPosition()
+                bw, bh = bar.GetWidth(), bar.GetHeight()
+                out.append((x * w, y * h, (x + bw) * w, (y + bh) * h))
+        return out
+
+    def title_size(self, title: str) -> tuple[int, int]:
+        """(width, height) pixels of a colour bar title as drawn."""
+        return text_size(self._bar.GetTitleTextProperty(), title, self._dpi())
+
+    def _dpi(self) -> int:
+        return int(self._plotter.render_window.GetDPI())
+
+    def _bar_column(self) -> int:
+        """The colour bars' frame width in pixels: room for the widest title and label."""
+        title = max(self.title_size(line)[0] for t in SCALE_TITLES.values() for line in t.split("\n"))
+        label = text_size(self._bar.GetLabelTextProperty(), BAR_SAMPLE_LABEL, self._dpi())[0]
+        return int(max(title + 2 * BAR_PAD, (label + 2 * BAR_PAD) / (1.0 - BAR_RATIO)))
+
+    def bar_column_fraction(self) -> float:
+        """The share of the view's width the colour bars' column takes (the camera frames the rest)."""
+        w = self.device_size()[0]
+        return min(0.45, (self._bar_width_px + 2 * BAR_MARGIN) / w)
 
     # ------------------------------------------------------------------ content
     def set_surface(self, xyz: np.ndarray, normals: np.ndarray | None = None) -> None:
@@ -179,44 +260,91 @@ class SurfaceView(ViewBase):
         self.clear_frame()
         self.clear_overlays()
         self._apply_surface_visibility()
-        self._home = self._home_direction(normals)
+        self._home = home_view(xyz, normals)
         self.reset_camera()
 
-    @staticmethod
-    def _home_direction(normals) -> np.ndarray:
-        """A viewing direction for a new surface: along its mean normal, raised a
-        little so its relief shows (an isometric view if the normals cancel out)."""
-        d = np.zeros(3) if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3).mean(axis=0)
-        if np.linalg.norm(d) < 0.3:
-            d = np.array([1.0, 1.0, 1.0])
-        d = d / np.linalg.norm(d) + np.array([0.0, 0.0, 0.35])
-        return d / np.linalg.norm(d)
+    @property
+    def home(self) -> tuple[np.ndarray, np.ndarray]:
+        """(direction into the scene, view up) of the surface's home view (see :mod:`app.camera`)."""
+        return self._home
 
     def reset_camera(self) -> None:
-        """Look at the surface from its home direction, z up."""
+        """Frame the surface from its home direction (a three-quarter view, z up)
+        so it fills the view left of the colour bars."""
         if self._closed:
             return
-        p = self._plotter
-        d = self._home
-        up = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.95 else np.array([0.0, 1.0, 0.0])
-        cam = p.renderer.GetActiveCamera()
-        cam.SetFocalPoint(0.0, 0.0, 0.0)
-        cam.SetPosition(*d)
-        cam.SetViewUp(*up)
-        p.reset_camera(render=False)
-        cam.SetWindowCenter(0.1, 0.0)  # the piece a little left of the middle: the colour bar is on the right
-        cam.Zoom(1.02)
+        if self._surface is None:
+            self._plotter.reset_camera(render=False)
+        else:
+            self._fit_home()
+            self.update_density()
         self.render()
+
+    def _fit_home(self) -> None:
+        p = self._plotter
+        w, h = self.device_size()
+        frame = fit_view(np.asarray(self._surface.points), *self._home, aspect=w / h,
+                         region=(0.0, 1.0 - self.bar_column_fraction(), 0.0, 1.0), view_angle=VIEW_ANGLE)
+        cam = p.renderer.GetActiveCamera()
+        cam.ParallelProjectionOff()
+        cam.SetViewAngle(VIEW_ANGLE)
+        cam.SetFocalPoint(*frame.focal_point)
+        cam.SetPosition(*frame.position)
+        cam.SetViewUp(*frame.view_up)
+        cam.SetWindowCenter(*frame.window_center)
+        p.renderer.ResetCameraClippingRange()
+        self._framed = ((w, h), self._camera_state())
+
+    def _camera_state(self) -> tuple:
+        cam = self._plotter.renderer.GetActiveCamera()
+        return (*cam.GetPosition(), *cam.GetFocalPoint(), *cam.GetViewUp(), *cam.GetWindowCenter(),
+                cam.GetViewAngle(), cam.GetParallelProjection())
+
+    def _refit_if_resized(self) -> None:
+        """The view changed size while the camera still shows the home framing
+        (nobody moved it): frame again for the new size (the window's first
+        layout, a moved splitter, a resized window)."""
+        framed = self._framed
+        if framed is not None and self._surface is not None and framed[0] != self.device_size() \
+                and framed[1] == self._camera_state():
+            self._fit_home()
+            self.update_density()
+
+    # ------------------------------------------------------------------ the wheel
+    def zoom_at(self, x: float, y: float, factor: float) -> None:
+        """Move the camera ``factor`` times closer (< 1: away) to the point of its
+        focal plane under display point (x, y), which stays under it."""
+        cam = self._plotter.renderer.GetActiveCamera()
+        origin, ray = self.pick_ray(x, y)
+        focal = np.array(cam.GetFocalPoint())
+        pos = np.array(cam.GetPosition())
+        d = self.view_direction()
+        along = float(np.dot(ray, d))
+        target = origin + ray * (float(np.dot(focal - origin, d)) / along) if along > 1e-9 else focal
+        cam.SetPosition(*(target + (pos - target) / factor))
+        cam.SetFocalPoint(*(target + (focal - target) / factor))
+        self._plotter.renderer.ResetCameraClippingRange()
+        self.update_density()
+        self.render()
+
+    def _on_wheel(self, iren, event: str) -> None:
+        if self._closed:
+            return
+        x, y = iren.GetEventPosition()
+        self.zoom_at(x, y, WHEEL_ZOOM if event == "MouseWheelForwardEvent" else 1.0 / WHEEL_ZOOM)
+        iren.GetCommand(self._wheel_tags[event]).SetAbortFlag(1)  # not the style's zoom as well
 
     def clear_frame(self) -> None:
         """Remove the mesh and colour bar (a new surface, or no result); the
         document's darts and constraints stay (see :meth:`set_darts`)."""
         self.layer.clear()
-        self._bar.SetVisibility(False)
+        for bar in self._bars:
+            bar.SetVisibility(False)
 
     def show_frame(self, frame, options: ViewOptions) -> None:
         self.options = options
         self.layer.show(frame, frame.xyz, options)
+        self.update_density()
         self._update_bar()
         self._apply_surface_visibility()
         self.render()
@@ -232,25 +360,55 @@ class SurfaceView(ViewBase):
         for actor in self._surface_actors[:1]:
             actor.SetVisibility(bool(self.options.surface))
 
+    def _density_changed(self) -> None:
+        self._update_bar()
+        self.render()
+
     def _update_bar(self) -> None:
-        if self.layer.frame is None:
-            self._bar.SetVisibility(False)
-            return
-        scale = self.layer.active_scale
-        self._bar.SetLookupTable(scale.ctf)
-        self._bar.SetMaximumNumberOfColors(512)
-        labels = vtkDoubleArray()
-        if self.options.mode == "shear":
-            self._bar.SetTitle("shear (deg)")
-            values = [0.0, self.options.shear_warning_deg, self.options.shear_limit_deg, scale.range[1]]
-        else:
-            self._bar.SetTitle("strain (%)")
+        """One colour bar per scale in use: shear, or threads and diagonals."""
+        scales = [] if self.layer.frame is None else self.layer.shown_scales()
+        for k, bar in enumerate(self._bars):
+            if k >= len(scales):
+                bar.SetVisibility(False)
+                continue
+            group, scale = scales[k]
+            bar.SetLookupTable(scale.ctf)
+            bar.SetMaximumNumberOfColors(512)
+            bar.SetTitle(SCALE_TITLES[group])
             lo, hi = scale.range
-            values = [lo, lo / 2, 0.0, hi / 2, hi]
-        for v in values:
-            labels.InsertNextValue(float(v))
-        self._bar.SetCustomLabels(labels)
-        self._bar.SetVisibility(True)
+            if group == "shear":
+                values = [0.0, self.options.shear_warning_deg, self.options.shear_limit_deg, hi]
+            else:
+                values = bar_labels(lo, hi)
+            labels = vtkDoubleArray()
+            for v in values:
+                labels.InsertNextValue(float(v))
+            bar.SetCustomLabels(labels)
+            bar.SetVisibility(True)
+        self._bar_layout = None
+        self._layout_bars()
+
+    def _on_render_start(self, *_args) -> None:
+        self._refit_if_resized()
+        self._layout_bars()
+
+    def _layout_bars(self) -> None:
+        """Place the shown bars in the right-hand column, sized in pixels (so a
+        title is never cut, whatever the view's size); only when the size or
+        the bars shown changed."""
+        w, h = self.device_size()
+        shown = [bar for bar in self._bars if bar.GetVisibility()]
+        key = (w, h, len(shown))
+        if key == self._bar_layout:
+            return
+        self._bar_layout = key
+        width = self._bar_width_px / w
+        x = 1.0 - (self._bar_width_px + BAR_MARGIN) / w
+        slots = [(0.1, 0.6)] if len(shown) == 1 else [(0.52, 0.43), (0.05, 0.43)]
+        for bar, (y, height) in zip(shown, slots):
+            bar.GetPositionCoordinate().SetValue(x, y)
+            bar.SetWidth(width)
+            bar.SetHeight(height)
 
     # ------------------------------------------------------------------ the document's darts and yarns
     def clear_overlays(self) -> None:
@@ -305,7 +463,7 @@ class SurfaceView(ViewBase):
         return np.array(self._preview_points.points).reshape(-1, 3)
 
     def set_handles(self, points=None, render: bool = True) -> None:
-        """A curve dart's handles (h, 3) as draggable dots; None hides them."""
+        """A curve dart's handles (h, 3) as draggable squares; None hides them."""
         replace_geometry(self._handles, np.zeros((0, 3)) if points is None else points, verts=True)
         if render:
             self.render()
@@ -313,6 +471,14 @@ class SurfaceView(ViewBase):
     @property
     def handle_points(self) -> np.ndarray:
         return np.array(self._handles.points).reshape(-1, 3)
+
+    @property
+    def handle_style(self) -> dict:
+        """How the handles are drawn: ``size`` and ``edge_size`` (pixels), ``fill``
+        and ``edge`` colours, ``overlay`` (drawn over the 3D scene), ``round``."""
+        edge, fill = (a.GetProperty() for a in self._handle_actors)
+        return {"size": fill.GetPointSize(), "edge_size": edge.GetPointSize(), "fill": tuple(fill.GetColor()),
+                "edge": tuple(edge.GetColor()), "overlay": True, "round": False}
 
     def set_picked_yarn(self, polyline=None, node=None, render: bool = True) -> None:
         """Highlight a picked yarn (its nodes in order, (k, 3)) and the picked node (3,)."""

@@ -14,6 +14,7 @@ deleted or added) replaces a layer's geometry, still in the same actors.
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -23,12 +24,14 @@ import pyvista as pv
 from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
 from vtkmodules.vtkCommonCore import vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray
-from vtkmodules.vtkRenderingCore import vtkCellPicker, vtkColorTransferFunction
+import vtkmodules.vtkRenderingFreeType  # noqa: F401  (the text renderer text_size measures with)
+from vtkmodules.vtkRenderingCore import vtkCellPicker, vtkColorTransferFunction, vtkTextRenderer
 
 from app.canvas import make_plotter
 from app.colours import YELLOW, ramp, shear_stops, strain_range, strain_stops
 
-__all__ = ["ViewOptions", "ColourScale", "MeshLayer", "ViewBase", "KINDS", "scale_stops"]
+__all__ = ["ViewOptions", "ColourScale", "MeshLayer", "ViewBase", "KINDS", "scale_stops", "group_stops", "cell_springs",
+           "THREAD", "DIAGONAL", "SCALE_TITLES", "text_size"]
 
 # Layers start empty and are filled in place (an actor per layer for the app's lifetime).
 pv.global_theme.allow_empty_mesh = True
@@ -37,6 +40,7 @@ KINDS = ("weft", "warp", "diag")
 BACKGROUND = "#e9edf1"
 HOVER_INTERVAL = 0.04  # seconds between two hover picks at most
 THIN_LINES_ABOVE = 4000  # springs; denser meshes are drawn with 1-pixel lines
+DENSE_PIXELS = 7.0  # threads closer than this on screen: draw coloured cells, not a moire of lines
 
 
 @dataclass(frozen=True)
@@ -66,14 +70,35 @@ class ViewOptions:
         return (self.weft, self.warp, self.diag)
 
 
+THREAD, DIAGONAL = "thread", "diagonal"
+SCALE_TITLES = {THREAD: "thread\nstrain (%)", DIAGONAL: "diagonal\nstrain (%)", "shear": "shear (deg)"}
+KIND_GROUP = (THREAD, THREAD, DIAGONAL)  # each spring kind's colour scale
+
+
+def group_stops(frame, options: ViewOptions, group: str) -> list:
+    """The colour stops of one strain scale (``THREAD``: weft and warp springs,
+    ``DIAGONAL``: diagonal ones) in percent, over the springs of that group's
+    shown kinds (all of the group when none is shown): blue at its most
+    compressive, green at 0, red at its most tensile.
+
+    Each group has its own scale: on woven cloth the diagonals (shear proxies)
+    stretch a hundred times more than the threads, and one scale over both
+    painted every thread the same green (docs/decisions.md, App)."""
+    kinds = [k for k, g in enumerate(KIND_GROUP) if g == group]
+    kind = frame.mesh.kind
+    strain = 100.0 * np.asarray(frame.strain)
+    shown = [k for k in kinds if options.kinds[k]] or kinds
+    sel = np.isin(kind, shown) if len(strain) else np.zeros(0, bool)
+    return strain_stops(*strain_range(strain[sel]))
+
+
 def scale_stops(frame, options: ViewOptions) -> list:
-    """The colour stops for ``frame`` in the current mode: strain in percent
-    over the springs of the visible kinds, or shear in degrees."""
+    """The colour stops of the scale a view's first colour bar shows: shear in
+    degrees (shear mode), else the thread scale (or the diagonal one when no
+    thread kind is shown)."""
     if options.mode == "shear":
         return shear_stops(options.shear_warning_deg, options.shear_limit_deg)
-    shown = np.asarray(options.kinds)[frame.mesh.kind] if len(frame.strain) else np.zeros(0, bool)
-    lo, hi = strain_range(100.0 * frame.strain[shown] if shown.any() else 100.0 * frame.strain)
-    return strain_stops(lo, hi)
+    return group_stops(frame, options, THREAD if (options.weft or options.warp) else DIAGONAL)
 
 
 class ColourScale:
@@ -108,6 +133,14 @@ class ColourScale:
     def expected(self, values: np.ndarray) -> np.ndarray:
         """(k, 3) float: the same colours by numpy (:func:`app.colours.ramp`)."""
         return ramp(values, self.stops)
+
+
+def text_size(prop, text: str, dpi: int = 72) -> tuple[int, int]:
+    """(width, height) in pixels of ``text`` drawn with the text property ``prop``."""
+    box = [0, 0, 0, 0]
+    if not vtkTextRenderer.GetInstance().GetBoundingBox(prop, text, box, int(dpi)):
+        return 0, 0
+    return box[1] - box[0] + 1, box[3] - box[2] + 1
 
 
 def _line_cells(ends: np.ndarray) -> np.ndarray:
@@ -167,9 +200,47 @@ def replace_geometry(poly: pv.PolyData, points: np.ndarray, lines=None, faces=No
     poly.Modified()
 
 
+def cell_springs(mesh) -> np.ndarray:
+    """(c, 6) int: the springs along each cell's sides and diagonals, -1 where
+    there is none (cut by a dart): columns weft (0-1), warp (1-2), weft (3-2),
+    warp (0-3), diagonal (0-2), diagonal (1-3), by the cells' corner order."""
+    cells = np.asarray(mesh.cells, dtype=np.int64).reshape(-1, 4)
+    if not len(cells) or not mesh.n_springs:
+        return np.full((len(cells), 6), -1, dtype=np.int64)
+    n = np.int64(mesh.n_nodes)
+    e = np.sort(np.asarray(mesh.ends, dtype=np.int64), axis=1)
+    keys = e[:, 0] * n + e[:, 1]
+    order = np.argsort(keys)
+    sorted_keys = keys[order]
+    out = np.empty((len(cells), 6), dtype=np.int64)
+    for col, (s, t) in enumerate(((0, 1), (1, 2), (3, 2), (0, 3), (0, 2), (1, 3))):
+        want = np.minimum(cells[:, s], cells[:, t]) * n + np.maximum(cells[:, s], cells[:, t])
+        pos = np.minimum(np.searchsorted(sorted_keys, want), len(keys) - 1)
+        out[:, col] = np.where(sorted_keys[pos] == want, order[pos], -1)
+    return out
+
+
+def cell_strain(strain_pct: np.ndarray, springs: np.ndarray, use: np.ndarray) -> np.ndarray:
+    """(c,) the signed strain of largest size among each cell's springs
+    ``springs`` (c, 6) in the columns ``use`` (bool (6,)); 0 for a cell with none."""
+    sel = springs[:, use]
+    if not sel.size:
+        return np.zeros(len(springs))
+    vals = np.where(sel >= 0, np.asarray(strain_pct)[np.maximum(sel, 0)], 0.0)
+    pick = np.argmax(np.abs(vals), axis=1)
+    return np.take_along_axis(vals, pick[:, None], axis=1)[:, 0]
+
+
+_CELL_COLUMNS = {0: np.array([True, False, True, False, False, False]),   # weft sides
+                 1: np.array([False, True, False, True, False, False]),   # warp sides
+                 2: np.array([False, False, False, False, True, True])}   # diagonals
+
+
 class MeshLayer:
-    """The spring mesh drawn in one view: a line actor per spring kind, a cell
-    actor (shear mode), and boundary and dart node spheres.
+    """The spring mesh drawn in one view: a line actor per spring kind (threads
+    and diagonals on colour scales of their own), the cells coloured by shear
+    (shear mode) or, when the springs are too dense to draw as lines, by strain,
+    and boundary and dart node spheres.
 
     ``z`` lifts (or sinks) the layer along z, for the flat pattern's stacking.
     """
@@ -177,16 +248,22 @@ class MeshLayer:
     def __init__(self, plotter, line_width: float = 2.0, point_size: float = 9.0):
         self.plotter = plotter
         self.line_width = line_width
-        self.strain_scale = ColourScale()
+        self.thread_scale = ColourScale()
+        self.diag_scale = ColourScale()
         self.shear_scale = ColourScale()
         self.springs = [pv.PolyData() for _ in KINDS]
         self.spring_index = [np.zeros(0, dtype=np.int64) for _ in KINDS]
         self.cells = pv.PolyData()
+        self.cell_index = np.zeros((0, 6), dtype=np.int64)
         self.boundary = pv.PolyData()
         self.dart_pos = pv.PolyData()
         self.dart_neg = pv.PolyData()
-        self.spring_actors = [self._scalar_actor(p, self.strain_scale, line_width=line_width) for p in self.springs]
+        scales = (self.thread_scale, self.thread_scale, self.diag_scale)
+        self.spring_actors = [self._scalar_actor(p, scale, line_width=line_width)
+                              for p, scale in zip(self.springs, scales)]
         self.cell_actor = self._scalar_actor(self.cells, self.shear_scale, line_width=None)
+        # the same cells by strain: what a dense mesh shows instead of its springs
+        self.strain_cell_actor = self._scalar_actor(self.cells, self.thread_scale, line_width=None, array="strain")
         self.node_actors = [
             plotter.add_mesh(poly, color=color, point_size=point_size, render_points_as_spheres=True,
                              render=False, reset_camera=False, pickable=False)
@@ -195,16 +272,22 @@ class MeshLayer:
         self.topology = None
         self.frame = None
         self.options = ViewOptions()
+        self.dense = False  # draw strain as coloured cells (set by the view from the springs' size on screen)
         self.set_visible(False)
 
-    def _scalar_actor(self, poly: pv.PolyData, scale: ColourScale, line_width):
+    @property
+    def strain_scale(self) -> ColourScale:
+        """The thread scale (weft and warp springs)."""
+        return self.thread_scale
+
+    def _scalar_actor(self, poly: pv.PolyData, scale: ColourScale, line_width, array: str = "value"):
         kwargs = {"line_width": line_width} if line_width else {"show_edges": False}
         actor = self.plotter.add_mesh(poly, color="white", render=False, reset_camera=False,
                                       lighting=line_width is None, **kwargs)
         mapper = actor.GetMapper()
         mapper.SetLookupTable(scale.ctf)
         mapper.SetScalarModeToUseCellFieldData()
-        mapper.SelectColorArray("value")
+        mapper.SelectColorArray(array)
         mapper.SetColorModeToMapScalars()
         mapper.UseLookupTableScalarRangeOn()
         mapper.ScalarVisibilityOn()
@@ -218,14 +301,48 @@ class MeshLayer:
         self.frame = None
         self.set_visible(False)
 
+    @property
+    def cells_show_strain(self) -> bool:
+        """Strain is drawn as coloured cells now (a dense mesh with cells, strain mode)."""
+        return bool(self.dense and self.options.mode != "shear" and self.cells.n_cells)
+
     def set_visible(self, on: bool) -> None:
         opt = self.options
         strain = opt.mode != "shear"
+        as_cells = self.cells_show_strain
         for actor, kind_on in zip(self.spring_actors, opt.kinds):
-            actor.SetVisibility(bool(on and strain and kind_on))
+            actor.SetVisibility(bool(on and strain and kind_on and not as_cells))
         self.cell_actor.SetVisibility(bool(on and not strain))
+        self.strain_cell_actor.SetVisibility(bool(on and as_cells and any(opt.kinds)))
         for actor in self.node_actors:
             actor.SetVisibility(bool(on and opt.nodes))
+
+    def _cell_group(self) -> tuple[np.ndarray, ColourScale]:
+        """Which cell columns the strain cells show and on which scale: the shown
+        thread kinds on the thread scale, or the diagonals when no thread is shown."""
+        opt = self.options
+        use = np.zeros(6, dtype=bool)
+        for k in (0, 1):
+            if opt.kinds[k]:
+                use |= _CELL_COLUMNS[k]
+        if use.any():
+            return use, self.thread_scale
+        return _CELL_COLUMNS[2].copy(), self.diag_scale
+
+    def _update_strain_cells(self) -> None:
+        f = self.frame
+        if f is None or not self.cells.n_cells or "strain" not in self.cells.cell_data:
+            return
+        use, scale = self._cell_group()
+        self.strain_cell_actor.GetMapper().SetLookupTable(scale.ctf)
+        self.cells.cell_data["strain"][:] = cell_strain(100.0 * f.strain, self.cell_index, use)
+
+    def _set_scales(self, options: ViewOptions) -> None:
+        frame = self.frame
+        strain = replace_mode(options, "strain")
+        self.thread_scale.set_stops(group_stops(frame, strain, THREAD))
+        self.diag_scale.set_stops(group_stops(frame, strain, DIAGONAL))
+        self.shear_scale.set_stops(scale_stops(frame, replace_mode(options, "shear")))
 
     def show(self, frame, points: np.ndarray, options: ViewOptions) -> None:
         """Draw ``frame`` with node positions ``points`` (n, 3)."""
@@ -234,8 +351,7 @@ class MeshLayer:
         mesh = frame.mesh
         strain_pct = 100.0 * frame.strain
         shear = np.abs(frame.shear)
-        self.strain_scale.set_stops(scale_stops(frame, replace_mode(options, "strain")))
-        self.shear_scale.set_stops(scale_stops(frame, replace_mode(options, "shear")))
+        self._set_scales(options)
         if frame.topology != self.topology:
             self.topology = frame.topology
             # wide lines cost a geometry-shader pass: thin ones for dense meshes (and they read better)
@@ -249,6 +365,11 @@ class MeshLayer:
             faces = (np.column_stack([np.full(len(mesh.cells), 4), mesh.cells]).ravel()
                      if len(mesh.cells) else None)
             replace_geometry(self.cells, points, faces=faces, scalars=shear)
+            self.cell_index = cell_springs(mesh)
+            if self.cells.n_cells:
+                values = numpy_to_vtk(np.zeros(self.cells.n_cells), deep=True)
+                values.SetName("strain")
+                self.cells.GetCellData().AddArray(values)
             replace_geometry(self.boundary, points[frame.boundary], verts=True)
             replace_geometry(self.dart_pos, points[frame.dart_positive], verts=True)
             replace_geometry(self.dart_neg, points[frame.dart_negative], verts=True)
@@ -264,29 +385,63 @@ class MeshLayer:
                               (self.dart_neg, frame.dart_negative)):
                 if len(idx):
                     poly.points[:] = points[idx]
+        if self.cells_show_strain:
+            self._update_strain_cells()
         self.set_visible(True)
+
+    def set_dense(self, dense: bool) -> bool:
+        """Draw strain as cells (``dense``) or as springs; True if that changed."""
+        dense = bool(dense)
+        if dense == self.dense:
+            return False
+        self.dense = dense
+        if self.frame is not None:
+            if self.cells_show_strain:
+                self._update_strain_cells()
+            self.set_visible(True)
+        return True
 
     def restyle(self, options: ViewOptions) -> None:
         """New options for the frame already shown (mode, kinds, thresholds)."""
         self.options = options
         if self.frame is not None:
-            self.strain_scale.set_stops(scale_stops(self.frame, replace_mode(options, "strain")))
-            self.shear_scale.set_stops(scale_stops(self.frame, replace_mode(options, "shear")))
+            self._set_scales(options)
+            if self.cells_show_strain:
+                self._update_strain_cells()
             self.set_visible(True)
 
     @property
     def active_scale(self) -> ColourScale:
-        return self.shear_scale if self.options.mode == "shear" else self.strain_scale
+        """The scale of the first colour bar (see :func:`scale_stops`)."""
+        if self.options.mode == "shear":
+            return self.shear_scale
+        return self.thread_scale if (self.options.weft or self.options.warp) else self.diag_scale
+
+    def shown_scales(self) -> list[tuple[str, ColourScale]]:
+        """(group, scale) of every colour scale in use now: shear, or the thread
+        and diagonal scales of the shown spring kinds."""
+        opt = self.options
+        if opt.mode == "shear":
+            return [("shear", self.shear_scale)]
+        out = []
+        if opt.weft or opt.warp:
+            out.append((THREAD, self.thread_scale))
+        if opt.diag and not (self.cells_show_strain and (opt.weft or opt.warp)):
+            out.append((DIAGONAL, self.diag_scale))
+        return out
+
+    def scale_of_kind(self, kind: int) -> ColourScale:
+        return self.diag_scale if KIND_GROUP[kind] == DIAGONAL else self.thread_scale
 
     # ------------------------------------------------------------------ queries
     def spring_colours(self) -> tuple[np.ndarray, np.ndarray]:
         """(springs (k,), rgb (k, 3) uint8) as the views colour them now: every
-        drawn spring's index in the mesh and its colour through the VTK scale."""
+        drawn spring's index in the mesh and its colour through its kind's VTK scale."""
         idx, rgb = [], []
         for k, poly in enumerate(self.springs):
             if poly.n_cells:
                 idx.append(self.spring_index[k])
-                rgb.append(self.strain_scale.map(np.asarray(poly.cell_data["value"])))
+                rgb.append(self.scale_of_kind(k).map(np.asarray(poly.cell_data["value"])))
         if not idx:
             return np.zeros(0, dtype=np.int64), np.zeros((0, 3), dtype=np.uint8)
         idx, rgb = np.concatenate(idx), np.concatenate(rgb)
@@ -302,8 +457,17 @@ class MeshLayer:
             if actor is a and cell < len(self.spring_index[k]):
                 s = int(self.spring_index[k][cell])
                 i, j = f.mesh.ends[s]
-                return (f"{KINDS[k]} spring {s} (nodes {i}-{j}): strain {100 * f.strain[s]:+.4f} %, "
+                lo, hi = self.scale_of_kind(k).range
+                return (f"{KINDS[k]} spring {s} (nodes {i}-{j}): strain {100 * f.strain[s]:+.4f} % "
+                        f"({KIND_GROUP[k]} scale {lo:+.3g} to {hi:+.3g} %), "
                         f"length {np.linalg.norm(f.xyz[i] - f.xyz[j]):.5g} / rest {f.mesh.rest[s]:.5g}")
+        if actor is self.strain_cell_actor and cell < len(self.cell_index):
+            use, scale = self._cell_group()
+            value = float(cell_strain(100.0 * f.strain, self.cell_index[cell:cell + 1], use)[0])
+            group = THREAD if scale is self.thread_scale else DIAGONAL
+            lo, hi = scale.range
+            return (f"cell {cell}: largest {group} strain {value:+.4f} % ({group} scale {lo:+.3g} to {hi:+.3g} %), "
+                    f"shear {f.shear[cell]:+.2f} deg")
         if actor is self.cell_actor and cell < len(f.shear):
             opt = self.options
             a = abs(float(f.shear[cell]))
@@ -313,7 +477,7 @@ class MeshLayer:
         return None
 
     def pickable_actors(self) -> list:
-        return [a for a in (*self.spring_actors, self.cell_actor) if a.GetVisibility()]
+        return [a for a in (*self.spring_actors, self.cell_actor, self.strain_cell_actor) if a.GetVisibility()]
 
 
 def replace_mode(options: ViewOptions, mode: str) -> ViewOptions:
@@ -380,6 +544,40 @@ class ViewBase:
 
     def reset_camera(self) -> None:
         self._plotter.reset_camera()
+        self.render()
+
+    def device_size(self) -> tuple[int, int]:
+        """(width, height) of the view in device pixels (what the render window gets)."""
+        w = self.widget
+        dpr = w.devicePixelRatioF()
+        return max(1, round(w.width() * dpr)), max(1, round(w.height() * dpr))
+
+    def pixels_per_unit(self) -> float:
+        """Screen pixels per model unit at the camera's focal point."""
+        cam = self._plotter.renderer.GetActiveCamera()
+        h = self.device_size()[1]
+        if cam.GetParallelProjection():
+            return h / (2.0 * max(cam.GetParallelScale(), 1e-300))
+        dist = max(cam.GetDistance(), 1e-300)
+        return h / (2.0 * dist * math.tan(math.radians(cam.GetViewAngle()) / 2))
+
+    def spring_pixels(self) -> float | None:
+        """The shown mesh's thread spacing on screen, in pixels (None without a mesh)."""
+        f = self.layer.frame
+        if f is None:
+            return None
+        return float(min(f.mesh.r_weft, f.mesh.r_warp)) * self.pixels_per_unit()
+
+    def update_density(self) -> bool:
+        """Draw strain as coloured cells when the springs would be closer than
+        ``DENSE_PIXELS`` on screen (a moire of lines otherwise); True if that changed."""
+        px = self.spring_pixels()
+        changed = px is not None and self.layer.set_dense(px < DENSE_PIXELS)
+        if changed:
+            self._density_changed()
+        return changed
+
+    def _density_changed(self) -> None:
         self.render()
 
     def close(self) -> None:

@@ -16,6 +16,7 @@ from PySide6.QtCore import QTimer
 
 from app.colours import ramp, strain_range, strain_stops
 from app.view2d import nice_length
+from app.viewbase import SCALE_TITLES, THREAD
 from core.drape import drape
 from core.examples import example_path, load_example
 from core.metrics import spring_strain
@@ -43,11 +44,15 @@ def shown_rgb(view):
     return view.layer.spring_colours()
 
 
-def expected_rgb(strain):
-    """Colours the paper's scheme gives these strains: uint8 (m, 3)."""
+def expected_rgb(strain, kind):
+    """Colours the paper's scheme gives these strains, on a scale per group of
+    spring kinds (threads: weft and warp; diagonals): uint8 (m, 3)."""
     pct = 100 * np.asarray(strain)
-    lo, hi = strain_range(pct)
-    return np.rint(255 * ramp(pct, strain_stops(lo, hi))).astype(int)
+    out = np.zeros((len(pct), 3), dtype=int)
+    for group in (np.asarray(kind) != 2, np.asarray(kind) == 2):
+        lo, hi = strain_range(pct[group])
+        out[group] = np.rint(255 * ramp(pct[group], strain_stops(lo, hi))).astype(int)
+    return out
 
 
 # ---------------------------------------------------------------------- run
@@ -67,17 +72,20 @@ def test_run_converges_and_matches_the_core(each_widget, make_window, qtbot):
     # spring colours, 3D and pattern: the paper's red-green-blue of the core's strains
     idx, rgb = shown_rgb(win.view)
     np.testing.assert_array_equal(idx, np.arange(core.mesh.n_springs))
-    want = expected_rgb(spring_strain(core.xyz, core.mesh))
+    want = expected_rgb(spring_strain(core.xyz, core.mesh), core.mesh.kind)
     assert np.abs(rgb.astype(int) - want).max() <= 1
     strain = spring_strain(core.xyz, core.mesh)
-    assert tuple(rgb[np.argmax(strain)]) == (255, 0, 0)  # highest tensile: pure red
-    assert tuple(rgb[np.argmin(strain)]) == (0, 0, 255)  # highest compressive: pure blue
+    for group in (core.mesh.kind != 2, core.mesh.kind == 2):  # threads, diagonals: a scale each
+        springs = np.flatnonzero(group)
+        assert tuple(rgb[springs[np.argmax(strain[springs])]]) == (255, 0, 0)  # highest tensile: pure red
+        assert tuple(rgb[springs[np.argmin(strain[springs])]]) == (0, 0, 255)  # highest compressive: pure blue
     idx2, rgb2 = shown_rgb(win.pattern_view)
     np.testing.assert_array_equal(idx2, idx)
     np.testing.assert_array_equal(rgb2, rgb)
-    assert win.view.colour_bar_title == "strain (%)"
+    assert win.view.colour_bar_title == SCALE_TITLES[THREAD]
     lo, hi = win.view.colour_bar_range
-    assert lo == pytest.approx(100 * strain.min()) and hi == pytest.approx(100 * strain.max())
+    thread = core.mesh.kind != 2
+    assert lo == pytest.approx(100 * strain[thread].min()) and hi == pytest.approx(100 * strain[thread].max())
 
     # the pattern view: the relaxed lattice and the core's outline
     pts = np.asarray(win.pattern_view.layer.springs[0].points)[:, :2]
@@ -117,7 +125,7 @@ def test_stop_mid_run_leaves_a_consistent_state(make_window, qtbot):
     # the views show exactly the stopped state
     idx, rgb = shown_rgb(win.view)
     assert len(idx) == r.mesh.n_springs
-    assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(r.xyz, r.mesh))).max() <= 1
+    assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(r.xyz, r.mesh), r.mesh.kind)).max() <= 1
     assert len(win.pattern_view.layer.springs[0].points) == r.mesh.n_nodes
     np.testing.assert_allclose(np.asarray(win.pattern_view.outline.points)[:, :2], r.pattern.outline)
     assert win.runner.state == "idle" and win.actions["run"].isEnabled()
@@ -477,7 +485,7 @@ def test_undo_mid_run_cancels_it_and_shows_the_earlier_result(make_window, qtbot
     assert win.project.result is first and not win.runner.active
     idx, rgb = shown_rgb(win.view)
     assert len(idx) == first.mesh.n_springs
-    assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(first.xyz, first.mesh))).max() <= 1
+    assert np.abs(rgb.astype(int) - expected_rgb(spring_strain(first.xyz, first.mesh), first.mesh.kind)).max() <= 1
     qtbot.waitUntil(lambda: win.runner.state == "idle", timeout=10000)
     assert win.project.result is first and win.document.redo_label == "Solver"
     # the document is consistent, the panel does not show the cancelled run's progress,
