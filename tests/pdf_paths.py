@@ -80,7 +80,7 @@ def page_drawing(page):
     return rects, segments, texts
 
 
-def test_squares(rects, sides_pt, tol=0.01):
+def find_squares(rects, sides_pt, tol=0.01):
     """The rectangles that are squares of one of the sides (points)."""
     return [r for r in rects if any(abs(r[2] - s) < tol and abs(r[3] - s) < tol for s in sides_pt)]
 

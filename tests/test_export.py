@@ -293,7 +293,7 @@ def test_pdf_pages_tiles_and_test_square(tmp_path, cylinder, paper):
     # largest of 100, 50, 20 mm that finds a place clear of the pattern's lines (issue 24:
     # a 100 mm square in a fixed corner used to cover pattern lines).
     from core.export.pdf import TILE_SQUARES_MM
-    from tests.pdf_paths import lines_over, page_drawing, test_squares
+    from tests.pdf_paths import lines_over, page_drawing, find_squares
 
     for k, page in enumerate(reader.pages):
         box = page.mediabox
@@ -301,7 +301,7 @@ def test_pdf_pages_tiles_and_test_square(tmp_path, cylinder, paper):
         assert float(box.height) == pytest.approx(ph * POINTS_PER_MM, abs=0.5)
         rects, segments, _ = page_drawing(page)
         sides = [100.0] if k < 2 else list(TILE_SQUARES_MM)
-        squares = test_squares(rects, [s * POINTS_PER_MM for s in sides])
+        squares = find_squares(rects, [s * POINTS_PER_MM for s in sides])
         assert len(squares) == 1, "every page has one test square"
         x, y, w, h = squares[0]
         assert 0 <= x and x + w <= float(box.width) and 0 <= y and y + h <= float(box.height)

@@ -254,7 +254,7 @@ def test_pdf_tiles_squares_clear_and_neighbours_printed(tmp_path, octant_dart):
     from pypdf import PdfReader
 
     from core.export.pdf import TILE_SQUARES_MM, tiles
-    from tests.pdf_paths import lines_over, page_drawing, test_squares
+    from tests.pdf_paths import lines_over, page_drawing, find_squares
 
     mm = 72 / 25.4
     reader = PdfReader(export(octant_dart, tmp_path / "p.pdf", ExportOptions(units="m")))
@@ -264,7 +264,7 @@ def test_pdf_tiles_squares_clear_and_neighbours_printed(tmp_path, octant_dart):
     blanks = 0
     for page in reader.pages[2:]:
         rects, segments, texts = page_drawing(page)
-        (square,) = test_squares(rects, [s * mm for s in TILE_SQUARES_MM])
+        (square,) = find_squares(rects, [s * mm for s in TILE_SQUARES_MM])
         assert not lines_over(square, segments)
         for t in texts:
             m = re.fullmatch(r"(?:[<^v] (\S+))|(?:(\S+) >)", t)
