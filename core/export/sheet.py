@@ -20,8 +20,8 @@ by side on one sheet, each with the lines a pattern maker expects:
 * ``system_text`` / ``annotation`` : the label: ASTM D6673's piece system
   text (``Piece Name: ...``, ``Quantity: 1``, ...) and free annotation lines
   (spacing, units, errors, date), placed in free space inside the piece
-  (:func:`label_box`, at most ``TEXT_EM`` text heights per character, so
-  CAD's wider fonts fit too);
+  (:func:`label_box`, ``TEXT_EM`` text heights per character, so CAD's
+  wider stroke fonts fit too);
 * ``offset`` : where the piece sits: sheet = result ``nodes.xy`` x
   ``Sheet.mm_per_unit`` + offset (mm), recorded in the DXF (the insertion
   point of the piece's block) and the SVG (``<metadata>``).
@@ -48,7 +48,7 @@ PIECE_GAP_MM = 30.0
 NOTCH_MM = 6.0
 DRILL_INSET_MM = 10.0
 MITRE_LIMIT = 2.0
-TEXT_EM = 0.9  # widest advance per character, in text heights (LibreCAD's standard font, AutoCAD's txt)
+TEXT_EM = 1.0  # advance per character, in text heights: a bound for CAD's stroke fonts (LibreCAD's standard, txt)
 LINE_PITCH = 1.6  # baseline to baseline, in text heights
 LABEL_MARGIN = 1.0  # free space round a label, in text heights
 MIN_LABEL_MM = 1.5
