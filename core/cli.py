@@ -112,6 +112,11 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--export", action="append", default=[], metavar="PATH", help=_export_help())
     f.add_argument("--seam-allowance", type=float, default=10.0, metavar="MM",
                    help="seam allowance of exported patterns in mm (default 10; 0 for none)")
+    f.add_argument("--dxf-variant", choices=("astm", "layered"), default="astm",
+                   help="DXF for pattern CAD and cutting rooms (astm: ASTM D6673 / AAMA, R12) or for CAD, "
+                        "GDAL and laser cutters (layered: R2000 with $INSUNITS) (default astm)")
+    f.add_argument("--obj-texture", choices=("none", "checker"), default="none",
+                   help="checker: an OBJ export also writes a .mtl and a checker texture (default none)")
     f.add_argument("--units", choices=("mm", "cm", "m", "in"), default="m",
                    help="units of the surface model, for exports (default m)")
     f.add_argument("--paper", choices=("a4", "letter"), default="a4", help="paper of the tiled PDF (default a4)")
@@ -173,7 +178,8 @@ def _cmd_flatten(args) -> int:
     # refuse bad export targets and options before the solve, not after it
     targets = [check_target(p) for p in args.export]
     options = ExportOptions(seam_allowance_mm=args.seam_allowance, units=args.units, paper=args.paper,
-                            name=args.name or Path(args.surface).stem)
+                            name=args.name or Path(args.surface).stem, dxf_variant=args.dxf_variant,
+                            obj_texture=args.obj_texture)
     surface, source = resolve_surface(args.surface)
     settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),

@@ -87,28 +87,48 @@ def read_dxf(path):
 
 
 def block_polylines(doc, block, layer):
-    return [e for e in doc.blocks[block] if e.dxftype() == "LWPOLYLINE" and e.dxf.layer == layer]
+    """LWPOLYLINEs (R2000) or POLYLINEs (R12) of a block on a layer."""
+    return [e for e in doc.blocks[block] if e.dxftype() in ("LWPOLYLINE", "POLYLINE") and e.dxf.layer == layer]
 
 
-def test_dxf_header_layers_and_one_block_per_piece(tmp_path, octant_cut):
-    path = export(octant_cut, tmp_path / "p.dxf", ExportOptions(units="m", name="octant"))
+def polyline_points(e) -> np.ndarray:
+    if e.dxftype() == "LWPOLYLINE":
+        return np.array([p[:2] for p in e.get_points("xy")])
+    return np.array([tuple(v.dxf.location)[:2] for v in e.vertices])
+
+
+def polyline_closed(e) -> bool:
+    return bool(e.closed if e.dxftype() == "LWPOLYLINE" else e.is_closed)
+
+
+def test_dxf_layered_header_and_layers(tmp_path, octant_cut):
+    """The layered variant: R2000, mm in the header, a layer table that describes the layers."""
+    path = export(octant_cut, tmp_path / "p.dxf", ExportOptions(units="m", name="octant", dxf_variant="layered"))
     doc = read_dxf(path)
-    assert doc.dxfversion in ("AC1009", "AC1015")  # R12 or R2000
+    assert doc.dxfversion == "AC1015"
     assert doc.header["$INSUNITS"] == 4  # millimetres
     assert doc.header["$MEASUREMENT"] == 1
-    auditor = doc.audit()
-    assert not auditor.has_errors, [str(e) for e in auditor.errors]
     assert doc.layers.get("14").description == "sew line"
     assert {"1", "14", "8", "4", "7", "15"} <= {layer.dxf.name for layer in doc.layers}
+
+
+@pytest.mark.parametrize("variant", ["astm", "layered"])
+def test_dxf_one_block_per_piece(tmp_path, octant_cut, variant):
+    path = export(octant_cut, tmp_path / "p.dxf", ExportOptions(units="m", name="octant", dxf_variant=variant))
+    doc = read_dxf(path)
+    assert doc.dxfversion == {"astm": "AC1009", "layered": "AC1015"}[variant]  # R12 or R2000
+    auditor = doc.audit()
+    assert not auditor.has_errors, [str(e) for e in auditor.errors]
     inserts = [e for e in doc.modelspace() if e.dxftype() == "INSERT"]
     assert len(octant_cut.pattern.pieces) == 2
     assert len(inserts) == 2 and len({i.dxf.name for i in inserts}) == 2
     for ins in inserts:
         assert len(block_polylines(doc, ins.dxf.name, "1")) == 1
         assert len(block_polylines(doc, ins.dxf.name, "14")) == 1
-        texts = [e.dxf.text for e in doc.blocks[ins.dxf.name] if e.dxftype() == "TEXT"]
-        assert all(e.dxf.layer == "15" for e in doc.blocks[ins.dxf.name] if e.dxftype() == "TEXT")
-        joined = " ".join(texts)
+        texts = [e for e in doc.blocks[ins.dxf.name] if e.dxftype() == "TEXT"]
+        # ASTM: the piece system text on layer 1, the rest on 15; layered: all of it on 15
+        assert {e.dxf.layer for e in texts} == ({"1", "15"} if variant == "astm" else {"15"})
+        joined = " ".join(e.dxf.text for e in texts)
         assert "octant" in joined and "woven" in joined and "mm" in joined and "spacing" in joined
 
 
@@ -122,8 +142,8 @@ def test_dxf_sew_and_cut_lines_match_the_pattern_in_mm(tmp_path, octant_dart, un
     s = MM[units]
     for layer in ("1", "14"):
         (pl,) = block_polylines(doc, ins.dxf.name, layer)
-        assert pl.closed
-        pts = np.array([p[:2] for p in pl.get_points("xy")])
+        assert polyline_closed(pl)
+        pts = polyline_points(pl)
         assert abs(polygon_area(pts)) == pytest.approx(abs(polygon_area(piece.outline)) * s * s, rel=1e-3)
         assert polygon_perimeter(pts) == pytest.approx(polygon_perimeter(piece.outline) * s, rel=1e-3)
 
@@ -134,8 +154,7 @@ def test_dxf_seam_allowance_and_notches(tmp_path, octant_dart):
     (ins,) = [e for e in doc.modelspace() if e.dxftype() == "INSERT"]
     (cut,) = block_polylines(doc, ins.dxf.name, "1")
     (sew,) = block_polylines(doc, ins.dxf.name, "14")
-    cut = np.array([p[:2] for p in cut.get_points("xy")])
-    sew = np.array([p[:2] for p in sew.get_points("xy")])
+    cut, sew = polyline_points(cut), polyline_points(sew)
     assert abs(polygon_area(cut)) > abs(polygon_area(sew))
     # notches: where the dart's legs meet the outline, from the cut line inwards
     notches = [e for e in doc.blocks[ins.dxf.name] if e.dxftype() == "LINE" and e.dxf.layer == "4"]
@@ -144,7 +163,7 @@ def test_dxf_seam_allowance_and_notches(tmp_path, octant_dart):
         start, end = np.array(n.dxf.start)[:2], np.array(n.dxf.end)[:2]
         assert seg_distance(start[None], cut)[0] < 1e-6
         assert seg_distance(end[None], sew)[0] == pytest.approx(sa - 6.0, abs=1e-6)
-    legs = [e for e in doc.blocks[ins.dxf.name] if e.dxftype() == "LWPOLYLINE" and e.dxf.layer == "8"]
+    legs = block_polylines(doc, ins.dxf.name, "8")
     assert len(legs) == 2
     assert [e for e in doc.blocks[ins.dxf.name] if e.dxftype() == "POINT" and e.dxf.layer == "13"]
 
@@ -163,7 +182,7 @@ def test_dxf_grain_line_follows_the_warp(tmp_path, fixture, request):
     (sew,) = block_polylines(doc, ins.dxf.name, "14")
     from shapely.geometry import LineString, Polygon
 
-    assert Polygon([p[:2] for p in sew.get_points("xy")]).contains(
+    assert Polygon(polyline_points(sew)).contains(
         LineString([tuple(line.dxf.start)[:2], tuple(line.dxf.end)[:2]]))
 
 
@@ -270,16 +289,24 @@ def test_pdf_pages_tiles_and_test_square(tmp_path, cylinder, paper):
     rows = math.ceil((H - OVERLAP_MM) / (ch - OVERLAP_MM))
     assert rows * cols > 1
     assert len(reader.pages) == 2 + rows * cols  # overview, assembly map, tiles
-    side = 100 * POINTS_PER_MM
-    for page in reader.pages:
+    # Every page has a test square: 100 mm on the overview and the map; on a tile the
+    # largest of 100, 50, 20 mm that finds a place clear of the pattern's lines (issue 24:
+    # a 100 mm square in a fixed corner used to cover pattern lines).
+    from core.export.pdf import TILE_SQUARES_MM
+    from tests.pdf_paths import lines_over, page_drawing, find_squares
+
+    for k, page in enumerate(reader.pages):
         box = page.mediabox
         assert float(box.width) == pytest.approx(pw * POINTS_PER_MM, abs=0.5)
         assert float(box.height) == pytest.approx(ph * POINTS_PER_MM, abs=0.5)
-        squares = [r for r in page_rects(page) if abs(r[2]) == pytest.approx(side, abs=0.01)
-                   and abs(r[3]) == pytest.approx(side, abs=0.01)]
-        assert squares, "every page has a 100 mm test square"
+        rects, segments, _ = page_drawing(page)
+        sides = [100.0] if k < 2 else list(TILE_SQUARES_MM)
+        squares = find_squares(rects, [s * POINTS_PER_MM for s in sides])
+        assert len(squares) == 1, "every page has one test square"
         x, y, w, h = squares[0]
         assert 0 <= x and x + w <= float(box.width) and 0 <= y and y + h <= float(box.height)
+        if k >= 2:
+            assert not lines_over(squares[0], segments), f"page {k + 1}: the test square covers a line"
     texts = [p.extract_text() for p in reader.pages]
     assert "overview" in texts[0] and "scale 1:" in texts[0]
     assert "assembly map" in texts[1]
@@ -317,12 +344,25 @@ def test_pdf_small_pattern_fits_one_tile(tmp_path, cylinder):
 # ---------------------------------------------------------------- OBJ, VTP
 
 
+def parse_ranges(text: str) -> np.ndarray:
+    """"0-2 5 7-8" -> [0, 1, 2, 5, 7, 8]."""
+    out = []
+    for part in text.split():
+        lo, _, hi = part.partition("-")
+        out += range(int(lo), int(hi or lo) + 1)
+    return np.array(out, dtype=int)
+
+
 def test_obj_texture_coordinates_are_the_pattern(tmp_path, octant_dart):
+    """Vertices are the nodes some quad uses (issue 24: readers drop the others and shift
+    the rest), listed in the header; vt is the node's nodes.xy, v its xyz."""
     from core.pipeline import result_to_dict
 
     path = export(octant_dart, tmp_path / "p.obj")
-    v, vt, vn, faces = [], [], [], []
+    v, vt, vn, faces, nodes = [], [], [], [], None
     for line in path.read_text().splitlines():
+        if line.startswith("# nodes:"):
+            nodes = parse_ranges(line[len("# nodes:"):])
         key, *vals = line.split() or [""]
         if key == "v":
             v.append([float(x) for x in vals])
@@ -333,30 +373,44 @@ def test_obj_texture_coordinates_are_the_pattern(tmp_path, octant_dart):
         elif key == "f":
             faces.append([[int(i) for i in x.split("/")] for x in vals])
     d = result_to_dict(octant_dart)
-    np.testing.assert_allclose(np.array(vt), np.array(d["nodes"]["xy"]), atol=1e-10)
-    np.testing.assert_allclose(np.array(v), np.array(d["nodes"]["xyz"]), atol=1e-10)
+    cells = octant_dart.mesh.cells
+    np.testing.assert_array_equal(nodes, np.unique(cells))
+    assert len(nodes) < octant_dart.mesh.n_nodes  # this mesh has a node in no quad
+    np.testing.assert_allclose(np.array(vt), np.array(d["nodes"]["xy"])[nodes], atol=1e-10)
+    np.testing.assert_allclose(np.array(v), np.array(d["nodes"]["xyz"])[nodes], atol=1e-10)
     np.testing.assert_allclose(np.linalg.norm(vn, axis=1), 1.0, atol=1e-6)
     f = np.array(faces)
-    assert f.shape == (len(octant_dart.mesh.cells), 4, 3)
-    np.testing.assert_array_equal(f[:, :, 0] - 1, octant_dart.mesh.cells)
+    assert f.shape == (len(cells), 4, 3)
+    np.testing.assert_array_equal(nodes[f[:, :, 0] - 1], cells)
     assert (f[:, :, 0] == f[:, :, 1]).all() and (f[:, :, 0] == f[:, :, 2]).all()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.obj"]  # no texture: no .mtl
 
 
 def test_vtp_reads_back_with_strain_and_shear(tmp_path, octant_dart):
+    """Surface and springs are two files (and a multiblock naming both), each with only the
+    fields defined on its cells (issue 24: NaN-filled quads coloured ParaView's default view)."""
     import pyvista as pv
 
     path = export(octant_dart, tmp_path / "p.vtp")
-    mesh = pv.read(path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.vtm", "p.vtp", "p_springs.vtp"]
     r = octant_dart
     m, c = r.mesh.n_springs, len(r.mesh.cells)
-    assert mesh.n_points == r.mesh.n_nodes and mesh.n_cells == m + c
-    np.testing.assert_allclose(mesh.points, r.xyz, atol=1e-12)
-    np.testing.assert_allclose(mesh.cell_data["strain_pct"][:m], 100 * spring_strain(r.xyz, r.mesh), atol=1e-12)
-    assert np.isnan(mesh.cell_data["strain_pct"][m:]).all()
-    np.testing.assert_allclose(mesh.cell_data["shear_deg"][m:], cell_shear_deg(r.xyz, r.mesh), atol=1e-12)
-    np.testing.assert_array_equal(mesh.cell_data["spring_kind"][:m], r.mesh.kind)
-    np.testing.assert_allclose(mesh.point_data["pattern_xy"], r.pattern.xy, atol=1e-12)
-    np.testing.assert_array_equal(mesh.lines.reshape(-1, 3)[:, 1:], r.mesh.ends)
+    surface, springs = pv.read(path), pv.read(tmp_path / "p_springs.vtp")
+    assert surface.n_points == springs.n_points == r.mesh.n_nodes
+    assert surface.n_cells == c and springs.n_cells == m
+    for mesh in (surface, springs):
+        np.testing.assert_allclose(mesh.points, r.xyz, atol=1e-12)
+        np.testing.assert_allclose(mesh.point_data["pattern_xy"], r.pattern.xy, atol=1e-12)
+    assert set(surface.cell_data) == {"shear_deg"} and set(springs.cell_data) == {"strain_pct", "spring_kind"}
+    np.testing.assert_allclose(springs.cell_data["strain_pct"], 100 * spring_strain(r.xyz, r.mesh), atol=1e-12)
+    np.testing.assert_allclose(surface.cell_data["shear_deg"], cell_shear_deg(r.xyz, r.mesh), atol=1e-12)
+    np.testing.assert_array_equal(springs.cell_data["spring_kind"], r.mesh.kind)
+    assert set(np.unique(springs.cell_data["spring_kind"])) <= {0, 1, 2}
+    np.testing.assert_array_equal(springs.lines.reshape(-1, 3)[:, 1:], r.mesh.ends)
+    np.testing.assert_array_equal(surface.faces.reshape(-1, 5)[:, 1:], r.mesh.cells)
+    blocks = pv.read(tmp_path / "p.vtm")
+    assert list(blocks.keys()) == ["surface", "springs"]
+    assert blocks["surface"].n_cells == c and blocks["springs"].n_cells == m
 
 
 # ---------------------------------------------------------------- targets and failures

@@ -24,11 +24,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from core.errors import SettingsError
+from core.export.dxf import VARIANTS as DXF_VARIANTS
+from core.export.mesh3d import OBJ_TEXTURES
 from core.export.pdf import PAPERS
 from core.export.sheet import UNITS, Sheet, build_sheet, mm_per_unit
-from core.fileio import atomic_write_bytes, atomic_write_many
+from core.fileio import atomic_write_many
 
-__all__ = ["ExportOptions", "Exporter", "FORMATS", "UNITS", "PAPERS", "export", "export_all", "export_bytes",
+__all__ = ["ExportOptions", "Exporter", "FORMATS", "UNITS", "PAPERS", "DXF_VARIANTS", "OBJ_TEXTURES",
+           "export", "export_all", "export_bytes",
            "check_target", "register_exporter", "unregister_exporter", "exporters", "exporter_for",
            "dialog_filter", "build_sheet", "Sheet", "mm_per_unit"]
 
@@ -42,19 +45,31 @@ class Exporter:
         :class:`Sheet` when ``needs_sheet``, else None
     description : what the file holds, for dialogs and help
     needs_sheet : True for 2D pattern formats (the sheet is built once per export)
+    companions : optional ``companions(result, options, sheet, path) -> [(path, bytes), ...]``:
+        files written beside ``path`` with it (all or nothing, like the main file),
+        e.g. the OBJ's ``.mtl`` and texture; when given, the main file is
+        ``companions``' first entry and ``writer`` serves :func:`export_bytes`
     """
 
     suffix: str
     writer: Callable[..., bytes]
     description: str
     needs_sheet: bool
+    companions: Callable[..., list] | None = None
+
+    def files(self, result, options, sheet, path: Path) -> list[tuple[Path, bytes]]:
+        """Every file an export to ``path`` writes, the main one first."""
+        if self.companions is not None:
+            return [(Path(p), data) for p, data in self.companions(result, options, sheet, path)]
+        return [(path, self.writer(result, options, sheet))]
 
 
 _EXPORTERS: dict[str, Exporter] = {}
 
 
-def register_exporter(suffix: str, writer: Callable[..., bytes], description: str, needs_sheet: bool) -> Exporter:
-    """Add the format of files ending in ``suffix``; returns its entry.
+def register_exporter(suffix: str, writer: Callable[..., bytes], description: str, needs_sheet: bool,
+                      companions: Callable[..., list] | None = None) -> Exporter:
+    """Add the format of files ending in ``suffix``; returns its entry (see :class:`Exporter`).
 
     ValueError if the suffix is malformed or already has an exporter.
     """
@@ -63,7 +78,7 @@ def register_exporter(suffix: str, writer: Callable[..., bytes], description: st
         raise ValueError(f"a suffix is a dot and a name, like '.dxf', not {suffix!r}")
     if s in _EXPORTERS:
         raise ValueError(f"{s} files already have an exporter")
-    entry = Exporter(s, writer, str(description), bool(needs_sheet))
+    entry = Exporter(s, writer, str(description), bool(needs_sheet), companions)
     _EXPORTERS[s] = entry
     return entry
 
@@ -120,15 +135,27 @@ class ExportOptions:
     units : the model's units (mm, cm, m, in); 2D files are written in mm
     paper : a4 or letter, for the PDF
     name : the piece's name in labels and DXF blocks
+    dxf_variant : ``"astm"`` (ASTM D6673 / AAMA, R12, for pattern CAD and cutting rooms)
+        or ``"layered"`` (AutoCAD R2000 with the same layers and ``$INSUNITS``, for CAD,
+        GDAL, laser and knife cutters); see :mod:`core.export.dxf`
+    obj_texture : ``"none"`` (texture coordinates = the pattern's ``nodes.xy``) or
+        ``"checker"`` (also a ``.mtl`` and a checker PNG beside the OBJ, the texture
+        coordinates scaled so the checker squares are round lengths of the pattern)
     """
 
     seam_allowance_mm: float = 10.0
     units: str = "m"
     paper: str = "a4"
     name: str = "piece"
+    dxf_variant: str = "astm"
+    obj_texture: str = "none"
 
     def __post_init__(self):
         mm_per_unit(self.units)
+        if self.dxf_variant not in DXF_VARIANTS:
+            raise SettingsError(f"unknown DXF variant {self.dxf_variant!r}: use one of {', '.join(DXF_VARIANTS)}")
+        if self.obj_texture not in OBJ_TEXTURES:
+            raise SettingsError(f"unknown OBJ texture {self.obj_texture!r}: use one of {', '.join(OBJ_TEXTURES)}")
         if self.paper.lower() not in PAPERS:
             raise SettingsError(f"unknown paper {self.paper!r}: use one of {', '.join(PAPERS)}")
         try:
@@ -172,7 +199,7 @@ def export_bytes(result, suffix: str, options: ExportOptions = ExportOptions(), 
 def export(result, path, options: ExportOptions = ExportOptions(), sheet: Sheet | None = None) -> Path:
     """Write ``result`` to ``path`` in the format its suffix names; returns the path."""
     path = check_target(path)
-    atomic_write_bytes(path, export_bytes(result, path.suffix, options, sheet))
+    atomic_write_many(_files(result, path, options, sheet))
     return path
 
 
@@ -188,8 +215,17 @@ def export_all(result, paths, options: ExportOptions = ExportOptions()) -> list[
     sheet = None
     if _needs_sheet(p.suffix for p in paths):
         sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
-    atomic_write_many([(p, export_bytes(result, p.suffix, options, sheet)) for p in paths])
+    atomic_write_many([f for p in paths for f in _files(result, p, options, sheet)])
     return paths
+
+
+def _files(result, path: Path, options: ExportOptions, sheet: Sheet | None) -> list[tuple[Path, bytes]]:
+    entry = exporter_for(path.suffix)
+    if entry is None:
+        raise SettingsError(f"unknown export format {path.suffix.lower()!r}; use one of {', '.join(FORMATS)}")
+    if entry.needs_sheet and sheet is None:
+        sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
+    return entry.files(result, options, sheet if entry.needs_sheet else None, path)
 
 
 # ---------------------------------------------------------------------- the formats
@@ -197,7 +233,7 @@ def export_all(result, paths, options: ExportOptions = ExportOptions()) -> list[
 def _dxf(result, options: ExportOptions, sheet: Sheet) -> bytes:
     from core.export.dxf import dxf_bytes
 
-    return dxf_bytes(sheet)
+    return dxf_bytes(sheet, options.dxf_variant)
 
 
 def _svg(result, options: ExportOptions, sheet: Sheet) -> bytes:
@@ -213,19 +249,33 @@ def _pdf(result, options: ExportOptions, sheet: Sheet) -> bytes:
 
 
 def _vtp(result, options: ExportOptions, sheet: None) -> bytes:
-    from core.export.mesh3d import vtp_text
+    from core.export.mesh3d import vtp_surface_text
 
-    return vtp_text(result).encode("ascii")
+    return vtp_surface_text(result).encode("ascii")
+
+
+def _vtp_files(result, options: ExportOptions, sheet: None, path: Path) -> list:
+    from core.export.mesh3d import vtp_files
+
+    return vtp_files(result, path)
 
 
 def _obj(result, options: ExportOptions, sheet: None) -> bytes:
-    from core.export.mesh3d import obj_text
+    from core.export.mesh3d import obj_files
 
-    return obj_text(result, options.name).encode("ascii")
+    return obj_files(result, Path(f"{options.name}.obj"), options.name, options.obj_texture)[0][1]
 
 
-register_exporter(".dxf", _dxf, "DXF R2000, AAMA layers, mm", needs_sheet=True)
+def _obj_files(result, options: ExportOptions, sheet: None, path: Path) -> list:
+    from core.export.mesh3d import obj_files
+
+    return obj_files(result, path, options.name, options.obj_texture)
+
+
+register_exporter(".dxf", _dxf, "DXF, ASTM D6673 / AAMA (R12) or layered R2000, mm", needs_sheet=True)
 register_exporter(".svg", _svg, "SVG at true size (mm)", needs_sheet=True)
 register_exporter(".pdf", _pdf, "PDF, tiled 1:1 with overview and assembly map", needs_sheet=True)
-register_exporter(".vtp", _vtp, "VTK PolyData: draped mesh, spring strain, cell shear", needs_sheet=False)
-register_exporter(".obj", _obj, "Wavefront OBJ: surface mesh, pattern as texture coordinates", needs_sheet=False)
+register_exporter(".vtp", _vtp, "VTK PolyData: draped mesh and cell shear, springs and their strain beside it",
+                  needs_sheet=False, companions=_vtp_files)
+register_exporter(".obj", _obj, "Wavefront OBJ: surface mesh, pattern as texture coordinates",
+                  needs_sheet=False, companions=_obj_files)

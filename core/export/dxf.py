@@ -1,22 +1,44 @@
-"""DXF in the AAMA / ASTM D6673 style, written with ezdxf.
+"""DXF for cutting rooms and CAD, written with ezdxf, in two variants.
 
-Numbered layers (the names are the numbers, as cutting-room software expects):
-1 cut line, 14 sew line, 8 internal lines (dart legs), 4 notches, 7 grain
-line, 11 internal cut-outs, 13 drill holes, 15 annotation. One block per
-piece, inserted at the origin of the sheet (the pieces are already laid out
-side by side). Release R2000 (AC1015), millimetres stated in the header
-($INSUNITS = 4, $MEASUREMENT = 1).
+Both use the AAMA / ASTM D6673 numbered layers (the names are the numbers):
+1 cut line (piece boundary), 14 sew line, 8 internal lines (dart legs), 4
+notches, 7 grain line, 11 internal cut-outs, 13 drill holes, 15 annotation;
+millimetres. Each piece is one block holding the piece in the result file's
+own frame (``nodes.xy`` x mm per unit), inserted once at its place on the
+sheet: the INSERT's insertion point is the piece's offset, so sheet = result
+xy x mm per unit + insertion point, and a pattern overlaid with the JSON, OBJ
+or VTP lines up.
+
+``astm`` (the default) follows ASTM D6673-10 for pattern-making and cutting-room
+software (Gerber AccuMark, Lectra Modaris, Optitex, ...): DXF R12 (AC1009), 7-bit
+ASCII, written by ezdxf's ``gerber_D6673`` add-on so the BLOCKS section holds
+the pieces' blocks and nothing else (no ``$MODEL_SPACE`` / ``$PAPER_SPACE``
+layout blocks, which AccuMark takes for pieces: ezdxf issue 786) and there is
+no TABLES section; the header holds only ``$ACADVER``, ``$EXTMIN`` and
+``$EXTMAX``. In each block the piece system text is TEXT on layer 1
+(``Piece Name:``, ``Size:``, ``Quantity:``, ``Material:``, ``Category:``) and
+the rest of the label on layer 15; the style system text (``Style Name:``,
+``Creation Date:``, ``Author:``, ``Sample Size:``, ``Grading Rule Table:``,
+``Units: METRIC``) is TEXT on layer 1 in the model space, once, below the pieces.
+
+``layered`` is plain AutoCAD R2000 (AC1015) for CAD and laser / knife cutters
+that read ordinary DXF (LibreCAD, AutoCAD, QCAD, GDAL, ...): a layer table with
+colours and descriptions, ``$INSUNITS`` = 4 (mm), ``$MEASUREMENT`` = 1, extents,
+the same blocks and the whole label on layer 15.
 """
 
 from __future__ import annotations
 
+import datetime as _dt
 import io
 import re
 
+import numpy as np
 
-from core.export.sheet import Sheet
+import core
+from core.export.sheet import LINE_PITCH, Sheet, label_box
 
-__all__ = ["LAYERS", "dxf_bytes"]
+__all__ = ["LAYERS", "VARIANTS", "dxf_bytes", "style_text"]
 
 # layer name -> (description, ACI colour)
 LAYERS = {
@@ -30,6 +52,11 @@ LAYERS = {
     "15": ("annotation", 8),
 }
 
+VARIANTS = {
+    "astm": "ASTM D6673 / AAMA, DXF R12: pattern CAD and cutting rooms (Gerber AccuMark, Lectra, Optitex)",
+    "layered": "AutoCAD R2000 with AAMA layers and $INSUNITS: CAD, GDAL, laser and knife cutters",
+}
+
 
 def _block_name(name: str, k: int, taken: set) -> str:
     base = re.sub(r"[^A-Za-z0-9_-]+", "_", name).strip("_") or f"PIECE_{k + 1}"
@@ -40,31 +67,57 @@ def _block_name(name: str, k: int, taken: set) -> str:
     return out
 
 
-def dxf_bytes(sheet: Sheet) -> bytes:
-    """The sheet as an R2000 DXF file (bytes, in the file's own encoding)."""
-    import ezdxf
-    from ezdxf import units
+def style_text(sheet: Sheet) -> tuple:
+    """ASTM D6673's style system text: (key, value) pairs, once per file."""
+    return (("Style Name", sheet.name), ("Creation Date", _dt.date.today().strftime("%m-%d-%Y")),
+            ("Author", f"flatweave {core.__version__}"), ("Sample Size", "base"),
+            ("Grading Rule Table", "none"), ("Units", "METRIC"))
 
-    doc = ezdxf.new("R2000", setup=False)
-    doc.units = units.MM  # $INSUNITS = 4
-    doc.header["$MEASUREMENT"] = 1  # metric
-    doc.header["$LUNITS"] = 2  # decimal
-    for name, (desc, colour) in LAYERS.items():
-        doc.layers.add(name, color=colour).description = desc
+
+def dxf_bytes(sheet: Sheet, variant: str = "astm") -> bytes:
+    """The sheet as a DXF file (bytes, in the file's own encoding)."""
+    import ezdxf
+
+    if variant not in VARIANTS:
+        raise ValueError(f"unknown DXF variant {variant!r}: use one of {', '.join(VARIANTS)}")
+    astm = variant == "astm"
+    if astm:  # (ezdxf.new would set $INSUNITS, which R12 has not, and log that it is not written)
+        from ezdxf.document import Drawing
+
+        doc = Drawing.new("AC1009")
+    else:
+        doc = ezdxf.new("R2000", setup=False)
+        from ezdxf import units
+
+        doc.units = units.MM  # $INSUNITS = 4
+        doc.header["$MEASUREMENT"] = 1  # metric
+        doc.header["$LUNITS"] = 2  # decimal
+        for name, (desc, colour) in LAYERS.items():
+            doc.layers.add(name, color=colour).description = desc
     msp = doc.modelspace()
+
+    def attribs(layer):
+        # without a layer table (astm), give each entity its layer's colour
+        return {"layer": layer, "color": LAYERS[layer][1]} if astm else {"layer": layer}
+
     taken: set = set()
+    lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
     for k, piece in enumerate(sheet.pieces):
         bname = _block_name(piece.name, k, taken)
-        blk = doc.blocks.new(name=bname)
+        blk = doc.blocks.new(name=bname, base_point=(0.0, 0.0), dxfattribs={"layer": "1" if astm else "0"})
+        off = np.asarray(piece.offset, dtype=float)
 
         def poly(points, layer, closed):
-            blk.add_lwpolyline([tuple(map(float, p)) for p in points], close=closed,
-                               dxfattribs={"layer": layer})
+            pts = [tuple(map(float, p - off)) for p in points]
+            if astm:
+                blk.add_polyline2d(pts, close=closed, dxfattribs=attribs(layer))
+            else:
+                blk.add_lwpolyline(pts, close=closed, dxfattribs=attribs(layer))
 
-        if piece.cut is not None:
-            poly(piece.cut, "1", True)
-        else:  # no allowance: the sew line is also the line to cut
-            poly(piece.sew, "1", True)
+        def line(a, b, layer):
+            blk.add_line(tuple(map(float, a - off)), tuple(map(float, b - off)), dxfattribs=attribs(layer))
+
+        poly(piece.outer, "1", True)  # the line to cut: the cut line, or the sew line without an allowance
         poly(piece.sew, "14", True)
         for h in piece.holes:
             poly(h, "14", True)
@@ -73,22 +126,45 @@ def dxf_bytes(sheet: Sheet) -> bytes:
         for leg in piece.internal:
             poly(leg, "8", False)
         for notch in piece.notches:
-            blk.add_line(tuple(notch[0]), tuple(notch[1]), dxfattribs={"layer": "4"})
+            line(notch[0], notch[1], "4")
         for d in piece.drills:
-            blk.add_point(tuple(map(float, d)), dxfattribs={"layer": "13"})
-        blk.add_line(tuple(piece.grain[0]), tuple(piece.grain[1]), dxfattribs={"layer": "7"})
+            blk.add_point(tuple(map(float, d - off)), dxfattribs=attribs("13"))
+        line(piece.grain[0], piece.grain[1], "7")
         for head in piece.grain_heads:
             poly(head, "7", False)
-        x, y = map(float, piece.label_at)
-        for i, line in enumerate(piece.label):
-            t = blk.add_text(line, height=piece.label_height, dxfattribs={"layer": "15"})
-            t.set_placement((x, y - 1.6 * piece.label_height * i))
-        msp.add_blockref(bname, (0.0, 0.0), dxfattribs={"layer": "0"})
-    w, h = sheet.size
-    doc.header["$EXTMIN"] = (0.0, 0.0, 0.0)
-    doc.header["$EXTMAX"] = (float(w), float(h), 0.0)
+        n_system = len(piece.system_text) if astm else 0
+        x, y = np.asarray(piece.label_at, dtype=float) - off
+        for i, text in enumerate(piece.label):
+            t = blk.add_text(text, height=piece.label_height, dxfattribs=attribs("1" if i < n_system else "15"))
+            t.set_placement((float(x), float(y - LINE_PITCH * piece.label_height * i)))
+        msp.add_blockref(bname, tuple(map(float, off)), dxfattribs={"layer": "1" if astm else "0"})
+        b = piece.bounds()
+        lo, hi = np.minimum(lo, b[0]), np.maximum(hi, b[1])
+    if astm:  # the style system text, once, below the pieces
+        lines = [f"{k}: {v}" for k, v in style_text(sheet)]
+        h = float(np.clip(0.01 * (hi - lo).max(), 3.0, 8.0))
+        top = lo[1] - 3.0 * h
+        for i, text in enumerate(lines):
+            t = msp.add_text(text, height=h, dxfattribs=attribs("1"))
+            t.set_placement((float(lo[0]), float(top - LINE_PITCH * h * i)))
+        box = label_box((lo[0], top), lines, h)
+        lo, hi = np.minimum(lo, box[0]), np.maximum(hi, box[1])
+    extmin, extmax = (float(lo[0]), float(lo[1]), 0.0), (float(hi[0]), float(hi[1]), 0.0)
     stream = io.StringIO()
+    if astm:
+        from ezdxf.addons import gerber_D6673
+
+        gerber_D6673.export_stream(doc, stream)
+        text = stream.getvalue()
+        empty = "  0\nSECTION\n  2\nHEADER\n  0\nENDSEC\n"
+        assert text.startswith(empty), "ezdxf's gerber_D6673 add-on writes an empty HEADER first"
+        header = ["  0", "SECTION", "  2", "HEADER", "  9", "$ACADVER", "  1", "AC1009"]
+        for var, p in (("$EXTMIN", extmin), ("$EXTMAX", extmax)):
+            header += ["  9", var, " 10", f"{p[0]:.6f}", " 20", f"{p[1]:.6f}", " 30", "0.0"]
+        text = "\n".join(header + ["  0", "ENDSEC"]) + "\n" + text[len(empty):]
+        return text.encode("ascii", errors="replace")
+    # ezdxf writes the model space's extents as $EXTMIN / $EXTMAX, unless they are (0, 0, 0)
+    msp.reset_extents(extmin, extmax)
+    doc.header["$EXTMIN"], doc.header["$EXTMAX"] = extmin, extmax
     doc.write(stream)
     return stream.getvalue().encode(doc.output_encoding, errors="replace")
-
-

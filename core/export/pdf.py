@@ -10,8 +10,13 @@ Pages, in order:
    its neighbour, and registration marks (circle and cross) at the trim
    corners line the pages up.
 
-Every page carries a 100 mm test square, drawn in the page's own units, so a
-printer that scaled the page is caught before anything is cut.
+Every page carries a test square, drawn in the page's own units, so a printer
+that scaled the page is caught before anything is cut: 100 mm in a corner of
+the overview and the assembly map; on a tile, where no line of the pattern,
+label or page mark is (the 100 mm square where it fits, else a 50 mm or 20 mm
+one, as near the trim box's bottom-left corner as it can). A tile's
+neighbour labels name the neighbouring tiles that are printed, and say
+"blank" for those that are not.
 """
 
 from __future__ import annotations
@@ -24,13 +29,16 @@ import numpy as np
 from core.errors import SettingsError
 from core.export.sheet import Sheet
 
-__all__ = ["PAPERS", "MM", "TEST_SQUARE_MM", "OVERLAP_MM", "PAGE_MARGIN_MM", "tile_grid", "pdf_bytes"]
+__all__ = ["PAPERS", "MM", "TEST_SQUARE_MM", "TILE_SQUARES_MM", "OVERLAP_MM", "PAGE_MARGIN_MM", "tile_grid", "tiles",
+           "sheet_marks", "pdf_bytes"]
 
 MM = 72.0 / 25.4  # PDF points per millimetre
 PAPERS = {"a4": (210.0, 297.0), "letter": (215.9, 279.4)}
 PAGE_MARGIN_MM = 12.0  # unprinted edge plus room for the page label
 OVERLAP_MM = 10.0
 TEST_SQUARE_MM = 100.0
+TILE_SQUARES_MM = (100.0, 50.0, 20.0)  # the test square of a tile: the largest that finds free space
+SQUARE_CLEARANCE_MM = 3.0
 SHEET_MARGIN_MM = 10.0  # blank border round the pieces
 
 # stroke colours (r, g, b) and widths (mm) of the drawn lines
@@ -165,18 +173,84 @@ def _draw_sheet(c, sheet: Sheet, unit_width: float, labels: bool = True, fill: b
             c.drawString(float(x), float(y), p.name)
 
 
-def _test_square(c, x_mm: float, y_mm: float):
-    """The 100 mm test square, in page units (points), bottom-left at (x, y) mm."""
+def _test_square(c, x_mm: float, y_mm: float, side_mm: float = TEST_SQUARE_MM):
+    """A test square of ``side_mm``, in page units (points), bottom-left at (x, y) mm."""
     c.saveState()
     c.setStrokeColorRGB(0.25, 0.25, 0.25)
     c.setLineWidth(0.5)
-    s = TEST_SQUARE_MM * MM
+    s = side_mm * MM
     c.rect(x_mm * MM, y_mm * MM, s, s, stroke=1, fill=0)
     c.setFillColorRGB(0.25, 0.25, 0.25)
-    c.setFont("Helvetica", 8)
-    c.drawCentredString(x_mm * MM + s / 2, y_mm * MM + s / 2 + 4, "100 mm test square")
-    c.drawCentredString(x_mm * MM + s / 2, y_mm * MM + s / 2 - 8, "measure before cutting")
+    if side_mm >= 50:
+        c.setFont("Helvetica", 8)
+        c.drawCentredString(x_mm * MM + s / 2, y_mm * MM + s / 2 + 4, f"{side_mm:g} mm test square")
+        c.drawCentredString(x_mm * MM + s / 2, y_mm * MM + s / 2 - 8, "measure before cutting")
+    else:
+        c.setFont("Helvetica", 6)
+        c.drawCentredString(x_mm * MM + s / 2, y_mm * MM + s / 2 + 1, f"{side_mm:g} mm")
+        c.drawCentredString(x_mm * MM + s / 2, y_mm * MM + s / 2 - 6, "test")
     c.restoreState()
+
+
+def sheet_marks(sheet: Sheet):
+    """Everything drawn of the sheet (lines, drill holes, label boxes), in sheet mm, as one
+    shapely geometry: where a tile's test square must not go."""
+    from shapely.geometry import LineString, Point, box
+    from shapely.ops import unary_union
+
+    from core.export.sheet import label_box
+
+    parts = []
+    for p in sheet.pieces:
+        rings = [p.outer, p.sew, *p.holes, *p.hole_cuts]
+        parts += [LineString(np.vstack([r, r[:1]])) for r in rings if len(r) >= 2]
+        parts += [LineString(q) for q in (*p.internal, *p.notches, p.grain, *p.grain_heads) if len(q) >= 2]
+        parts += [Point(d).buffer(1.0) for d in p.drills]
+        (x0, y0), (x1, y1) = label_box(p.label_at, p.label, p.label_height)
+        parts.append(box(x0, y0, x1, y1))
+        parts.append(Point(p.label_at).buffer(3.0))  # the scaled pages' name
+    return unary_union(parts).buffer(0.5)
+
+
+def _tile_square(marks, r: int, col: int, rows: int, cols: int, cw: float, ch: float, x0: float, y1: float):
+    """(x, y, side) in page mm of a tile's test square: the largest of ``TILE_SQUARES_MM``
+    that lies in the trim box clear of the pattern's marks and the page's own, nearest
+    the trim box's bottom-left corner; the smallest in that corner if none is clear."""
+    import shapely
+    from shapely.affinity import translate
+    from shapely.geometry import Point, box
+    from shapely.ops import unary_union
+
+    # sheet mm -> page mm on this tile (as pdf_bytes draws it)
+    dx = PAGE_MARGIN_MM + SHEET_MARGIN_MM - x0
+    dy = PAGE_MARGIN_MM + SHEET_MARGIN_MM - (y1 - ch)
+    content = box(PAGE_MARGIN_MM, PAGE_MARGIN_MM, PAGE_MARGIN_MM + cw, PAGE_MARGIN_MM + ch)
+    left = PAGE_MARGIN_MM + (OVERLAP_MM if col > 0 else 0.0)
+    top = PAGE_MARGIN_MM + ch - (OVERLAP_MM if r > 0 else 0.0)
+    right, bottom = PAGE_MARGIN_MM + cw, PAGE_MARGIN_MM
+    page = [Point(x, y).buffer(6.0) for x in (left, right) for y in (bottom, top)]  # registration marks
+    mid_x, mid_y = PAGE_MARGIN_MM + cw / 2, PAGE_MARGIN_MM + ch / 2
+    page += [box(PAGE_MARGIN_MM, mid_y - 3, PAGE_MARGIN_MM + 22, mid_y + 5),  # neighbours' names
+             box(right - 22, mid_y - 3, right, mid_y + 5),
+             box(mid_x - 15, PAGE_MARGIN_MM + ch - 6, mid_x + 15, PAGE_MARGIN_MM + ch),
+             box(mid_x - 15, PAGE_MARGIN_MM, mid_x + 15, PAGE_MARGIN_MM + 6)]
+    blocked = unary_union([translate(marks, dx, dy).intersection(content)] + page)
+    shapely.prepare(blocked)
+    g = SQUARE_CLEARANCE_MM
+    for side in TILE_SQUARES_MM:
+        xs = np.arange(left + g, right - g - side + 1e-9, 2.0)
+        ys = np.arange(bottom + g, top - g - side + 1e-9, 2.0)
+        if len(xs) == 0 or len(ys) == 0:
+            continue
+        X, Y = (a.ravel() for a in np.meshgrid(xs, ys))
+        order = np.argsort((X - left) ** 2 + (Y - bottom) ** 2, kind="stable")
+        X, Y = X[order], Y[order]
+        free = ~shapely.intersects(blocked, shapely.box(X - g, Y - g, X + side + g, Y + side + g))
+        if free.any():
+            k = int(np.argmax(free))
+            return float(X[k]), float(Y[k]), side
+    side = TILE_SQUARES_MM[-1]
+    return left + g, bottom + g, side
 
 
 def _registration(c, x: float, y: float, r: float = 3.0):
@@ -293,6 +367,8 @@ def pdf_bytes(sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern")
     _test_square_corner(c, pw, ph)
     c.showPage()
 
+    marks = sheet_marks(sheet)
+    shown = {(r, col) for r, col, show in grid if show}
     page = 0
     for r, col, show in grid:
         if show:
@@ -308,8 +384,8 @@ def pdf_bytes(sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern")
             c.translate(SHEET_MARGIN_MM - x0, SHEET_MARGIN_MM - (y1 - ch))
             _draw_sheet(c, sheet, unit_width=1.0, fill=True)
             c.restoreState()
-            _tile_marks(c, r, col, rows, cols, cw, ch)
-            _test_square(c, PAGE_MARGIN_MM + (OVERLAP_MM if col > 0 else 0.0) + 3.0, PAGE_MARGIN_MM + 3.0)
+            _tile_marks(c, r, col, rows, cols, cw, ch, shown)
+            _test_square(c, *_tile_square(marks, r, col, rows, cols, cw, ch, x0, y1))
             name = _tile_name(r, col)
             c.setFont("Helvetica-Bold", 11)
             c.setFillColorRGB(0, 0, 0)
@@ -332,7 +408,7 @@ def _footer(c, pw, text):
     c.drawString(PAGE_MARGIN_MM * MM, (PAGE_MARGIN_MM - 7) * MM, text)
 
 
-def _tile_marks(c, r, col, rows, cols, cw, ch):
+def _tile_marks(c, r, col, rows, cols, cw, ch, shown=None):
     """Content border, trim lines where a neighbour overlaps, registration marks."""
     x0, y0 = PAGE_MARGIN_MM, PAGE_MARGIN_MM
     c.saveState()
@@ -353,14 +429,18 @@ def _tile_marks(c, r, col, rows, cols, cw, ch):
     c.restoreState()
     for x, y in ((left, top), (right, top), (left, bottom), (right, bottom)):
         _registration(c, x, y)
-    # the neighbours' names at the edges
+    # the neighbours' names at the edges: printed tiles by name, the others "blank"
+
+    def nb(rr, cc):
+        return _tile_name(rr, cc) if shown is None or (rr, cc) in shown else "blank"
+
     c.setFont("Helvetica", 7)
     c.setFillColorRGB(0.3, 0.3, 0.3)
     if col > 0:
-        c.drawString((x0 + 1) * MM, (y0 + ch / 2) * MM, f"< {_tile_name(r, col - 1)}")
+        c.drawString((x0 + 1) * MM, (y0 + ch / 2) * MM, f"< {nb(r, col - 1)}")
     if col < cols - 1:
-        c.drawRightString((x0 + cw - 1) * MM, (y0 + ch / 2) * MM, f"{_tile_name(r, col + 1)} >")
+        c.drawRightString((x0 + cw - 1) * MM, (y0 + ch / 2) * MM, f"{nb(r, col + 1)} >")
     if r > 0:
-        c.drawCentredString((x0 + cw / 2) * MM, (y0 + ch - 4) * MM, f"^ {_tile_name(r - 1, col)}")
+        c.drawCentredString((x0 + cw / 2) * MM, (y0 + ch - 4) * MM, f"^ {nb(r - 1, col)}")
     if r < rows - 1:
-        c.drawCentredString((x0 + cw / 2) * MM, (y0 + 2) * MM, f"v {_tile_name(r + 1, col)}")
+        c.drawCentredString((x0 + cw / 2) * MM, (y0 + 2) * MM, f"v {nb(r + 1, col)}")

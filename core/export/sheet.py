@@ -17,7 +17,14 @@ by side on one sheet, each with the lines a pattern maker expects:
 * ``drills`` : drill holes a little inside each dart tip;
 * ``grain`` : the grain line, along the warp direction of the lattice, and
   its two arrow heads;
-* ``label`` : lines of text (piece, material, spacing, date, units, metrics).
+* ``system_text`` / ``annotation`` : the label: ASTM D6673's piece system
+  text (``Piece Name: ...``, ``Quantity: 1``, ...) and free annotation lines
+  (spacing, units, errors, date), placed in free space inside the piece
+  (:func:`label_box`, ``TEXT_EM`` text heights per character, so CAD's
+  wider stroke fonts fit too);
+* ``offset`` : where the piece sits: sheet = result ``nodes.xy`` x
+  ``Sheet.mm_per_unit`` + offset (mm), recorded in the DXF (the insertion
+  point of the piece's block) and the SVG (``<metadata>``).
 
 Offsetting is done by shapely (GEOS), the well-kept geometry library.
 """
@@ -25,7 +32,7 @@ Offsetting is done by shapely (GEOS), the well-kept geometry library.
 from __future__ import annotations
 
 import datetime as _dt
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -33,13 +40,20 @@ from core.errors import SettingsError
 from core.mesh import WARP
 from core.pattern import polygon_area
 
-__all__ = ["UNITS", "Sheet", "SheetPiece", "build_sheet", "mm_per_unit", "warp_direction"]
+__all__ = ["UNITS", "Sheet", "SheetPiece", "build_sheet", "mm_per_unit", "warp_direction", "label_box",
+           "TEXT_EM", "LINE_PITCH", "SIZE", "QUANTITY"]
 
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 PIECE_GAP_MM = 30.0
 NOTCH_MM = 6.0
 DRILL_INSET_MM = 10.0
 MITRE_LIMIT = 2.0
+TEXT_EM = 1.0  # advance per character, in text heights: a bound for CAD's stroke fonts (LibreCAD's standard, txt)
+LINE_PITCH = 1.6  # baseline to baseline, in text heights
+LABEL_MARGIN = 1.0  # free space round a label, in text heights
+MIN_LABEL_MM = 1.5
+SIZE = "base"  # the pattern is not graded: one size, the base (sample) size
+QUANTITY = 1
 
 
 def mm_per_unit(units: str) -> float:
@@ -64,9 +78,16 @@ class SheetPiece:
     drills: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     grain: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
     grain_heads: tuple = ()
-    label: tuple = ()
+    system_text: tuple = ()
+    annotation: tuple = ()
     label_at: np.ndarray = field(default_factory=lambda: np.zeros(2))
     label_height: float = 5.0
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    @property
+    def label(self) -> tuple:
+        """Every line of the label: the system text (``Key: value``), then the annotation."""
+        return tuple(f"{k}: {v}" for k, v in self.system_text) + tuple(self.annotation)
 
     @property
     def outer(self) -> np.ndarray:
@@ -79,17 +100,17 @@ class SheetPiece:
         return np.array([o.min(axis=0), o.max(axis=0)])
 
     def moved(self, d) -> "SheetPiece":
-        """The piece translated by d (mm)."""
+        """The piece translated by d (mm); its offset moves with it."""
         d = np.asarray(d, dtype=float)
 
         def mv(a):
             return None if a is None else np.asarray(a) + d
 
-        return SheetPiece(self.name, mv(self.sew), mv(self.cut), tuple(mv(h) for h in self.holes),
-                          tuple(mv(h) for h in self.hole_cuts), tuple(mv(p) for p in self.internal),
-                          tuple(mv(p) for p in self.notches), mv(self.drills), mv(self.grain),
-                          tuple(mv(p) for p in self.grain_heads), self.label, mv(self.label_at),
-                          self.label_height)
+        return replace(self, sew=mv(self.sew), cut=mv(self.cut), holes=tuple(mv(h) for h in self.holes),
+                       hole_cuts=tuple(mv(h) for h in self.hole_cuts), internal=tuple(mv(p) for p in self.internal),
+                       notches=tuple(mv(p) for p in self.notches), drills=mv(self.drills), grain=mv(self.grain),
+                       grain_heads=tuple(mv(p) for p in self.grain_heads), label_at=mv(self.label_at),
+                       offset=mv(self.offset))
 
 
 @dataclass(frozen=True)
@@ -99,6 +120,12 @@ class Sheet:
     pieces: tuple
     seam_allowance_mm: float
     units: str
+    name: str = "piece"
+
+    @property
+    def mm_per_unit(self) -> float:
+        """Millimetres per model unit: sheet = result xy x mm_per_unit + the piece's offset."""
+        return mm_per_unit(self.units)
 
     @property
     def size(self) -> tuple[float, float]:
@@ -169,25 +196,73 @@ def _chord(poly, through: np.ndarray, direction: np.ndarray, length_frac: float 
     return np.array([mid - half * direction, mid + half * direction])
 
 
-def _place_grain_and_label(sew: np.ndarray, holes, direction: np.ndarray, label: tuple, height: float):
-    """Grain line and label position: the label centred on the point of the piece
-    farthest from its outline, the grain line beside it on the side with the
-    longer chord. Returns (grain (2, 2), label_at (2,) = baseline of the first line)."""
+def label_box(at, lines, height: float, em: float = TEXT_EM) -> np.ndarray:
+    """[[xmin, ymin], [xmax, ymax]] of a label: first baseline at ``at``, a line
+    every ``LINE_PITCH`` heights, each character at most ``em`` heights wide;
+    ascenders one height above the first baseline, descenders 0.3 below the last."""
+    x, y = map(float, at)
+    width = em * height * max((len(t) for t in lines), default=0)
+    bottom = y - LINE_PITCH * height * (len(lines) - 1) - 0.3 * height
+    return np.array([[x, bottom], [x + width, y + height]])
+
+
+def _grain(poly, direction: np.ndarray, label: tuple, height: float) -> np.ndarray:
+    """The grain line: a chord along the warp beside the point of the piece farthest
+    from its outline, on the side with the longer chord, leaving room for the label."""
     from shapely.ops import polylabel
 
-    poly = _polygon(sew, holes)
-    extent = float(np.ptp(sew, axis=0).max())
+    b = np.asarray(poly.bounds, dtype=float)
+    extent = float(max(b[2] - b[0], b[3] - b[1]))
     centre = np.asarray(polylabel(poly, tolerance=max(extent / 200.0, 1e-9)).coords[0])
-    width = 0.55 * height * max((len(t) for t in label), default=0)
-    tall = 1.6 * height * len(label)
+    size = np.diff(label_box((0.0, 0.0), label, height), axis=0)[0]
     normal = np.array([direction[1], -direction[0]])
-    shift = 0.5 * width + 3.0 * height
+    shift = 0.5 * float(abs(size @ normal)) + 3.0 * height
     grain = max((_chord(poly, centre + sgn * shift * normal, direction) for sgn in (1.0, -1.0)),
                 key=lambda g: np.linalg.norm(g[1] - g[0]))
     if np.linalg.norm(grain[1] - grain[0]) < 0.2 * extent:  # too little room beside the label
         grain = _chord(poly, centre, direction)
-    label_at = centre + np.array([-0.5 * width, 0.5 * tall - height])
-    return grain, label_at
+    return grain
+
+
+def _place_label(poly, obstacles, label: tuple, height: float) -> tuple[np.ndarray, float]:
+    """Where the label goes, and its height: the box (:func:`label_box`) grown by
+    ``LABEL_MARGIN`` heights lies inside the piece and clear of ``obstacles`` (grain
+    line, dart legs, drill holes), as far from both as it can; smaller text where
+    nothing fits (down to ``MIN_LABEL_MM``). Returns (first baseline's start, height)."""
+    import shapely
+    from shapely.ops import polylabel
+
+    b = np.asarray(poly.bounds, dtype=float)
+    h = float(height)
+    while True:
+        m = LABEL_MARGIN * h
+        free = poly.buffer(-m, join_style="mitre")
+        if obstacles is not None and not obstacles.is_empty:
+            free = free.difference(obstacles.buffer(m))
+        (x0, y0), (x1, y1) = label_box((0.0, 0.0), label, h)
+        w, t = x1 - x0, y1 - y0
+        if not free.is_empty and w < b[2] - b[0] and t < b[3] - b[1]:
+            nx = ny = 48
+            xs = np.linspace(b[0], b[2] - w, nx)
+            ys = np.linspace(b[1], b[3] - t, ny)
+            X, Y = (g.ravel() for g in np.meshgrid(xs, ys))
+            boxes = shapely.box(X, Y, X + w, Y + t)
+            shapely.prepare(free)
+            ok = shapely.contains(free, boxes)
+            if ok.any():
+                edge = free.boundary
+                clear = shapely.distance(boxes[ok], edge)
+                k = int(np.argmax(clear))
+                X, Y = X[ok][k], Y[ok][k]
+                return np.array([X - x0, Y - y0]), h
+        if h * 0.8 < MIN_LABEL_MM:
+            break
+        h *= 0.8
+    # nowhere free: centred on the point farthest from the outline
+    extent = float(max(b[2] - b[0], b[3] - b[1]))
+    centre = np.asarray(polylabel(poly, tolerance=max(extent / 200.0, 1e-9)).coords[0])
+    (x0, y0), (x1, y1) = label_box((0.0, 0.0), label, h)
+    return centre - 0.5 * np.array([x0 + x1, y0 + y1]), h
 
 
 def _arrow_heads(grain: np.ndarray, size: float) -> tuple:
@@ -214,13 +289,25 @@ def _outward_normal(poly: np.ndarray, p: np.ndarray) -> np.ndarray:
     return np.array([e[1], -e[0]])
 
 
-def _label_lines(name: str, result, units: str, seam_mm: float, metrics: dict) -> tuple:
+def _ascii(text: str) -> str:
+    """7-bit ASCII (ASTM D6673 files are ASCII): other characters become '?'."""
+    return str(text).encode("ascii", errors="replace").decode("ascii")
+
+
+def _label_text(name: str, style: str, result, units: str, seam_mm: float, metrics: dict) -> tuple[tuple, tuple]:
+    """(system text, annotation): ASTM D6673's piece system text as (key, value) pairs,
+    and the lines a person reads (spacing, units, errors, date)."""
     s = result.settings
     mat = s.material
     spacing = f"{s.spacing:g}" if s.spacing_warp in (None, s.spacing) else f"{s.spacing:g} x {s.spacing_warp:g}"
-    lines = [
-        f"{name}",
-        f"material {mat.name or 'custom'} {mat.ratio}",
+    system = (
+        ("Piece Name", name),
+        ("Size", SIZE),
+        ("Quantity", str(QUANTITY)),
+        ("Material", f"{mat.name or 'custom'} {mat.ratio}"),
+        ("Category", style),
+    )
+    annotation = (
         f"spacing {spacing} {units}, weft angle {s.angle_deg:g} deg",
         f"units: mm (model in {units}), seam allowance {seam_mm:g} mm",
         f"boundary error {metrics.get('boundary_error_pct', float('nan')):.2f} %, "
@@ -228,8 +315,8 @@ def _label_lines(name: str, result, units: str, seam_mm: float, metrics: dict) -
         f"max shear {metrics.get('max_shear_deg', float('nan')):.1f} deg, "
         f"max thread strain {metrics.get('max_thread_strain_pct', float('nan')):.2f} %",
         f"flatweave {_dt.date.today().isoformat()}",
-    ]
-    return tuple(lines)
+    )
+    return tuple((k, _ascii(v)) for k, v in system), tuple(map(_ascii, annotation))
 
 
 def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name: str = "piece") -> Sheet:
@@ -245,7 +332,7 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
     many = len(pieces_src) > 1
     pieces = []
     for k, src in enumerate(pieces_src):
-        pname = f"{name} {k + 1}" if many else name
+        pname = _ascii(f"{name} {k + 1}" if many else name)
         sew = np.asarray(src.outline, dtype=float) * scale
         if polygon_area(sew) < 0:
             sew = sew[::-1]
@@ -278,15 +365,24 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
         direction = warp_direction(result.mesh, xy_mm, src.nodes if len(src.nodes) else None)
         extent = float(np.ptp(sew, axis=0).max())
         label_h = float(np.clip(0.012 * extent, 2.5, 8.0))
-        label = _label_lines(pname, result, units, seam_allowance_mm, result.metrics)
-        grain, label_at = _place_grain_and_label(sew, holes, direction, label, label_h)
+        system, annotation = _label_text(pname, name, result, units, seam_allowance_mm, result.metrics)
+        label = tuple(f"{k}: {v}" for k, v in system) + annotation
+        poly = _polygon(sew, holes)
+        grain = _grain(poly, direction, label, label_h)
         heads = _arrow_heads(grain, size=min(15.0, 0.04 * extent + 2.0))
+        from shapely.geometry import LineString, MultiPoint
+        from shapely.ops import unary_union
+
+        marks = [LineString(grain)] + [LineString(hd) for hd in heads] + [LineString(g) for g in internal]
+        marks += [LineString(n) for n in notches] + ([MultiPoint(drills)] if drills else [])
+        label_at, label_h = _place_label(poly, unary_union(marks), label, label_h)
         pieces.append(SheetPiece(pname, sew, cut, holes, hole_cuts, tuple(internal), tuple(notches),
-                                 np.array(drills).reshape(-1, 2), grain, heads, label, label_at, label_h))
-    # lay the pieces out left to right, bottoms on y = 0
+                                 np.array(drills).reshape(-1, 2), grain, heads, system, annotation, label_at,
+                                 label_h))
+    # lay the pieces out left to right, bottoms on y = 0; each piece's offset says how far it moved
     placed, x = [], 0.0
     for p in pieces:
         lo, hi = p.bounds()
         placed.append(p.moved([x - lo[0], -lo[1]]))
         x += (hi[0] - lo[0]) + PIECE_GAP_MM
-    return Sheet(tuple(placed), float(seam_allowance_mm), units)
+    return Sheet(tuple(placed), float(seam_allowance_mm), units, _ascii(name))

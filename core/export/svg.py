@@ -2,6 +2,13 @@
 1 user unit is 1 mm when printed or imported. The AAMA layers are groups
 (``id="layer-1-cut"`` ...), with Inkscape's layer attributes so editors show
 them as layers. The sheet's y axis points up, SVG's down: y is flipped.
+
+Where each piece sits is recorded in ``<metadata>``: a ``flatweave:sheet``
+element (namespace :data:`NS`) with ``mm-per-unit`` and, per piece, a
+``flatweave:piece`` with its ``offset-mm`` (sheet = result xy x mm per unit +
+offset) and ``transform``, the SVG matrix taking the result file's
+``nodes.xy`` (model units) to this file's user units (mm), so a pattern
+overlaid with the JSON, OBJ or VTP lines up.
 """
 
 from __future__ import annotations
@@ -12,7 +19,9 @@ import numpy as np
 
 from core.export.sheet import Sheet
 
-__all__ = ["MARGIN_MM", "svg_text", "SVG_LAYERS"]
+__all__ = ["MARGIN_MM", "NS", "svg_text", "SVG_LAYERS"]
+
+NS = "https://flatweave.invalid/ns/svg-sheet/1"  # a name, not a page
 
 MARGIN_MM = 10.0
 
@@ -65,7 +74,17 @@ def svg_text(sheet: Sheet, margin: float = MARGIN_MM) -> str:
            f'<svg xmlns="http://www.w3.org/2000/svg" '
            f'xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" '
            f'width="{W:.4f}mm" height="{H:.4f}mm" viewBox="0 0 {W:.4f} {H:.4f}">',
-           f'<title>{escape(", ".join(p.name for p in sheet.pieces))} (flatweave, mm)</title>']
+           f'<title>{escape(", ".join(p.name for p in sheet.pieces))} (flatweave, mm)</title>',
+           f'<metadata><flatweave:sheet xmlns:flatweave={quoteattr(NS)} units="mm" '
+           f'model-units={quoteattr(sheet.units)} mm-per-unit="{sheet.mm_per_unit:.12g}">']
+    s = sheet.mm_per_unit
+    for p in sheet.pieces:
+        ox, oy = (float(v) for v in p.offset)
+        # X = s x + ox + margin, Y = H - margin - (s y + oy)
+        matrix = f"matrix({s:.12g} 0 0 {-s:.12g} {ox + margin:.6f} {H - margin - oy:.6f})"
+        out.append(f'<flatweave:piece name={quoteattr(p.name)} offset-mm="{ox:.6f} {oy:.6f}" '
+                   f'transform="{matrix}"/>')
+    out.append("</flatweave:sheet></metadata>")
     for gid, items in groups.items():
         layer, colour, width = SVG_LAYERS[gid]
         out.append(f'<g id={quoteattr(gid)} inkscape:groupmode="layer" inkscape:label={quoteattr(layer)} '
