@@ -179,7 +179,8 @@ class FrameMaker:
                            m.get("energy", math.nan), m.get("seconds", 0.0), pattern=result.pattern,
                            final=True, status=str(m.get("solver_status", "")))
         # the result's own metrics are the reference (computed once, by the pipeline)
-        for key in ("boundary_error_pct", "area_error_pct", "max_thread_strain_pct", "max_shear_deg"):
+        for key in ("boundary_error_pct", "area_error_pct", "max_thread_strain_pct", "max_shear_deg",
+                    "uncovered_pct"):
             if key in m:
                 frame.stats[key] = float(m[key])
         return frame

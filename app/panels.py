@@ -23,6 +23,8 @@ from PySide6.QtWidgets import (QAbstractSpinBox, QCheckBox, QComboBox, QDoubleSp
 
 from core.errors import SettingsError
 from core.mesh import MATERIALS, Material, parse_material
+from core.metrics import metric_limits
+from core.pipeline import warnings_for
 from core.project import UNITS, Project
 
 from app.choices import solver_labels
@@ -292,13 +294,29 @@ class SettingsPanel(QWidget):
             self._loading = False
 
 
+METRIC_COLOURS = ("#207020", "#b36b00", "#c00000")  # within the limits, past the warning, past the bad one
+
+
+def metric_colour(value: float, limits: tuple[float, float]) -> str:
+    """The colour of a value against its (warning, bad) thresholds
+    (:func:`core.metrics.metric_limits`)."""
+    warn, bad = limits
+    return METRIC_COLOURS[2 if value > bad else 1 if value > warn else 0]
+
+
 class MetricsPanel(QWidget):
     """Headline numbers of the pattern shown: energy, boundary and area error,
-    max shear, max thread strain, size, nodes, iterations, solver status."""
+    max shear, max thread strain, uncovered share, size, nodes, iterations,
+    solver status and the result's warnings. Every number that has a limit
+    (:func:`core.metrics.metric_limits`: the material's and the project's
+    shear angles) is coloured against it."""
 
     ROWS = (("energy", "Energy EN"), ("boundary", "Boundary error"), ("area", "Area error"),
-            ("shear", "Max shear"), ("thread", "Max thread strain"), ("size", "Pattern size"),
-            ("nodes", "Nodes / springs"), ("iterations", "Iterations"), ("status", "Status"))
+            ("shear", "Max shear"), ("thread", "Max thread strain"), ("uncovered", "Uncovered"),
+            ("size", "Pattern size"), ("nodes", "Nodes / springs"), ("iterations", "Iterations"),
+            ("status", "Status"), ("warnings", "Warnings"))
+    LIMITED = (("boundary", "boundary_error_pct"), ("area", "area_error_pct"), ("shear", "max_shear_deg"),
+               ("thread", "max_thread_strain_pct"), ("uncovered", "uncovered_pct"))
 
     def __init__(self, parent=None):
         super().__init__(parent)
@@ -311,11 +329,15 @@ class MetricsPanel(QWidget):
             lab.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
             self.labels[key] = lab
             form.addRow(title, lab)
+        self.labels["warnings"].setWordWrap(True)
+        self.warnings: tuple[str, ...] = ()
+        self._warned = None  # (result, angles) the warnings were made for
 
     def text(self, key: str) -> str:
         return self.labels[key].text()
 
     def clear(self) -> None:
+        self.warnings = ()
         for lab in self.labels.values():
             lab.setText("-")
             lab.setStyleSheet("")
@@ -326,19 +348,43 @@ class MetricsPanel(QWidget):
         self.labels["energy"].setText("- (draping)" if frame.draping else f"{frame.energy:.6g}")
         for key, name in (("boundary", "boundary_error_pct"), ("area", "area_error_pct")):
             self.labels[key].setText(f"{st[name]:.3f} %" if name in st else "- (pattern pending)")
-        shear = st.get("max_shear_deg", math.nan)
-        lab = self.labels["shear"]
-        lab.setText(f"{shear:.2f} deg")
-        colour = ("#c00000" if shear > project.shear_limit_deg else
-                  "#b36b00" if shear > project.shear_warning_deg else "#207020")
-        lab.setStyleSheet(f"color: {colour}; font-weight: bold")
+        self.labels["shear"].setText(f"{st.get('max_shear_deg', math.nan):.2f} deg")
         self.labels["thread"].setText(f"{st.get('max_thread_strain_pct', math.nan):.4f} %")
+        self.labels["uncovered"].setText(f"{st['uncovered_pct']:.2f} %" if "uncovered_pct" in st else "-")
+        limits = metric_limits(project.settings.material, project.shear_warning_deg, project.shear_limit_deg)
+        for key, name in self.LIMITED:
+            value = st.get(name)
+            lab = self.labels[key]
+            if value is None or not math.isfinite(value):
+                lab.setStyleSheet("")
+            else:
+                lab.setStyleSheet(f"color: {metric_colour(value, limits[name])}; font-weight: bold")
         if frame.pattern is not None and len(frame.pattern.outline):
             ext = frame.pattern.outline.max(axis=0) - frame.pattern.outline.min(axis=0)
             self.labels["size"].setText(f"{ext[0]:.4g} x {ext[1]:.4g} {u}")
         self.labels["nodes"].setText(f"{st.get('nodes', 0):,} / {st.get('springs', 0):,}")
         self.labels["iterations"].setText(str(frame.iteration))
         status = frame.status if frame.final else "draping..." if frame.draping else "solving..."
+        self.warnings = self._result_warnings(project) if frame.final else ()
+        if self.warnings:
+            status += ", with warnings"
         if stale:
             status += " (settings changed since; Run to update)"
         self.labels["status"].setText(status)
+        self.labels["status"].setStyleSheet(f"color: {METRIC_COLOURS[1]}; font-weight: bold" if self.warnings else "")
+        self.labels["warnings"].setText("\n".join(self.warnings) if self.warnings else "none" if frame.final else "-")
+
+    def _result_warnings(self, project: Project) -> tuple[str, ...]:
+        """The document's result's warnings for the project's shear angles (made
+        once per result and angles: the shear warning needs every cell's shear)."""
+        r = project.result
+        if r is None:
+            return ()
+        key = (r, project.shear_warning_deg, project.shear_limit_deg)
+        if self._warned is None or self._warned[0] is not r or self._warned[1:3] != key[1:]:
+            try:
+                made = warnings_for(r, project.shear_warning_deg, project.shear_limit_deg)
+            except ValueError:  # angles the settings panel refuses anyway
+                made = tuple(r.warnings)
+            self._warned = (*key, made)
+        return self._warned[3]

@@ -284,6 +284,20 @@ class Piece:
     def area(self) -> float:
         return abs(polygon_area(self.outline)) - sum(abs(polygon_area(h)) for h in self.holes)
 
+    @property
+    def sew_length(self) -> float:
+        """Length of every sew line: the outline with its dart legs, and the holes."""
+        return float(sum(polygon_perimeter(r) for r in (self.outline, *self.holes)))
+
+    def to_dict(self) -> dict:
+        """The piece in result files. ``perimeter_outline`` runs along the region's
+        boundary only (what boundary_error_pct measures), ``sew_length`` along
+        every sew line (dart legs and holes too)."""
+        return {"outline": self.outline.tolist(), "outline3d": self.outline3d.tolist(),
+                "on_boundary": self.on_boundary.tolist(), "holes": [h.tolist() for h in self.holes],
+                "nodes": self.nodes.tolist(), "area": self.area,
+                "perimeter_outline": self.perimeter, "sew_length": self.sew_length}
+
 
 def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
                  samples: tuple[np.ndarray, np.ndarray] | None = None, darts=None,

@@ -27,7 +27,7 @@ from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
 from core.metrics import (cell_areas, cell_shear_deg, deformation_summary, metric_limits, result_warnings,
                           spring_lengths)
 from core.nurbs import NurbsSurface
-from core.pattern import Pattern, make_pattern, node_frames, polygon_perimeter
+from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
 from core.solver import STOPPED, Problem, SolveResult, SolverOptions, State, iterate
 from core.solver import stopped_result as stopped_solve
@@ -504,13 +504,7 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
             "outline3d": pattern.outline3d.tolist(),
             "outline_uv": pattern.outline_uv.tolist(),
             "on_boundary": pattern.on_boundary.tolist() if pattern.on_boundary is not None else None,
-            "pieces": [{"outline": pc.outline.tolist(), "outline3d": pc.outline3d.tolist(),
-                        "on_boundary": pc.on_boundary.tolist(), "holes": [h.tolist() for h in pc.holes],
-                        "nodes": pc.nodes.tolist(), "area": pc.area,
-                        # along the region's boundary only (what boundary_error_pct measures) / every sew line
-                        "perimeter_outline": pc.perimeter,
-                        "sew_length": float(sum(polygon_perimeter(r) for r in (pc.outline, *pc.holes)))}
-                       for pc in pattern.pieces],
+            "pieces": [pc.to_dict() for pc in pattern.pieces],
         },
         "darts": _darts_dict(result),
         "uncovered_regions": [g.to_dict() for g in uncovered_regions(

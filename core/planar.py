@@ -986,10 +986,7 @@ def planar_result_to_dict(result: PlanarResult, surface_source: str | None = Non
             "outline3d": pattern.outline3d.tolist(),
             "outline_uv": pattern.outline_uv.tolist(),
             "on_boundary": pattern.on_boundary.tolist(),
-            "pieces": [{"outline": pc.outline.tolist(), "outline3d": pc.outline3d.tolist(),
-                        "on_boundary": pc.on_boundary.tolist(), "holes": [h.tolist() for h in pc.holes],
-                        "nodes": pc.nodes.tolist(), "area": pc.area, "perimeter": pc.perimeter}
-                       for pc in pattern.pieces],
+            "pieces": [pc.to_dict() for pc in pattern.pieces],
         },
         "darts": out_darts,
         "warnings": list(result.warnings),
