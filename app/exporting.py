@@ -19,7 +19,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, 
                                QFormLayout, QHBoxLayout, QLabel, QLineEdit, QPushButton, QVBoxLayout, QWidget)
 
 from core.errors import FlatweaveError
-from core.export import FORMATS, PAPERS, UNITS, ExportOptions, dialog_filter, export_all
+from core.export import DXF_VARIANTS, FORMATS, OBJ_TEXTURES, PAPERS, UNITS, ExportOptions, dialog_filter, export_all
 from core.pipeline import FlattenResult
 
 from app.worker import one_line
@@ -67,7 +67,8 @@ class ExportDialog(QDialog):
     """Where and how to export. ``paths()`` and ``options()`` once accepted."""
 
     def __init__(self, path: Path, units: str, name: str, seam_allowance_mm: float = 10.0, paper: str = "a4",
-                 every_format: bool = False, stale: bool = False, parent=None):
+                 every_format: bool = False, stale: bool = False, parent=None, dxf_variant: str = "astm",
+                 obj_texture: str = "none"):
         super().__init__(parent)
         self.setWindowTitle("Export pattern")
         layout = QVBoxLayout(self)
@@ -107,6 +108,18 @@ class ExportDialog(QDialog):
             self.paper.addItem(p.upper() if p == "a4" else p, p)
         self.paper.setCurrentIndex(max(0, self.paper.findData(paper)))
         form.addRow("Paper (PDF)", self.paper)
+        self.dxf_variant = QComboBox()
+        for key, text in DXF_VARIANTS.items():
+            self.dxf_variant.addItem(text, key)
+        self.dxf_variant.setCurrentIndex(max(0, self.dxf_variant.findData(dxf_variant)))
+        form.addRow("DXF variant", self.dxf_variant)
+        self.obj_texture = QComboBox()
+        for key in OBJ_TEXTURES:
+            self.obj_texture.addItem({"none": "none (the pattern as texture coordinates)",
+                                      "checker": "checker (.mtl and image: the pattern shows on the surface)"
+                                      }.get(key, key), key)
+        self.obj_texture.setCurrentIndex(max(0, self.obj_texture.findData(obj_texture)))
+        form.addRow("OBJ texture", self.obj_texture)
         self.name = QLineEdit(name)
         form.addRow("Piece name", self.name)
         layout.addLayout(form)
@@ -153,7 +166,8 @@ class ExportDialog(QDialog):
 
     def options(self) -> ExportOptions:
         return ExportOptions(seam_allowance_mm=float(self.seam.value()), units=self.units.currentData(),
-                             paper=self.paper.currentData(), name=self.name.text().strip() or "piece")
+                             paper=self.paper.currentData(), name=self.name.text().strip() or "piece",
+                             dxf_variant=self.dxf_variant.currentData(), obj_texture=self.obj_texture.currentData())
 
     def _accept(self) -> None:
         if not self.path.text().strip():
@@ -199,7 +213,8 @@ class Exports:
             return
         o = self.export_options
         dialog = ExportDialog(self._start_path(), project.units, project.name, o.seam_allowance_mm, o.paper,
-                              self._every_format, stale=not project.result_is_current, parent=self.window)
+                              self._every_format, stale=not project.result_is_current, parent=self.window,
+                              dxf_variant=o.dxf_variant, obj_texture=o.obj_texture)
         dialog.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
         self.export_box = dialog
 

@@ -526,6 +526,9 @@ def test_export_dialog_writes_every_format(make_window, qtbot, tmp_path):
     dialog.every_format.setChecked(True)
     dialog.seam.setValue(15.0)
     dialog.paper.setCurrentIndex(dialog.paper.findData("letter"))
+    assert dialog.dxf_variant.currentData() == "astm" and dialog.obj_texture.currentData() == "none"
+    dialog.dxf_variant.setCurrentIndex(dialog.dxf_variant.findData("layered"))
+    dialog.obj_texture.setCurrentIndex(dialog.obj_texture.findData("checker"))
     with qtbot.waitSignal(win.export_finished, timeout=60000) as blocker:
         dialog.export_button.click()
     written = blocker.args[0]
@@ -533,13 +536,16 @@ def test_export_dialog_writes_every_format(make_window, qtbot, tmp_path):
     assert all(p.stat().st_size > 0 for p in written)
     assert str(tmp_path) in win.statusBar().currentMessage() and "piece.dxf" in win.progress.text()
     # the same bytes as the core writes for these options (formats without timestamps)
-    options = ExportOptions(seam_allowance_mm=15.0, units="cm", paper="letter", name="octant")
+    options = ExportOptions(seam_allowance_mm=15.0, units="cm", paper="letter", name="octant",
+                            dxf_variant="layered", obj_texture="checker")
     assert win.export_options == options
     r = win.project.result
     for suffix in (".svg", ".vtp", ".obj"):
         assert (tmp_path / f"piece{suffix}").read_bytes() == export_bytes(r, suffix, options), suffix
     assert (tmp_path / "piece.pdf").read_bytes().startswith(b"%PDF")
     assert b"SECTION" in (tmp_path / "piece.dxf").read_bytes()[:200]
+    assert b"$INSUNITS" in (tmp_path / "piece.dxf").read_bytes()  # the layered variant chosen in the dialog
+    assert (tmp_path / "piece.mtl").exists()  # the checker texture's material beside the OBJ
     qtbot.waitUntil(lambda: win.export_thread is None, timeout=5000)  # the thread ends after its signal
     assert win.actions["export"].isEnabled()
 
