@@ -1,4 +1,4 @@
-"""Shared fixtures of the GUI tests."""
+"""Shared fixtures: the GUI tests' windows, and the solved octants the export tests read back."""
 
 from __future__ import annotations
 
@@ -74,3 +74,25 @@ def make_window(qtbot):
         win.close()
     assert open_plotters() <= before, "a window's plotter was not closed"
     assert all(win.session is None for win in made), "a window's recovery session outlived it"
+
+
+@pytest.fixture(scope="session")
+def octant_dart():
+    """The octant with a dart from the equator edge towards the pole (one piece)."""
+    from core.darts import PlaneDart
+    from core.examples import load_example
+    from core.pipeline import FlattenSettings, flatten
+
+    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
+    return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))
+
+
+@pytest.fixture(scope="session")
+def octant_cut():
+    """The octant cut in two by the plane x = y (two pieces)."""
+    from core.darts import PlaneDart
+    from core.examples import load_example
+    from core.pipeline import FlattenSettings, flatten
+
+    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), None, name="cut")
+    return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))

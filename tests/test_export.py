@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.darts import PlaneDart
 from core.errors import FlatweaveError, SettingsError
 from core.examples import load_example
 from core.export import FORMATS, ExportOptions, build_sheet, check_target, export, export_all
@@ -27,20 +26,6 @@ from core.pipeline import FlattenSettings, flatten
 MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 POINTS_PER_MM = 72 / 25.4
 PAPER_MM = {"a4": (210.0, 297.0), "letter": (8.5 * 25.4, 11 * 25.4)}  # ISO 216 and ANSI
-
-
-@pytest.fixture(scope="module")
-def octant_dart():
-    """The octant with a dart from the equator edge towards the pole (one piece)."""
-    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
-    return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))
-
-
-@pytest.fixture(scope="module")
-def octant_cut():
-    """The octant cut in two by the plane x = y (two pieces)."""
-    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), None, name="cut")
-    return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))
 
 
 @pytest.fixture(scope="module")

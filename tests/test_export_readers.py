@@ -12,7 +12,6 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from core.darts import PlaneDart
 from core.examples import load_example
 from core.export import ExportOptions, build_sheet, export
 from core.export.sheet import LINE_PITCH, TEXT_EM
@@ -22,18 +21,6 @@ from core.pipeline import FlattenSettings, flatten, result_to_dict
 ASTM_LAYERS = {"1", "4", "7", "8", "11", "13", "14", "15"}
 PIECE_KEYS = ("Piece Name", "Size", "Quantity", "Material", "Category")
 STYLE_KEYS = ("Style Name", "Creation Date", "Author", "Sample Size", "Grading Rule Table", "Units")
-
-
-@pytest.fixture(scope="module")
-def octant_dart():
-    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
-    return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))
-
-
-@pytest.fixture(scope="module")
-def octant_cut():
-    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), None, name="cut")
-    return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))
 
 
 @pytest.fixture(scope="module")
