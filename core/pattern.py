@@ -311,7 +311,7 @@ class Piece:
 
 def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
                  samples: tuple[np.ndarray, np.ndarray] | None = None, darts=None,
-                 uv: np.ndarray | None = None, hole_samples=()) -> Pattern:
+                 uv: np.ndarray | None = None, hole_samples=(), cover=None) -> Pattern:
     """The 2D pattern of a mesh state: relaxed lattice and outline.
 
     With ``darts`` (a :class:`core.darts.DartSet`, and the nodes' ``uv``),
@@ -328,6 +328,8 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
     region's holes (a trimmed face, :meth:`core.region.Cover.boundary_samples`):
     each is mapped like the outline and becomes a hole of the piece it lies in
     (the first ``n_region_holes`` holes; their length counts in the perimeter).
+    ``cover`` (a trimmed :class:`core.region.Cover`): each dart's curve is
+    clipped to the region, and its mouth is where it meets the outer loop.
     """
     xy = mesh.lattice_xy()
     spacing = min(mesh.r_weft, mesh.r_warp)
@@ -352,8 +354,14 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
     uv = np.asarray(uv, dtype=float)
     # the darts: curves and both sides' legs
     openings, ends = [], []
+    trimmed = cover is not None and cover.trimmed
     for dart in darts.darts:
-        cuv = _resample_uv(surface, dart.curve_uv(surface), spacing / 4)
+        raw = dart.curve_uv(surface)
+        if trimmed:
+            raw = cover.clip_curve(raw)
+            if len(raw) >= 2 and cover.edge_distance(raw[-1:])[0] < cover.edge_distance(raw[:1])[0]:
+                raw = raw[::-1]  # mouth first: the end on the region's edge
+        cuv = _resample_uv(surface, raw, spacing / 4)
         if len(cuv) < 2:
             continue
         c3 = surface.points(cuv)
@@ -366,7 +374,7 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
                 ok &= ~others.crossing(cuv[rows.ravel()], uv[nodes])
                 return ok.reshape(rows.shape)
             legs[sgn] = map_points(c3, mesh, xyz, xy, valid=valid_side, frames=frames)
-        on_edge = _boundary_distance(surface, cuv[[0, -1]]) < 1e-6
+        on_edge = (cover.edge_distance(cuv[[0, -1]]) if trimmed else _boundary_distance(surface, cuv[[0, -1]])) < 1e-6
         openings.append(DartOpening(dart.name, dart.kind, cuv, c3, legs[1], legs[-1], bool(on_edge[0])))
         ends.append((dart, cuv, c3, legs, on_edge))
     # boundary samples at a dart's end are replaced by the legs' ends

@@ -438,7 +438,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     if cover.trimmed:  # the outline along the outer loop, the holes along the inner ones
         outer, holes = cover.boundary_samples(min(state.mesh.r_weft, state.mesh.r_warp))
         pattern = make_pattern(surface, state.mesh, xyz, samples=outer, darts=darts if len(darts) else None,
-                               uv=state.uv, hole_samples=holes)
+                               uv=state.uv, hole_samples=holes, cover=cover)
     else:
         pattern = make_pattern(surface, state.mesh, xyz, darts=darts if len(darts) else None, uv=state.uv)
     metrics = compute_metrics(surface, state.mesh, xyz, pattern, settings.yarns, A3=A3, cover=cover)

@@ -336,6 +336,53 @@ class Cover:
             out[ok] = shapely.intersects_xy(self.polygon, uv[ok, 0], uv[ok, 1])
         return out
 
+    def edge_distance(self, uv: np.ndarray) -> np.ndarray:
+        """(k,) distance of parameter points to the outer loop, in fractions of
+        the domain (as :func:`core.darts._boundary_distance` for the whole domain)."""
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        if self.region is None:
+            from core.darts import _boundary_distance
+            return _boundary_distance(self.surface, uv)
+        import shapely
+        dom = self.surface.domain
+        size = dom[:, 1] - dom[:, 0]
+        if "_ring" not in self.__dict__:
+            self._ring = shapely.LinearRing((self._loops[0] - dom[:, 0]) / size)
+            shapely.prepare(self._ring)
+        q = (uv - dom[:, 0]) / size
+        return shapely.distance(self._ring, shapely.points(q))
+
+    def clip_curve(self, uv: np.ndarray) -> np.ndarray:
+        """The longest run of a (u, v) polyline inside the region, each end
+        where it was cut moved onto the region's edge (bisection on the
+        segment that crosses it); the polyline itself for the whole domain."""
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        if self.region is None or len(uv) < 2:
+            return uv
+        inside = self.contains(uv)
+        if inside.all() or not inside.any():
+            return uv if inside.all() else uv[:0]
+        edges = np.flatnonzero(np.diff(np.r_[0, inside.astype(np.int8), 0]))
+        runs = edges.reshape(-1, 2)  # [start, stop) of each inside run
+        a, b = runs[np.argmax(runs[:, 1] - runs[:, 0])]
+        out = [uv[a:b]]
+
+        def crossing(p_in, p_out):
+            lo, hi = 0.0, 1.0  # fractions from p_in towards p_out: lo inside, hi outside
+            for _ in range(52):
+                mid = 0.5 * (lo + hi)
+                if self.contains((p_in + mid * (p_out - p_in))[None])[0]:
+                    lo = mid
+                else:
+                    hi = mid
+            return p_in + lo * (p_out - p_in)
+
+        if a > 0:
+            out.insert(0, crossing(uv[a], uv[a - 1])[None])
+        if b < len(uv):
+            out.append(crossing(uv[b - 1], uv[b])[None])
+        return np.vstack(out)
+
     def seed_uv(self, seed) -> np.ndarray:
         dom = self.surface.domain
         return dom[:, 0] + np.asarray(seed, dtype=float) * (dom[:, 1] - dom[:, 0])

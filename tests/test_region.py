@@ -319,3 +319,20 @@ def test_a_version_3_project_opens_with_the_whole_domain():
     np.testing.assert_allclose(p.result.pattern.xy, raw["result"]["nodes"]["xy"], atol=1e-9)
     assert p.result.metrics["area_3d"] == raw["result"]["metrics"]["area_3d"]
     assert project_problems(p) == []
+
+
+def test_a_dart_opens_from_a_trimmed_edge(octant):
+    from core.darts import PlaneDart
+    s = octant.surface
+    disc = Region.from_loops(circle_loop((0.5, 0.5), 0.45, 400, hole=False))
+    cover = cover_for(s, disc)
+    dart = PlaneDart((1.0, -1.0, 0.0, 0.0), (0, 1, 0, 1, 0, 0.4), name="d")
+    plain = flatten(s, FlattenSettings(spacing=0.04, region=disc, seed=cover.default_seed))
+    r = flatten(s, FlattenSettings(spacing=0.04, region=disc, seed=cover.default_seed, darts=(dart,)))
+    opening = r.pattern.darts[0]
+    # the dart's curve is cut where it leaves the disc, and opens from there into a V
+    assert opening.mouth and cover.edge_distance(opening.curve_uv[:1])[0] < 1e-9
+    assert cover.contains(opening.curve_uv).all()
+    assert opening.opening_deg > 5 and len(r.pattern.pieces) == 1 and r.pattern.holes == ()
+    assert r.metrics["unmapped_points"] == 0
+    assert abs(r.metrics["boundary_error_pct"]) < abs(plain.metrics["boundary_error_pct"])
