@@ -9,11 +9,14 @@ them (:mod:`core.document`) and an autosave writes one without locking.
 
 The file (``.flatweave``) is JSON::
 
-    {"format": "flatweave-project", "version": 3, "flatweave": "0.1.0",
+    {"format": "flatweave-project", "version": 4, "flatweave": "0.1.0",
      "name": "octant", "source": "resources/surfaces/octant.json",
      "surface": {geomdl JSON document},
      "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
-                  solver, tol, max_iter, max_seconds, max_nodes},
+                  solver, tol, max_iter, max_seconds, max_nodes,
+                  region: null (the whole domain) or {"loops": [[[u, v], ...], ...]
+                          (outer loop first, then the holes), "corners": per loop
+                          [point indices] or null} (core.region.Region)},
      "darts": [{"kind": "plane", "name", "visible", "plane": [a, b, c, d], "box": [6] or null}
                or {"kind": "curve", "name", "visible", "uv": [[u, v], ...],
                    "handles": [[u, v], ...] (optional), "view_dir": [dx, dy, dz] (optional)}],
@@ -28,7 +31,9 @@ energy plot comes back with the project). Version 3 added the result's
 ``warnings`` and ``metrics.uncovered_pct`` and a yarn's ``point``; an older
 result gets its warnings made from its saved metrics when read (its coverage
 measured on the rebuilt mesh, which is the saved one), an older yarn is an
-explicit index. A dart's ``visible``, ``handles``
+explicit index. Version 4 added ``settings.region`` (the piece's region of
+the surface's domain: a trimmed CAD face, or a region given in (u, v)); an
+older file's is null, the whole domain. A dart's ``visible``, ``handles``
 and ``view_dir`` came during version 1 and are optional (a dart without them
 is visible and has no drawn points). Older files are read by upgrading their
 document one version at a time (:data:`UPGRADES`) before it is read as the
