@@ -275,10 +275,11 @@ def _load_project(path: Path) -> Opened:
     return Opened(project=project, surface=project.surface)
 
 
-def _load_geomdl_json(path: Path) -> NurbsSurface:
-    from core.surface_io import load_surface
+def _load_geomdl_json(path: Path):
+    from core.surface_io import load_trimmed_surface
 
-    return load_surface(path)
+    surface, region = load_trimmed_surface(path)
+    return surface if region is None else Opened(surface=surface, region=region)
 
 
 # ".flatweave" is core.project.PROJECT_SUFFIX, written out so that importing the

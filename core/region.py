@@ -93,7 +93,8 @@ class Region:
     def from_loops(cls, outer, holes=(), corners=None) -> "Region":
         """A region from an outer (u, v) polyline and holes (any sense: the
         outer loop is made counter-clockwise, the holes clockwise);
-        ``corners`` optional, per loop the indices of its corners."""
+        ``corners`` optional, per loop the indices of its corners (or None:
+        found by the turning angle)."""
         loops = [_clean_loop(outer, "the region's outer loop")]
         loops += [_clean_loop(h, f"hole {k + 1} of the region") for k, h in enumerate(holes)]
         fixed, flips = [], []
@@ -106,8 +107,12 @@ class Region:
             if len(corners) != len(loops):
                 raise SettingsError(f"the region has {len(loops)} loops but corners for {len(corners)}")
             out = []
+            scale = np.maximum(np.ptp(fixed[0], axis=0), 1e-300)
             for p, c, flip in zip(fixed, corners, flips):
                 n = len(p)
+                if c is None:  # this loop's corners by the turning angle
+                    out.append(tuple(int(i) for i in _turning_corners(p, scale)))
+                    continue
                 idx = np.unique(np.asarray(c, dtype=np.int64) % n)
                 if flip:  # point i of the reversed loop was point n - 1 - i
                     idx = np.unique((n - 1 - idx) % n)

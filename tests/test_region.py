@@ -336,3 +336,45 @@ def test_a_dart_opens_from_a_trimmed_edge(octant):
     assert opening.opening_deg > 5 and len(r.pattern.pieces) == 1 and r.pattern.holes == ()
     assert r.metrics["unmapped_points"] == 0
     assert abs(r.metrics["boundary_error_pct"]) < abs(plain.metrics["boundary_error_pct"])
+
+
+def _rational_circle(centre, r):
+    """A geomdl rational quadratic circle (counter-clockwise) as a trim curve."""
+    s = math.sqrt(0.5)
+    sq = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1), (1, 0)]
+    return {"type": "spline", "degree": 2,
+            "knotvector": [0, 0, 0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1, 1, 1],
+            "control_points": {"points": [[centre[0] + r * x, centre[1] + r * y] for x, y in sq],
+                               "weights": [1, s, 1, s, 1, s, 1, s, 1]}}
+
+
+def test_a_geomdl_file_with_trims_is_a_trimmed_piece(octant, tmp_path):
+    doc = json.loads(Path(octant.path).read_text())
+    hole = dict(_rational_circle(HOLE_C, HOLE_R), reversed=1)  # clockwise: a hole
+    doc["shape"]["data"][0]["trims"] = {"count": 1, "data": [hole]}
+    path = tmp_path / "holed.json"
+    path.write_text(json.dumps(doc))
+    opened = open_path(path)
+    assert opened.region is not None and opened.region.n_holes == 1
+    loop = opened.region.arrays()[1]
+    assert np.allclose(np.linalg.norm(loop - HOLE_C, axis=1), HOLE_R, rtol=1e-12)
+    fine = region_area(octant.surface, [circle_loop(HOLE_C, HOLE_R, 20000)])
+    assert cover_for(opened.surface, opened.region).area == pytest.approx(math.pi / 2 - fine, rel=1e-5)
+    out = tmp_path / "r.json"
+    p = _cli("flatten", path, "--spacing", "0.08", "--out", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(out.read_text())
+    assert d["metrics"]["area_3d"] == pytest.approx(math.pi / 2 - fine, rel=1e-5)
+    assert d["pattern"]["pieces"][0]["region_holes"] == 1
+    # a counter-clockwise trim bounds the piece; two of them are two pieces: refused in one line
+    doc["shape"]["data"][0]["trims"] = {"count": 2, "data": [_rational_circle((0.3, 0.3), 0.2),
+                                                             _rational_circle((0.7, 0.7), 0.2)]}
+    path.write_text(json.dumps(doc))
+    p = _cli("flatten", path, "--spacing", "0.08", "--out", out)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "outer" in p.stderr
+    doc["shape"]["data"][0]["trims"] = {"count": 1, "data": [_rational_circle((0.5, 0.5), 0.4)]}
+    path.write_text(json.dumps(doc))
+    opened = open_path(path)
+    assert opened.region.n_holes == 0
+    assert cover_for(opened.surface, opened.region).contains(np.array([[0.5, 0.5], [0.05, 0.05]])).tolist() == \
+        [True, False]
