@@ -586,6 +586,10 @@ def project_problems(project: Project) -> list[str]:
             problems.append("non-finite node positions")
         elif n and np.abs(r.surface.points(r.uv) - r.xyz).max() > 1e-9 * max(1.0, r.surface.bbox_diagonal()):
             problems.append("xyz is not the surface at uv")
+    if not problems and n and r.settings.region is not None:
+        from core.region import cover_for
+        if not cover_for(r.surface, r.settings.region).contains(r.uv).all():
+            problems.append("nodes lie outside the piece's region")
     if len(r.pattern.outline) < 3:
         problems.append("the pattern has no outline")
     for key in ("energy", "boundary_error_pct", "area_error_pct", "nodes"):
