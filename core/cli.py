@@ -40,8 +40,37 @@ def resolve_surface(name: str):
     A project file is refused: these commands take a surface."""
     from core.readers import open_path
 
-    opened = open_path(name, surface_only=True)
+    opened = open_path(name, surface_only=True).choose_face()
     return opened.surface, opened.source
+
+
+def reader_region(name: str) -> bool:
+    """Whether the surface file's chosen face is trimmed."""
+    from core.readers import open_path
+
+    return open_path(name, surface_only=True).choose_face().region is not None
+
+
+def resolve_piece(args):
+    """The Opened surface of ``args.surface`` with its face (``--face``) and
+    region (a CAD face's trims, or ``--region FILE.json``) chosen."""
+    from core.readers import open_path
+
+    opened = open_path(args.surface, surface_only=True).choose_face(args.face)
+    if args.region:
+        from core.region import Region
+
+        if opened.region is not None:
+            raise SettingsError(f"face {opened.face} of {Path(args.surface).name} is trimmed already; "
+                                f"--region is for untrimmed surfaces")
+        data = _read_json(args.region, "region")
+        try:
+            region = Region.from_dict(data)
+        except SettingsError as exc:
+            raise SettingsError(f"{args.region}: {exc}") from None
+        import dataclasses
+        opened = dataclasses.replace(opened, region=region)
+    return opened
 
 
 def _help(text: str) -> str:
@@ -79,8 +108,15 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
     f.add_argument("--material", default="woven", metavar="NAME",
                    help="woven (500:500:1), isotropic (100:100:100) or a ratio WEFT:WARP:DIAG (default woven)")
-    f.add_argument("--seed", default="0.5,0.5", metavar="U,V",
-                   help="seed point as fractions of the parameter domain (default 0.5,0.5)")
+    f.add_argument("--seed", default=None, metavar="U,V",
+                   help="seed point as fractions of the parameter domain (default 0.5,0.5; on a trimmed "
+                        "piece the point farthest from its edge)")
+    f.add_argument("--face", type=int, default=None, metavar="N",
+                   help="the face of a STEP or IGES file to flatten (needed when it has several; "
+                        "'info FILE' lists them)")
+    f.add_argument("--region", default=None, metavar="REGION.json",
+                   help='cover only a region of the (u, v) domain: {"outer": [[u, v], ...], '
+                        '"holes": [[[u, v], ...], ...]} (holes optional)')
     f.add_argument("--angle", type=float, default=0.0, metavar="DEG",
                    help="weft direction at the seed, degrees from the u direction (default 0)")
     f.add_argument("--paths", choices=("plane", "geodesic"), default="plane",
@@ -117,14 +153,16 @@ def build_parser() -> argparse.ArgumentParser:
                         "GDAL and laser cutters (layered: R2000 with $INSUNITS) (default astm)")
     f.add_argument("--obj-texture", choices=("none", "checker"), default="none",
                    help="checker: an OBJ export also writes a .mtl and a checker texture (default none)")
-    f.add_argument("--units", choices=("mm", "cm", "m", "in"), default="m",
-                   help="units of the surface model, for exports (default m)")
+    f.add_argument("--units", choices=("mm", "cm", "m", "in"), default=None,
+                   help="units of the surface model, for exports (default: a STEP or IGES file's own, else m)")
     f.add_argument("--paper", choices=("a4", "letter"), default="a4", help="paper of the tiled PDF (default a4)")
     f.add_argument("--name", default=None, metavar="TEXT",
                    help="piece name in exported labels (default: the surface's name)")
 
-    i = sub.add_parser("info", help="domain, area and boundary length of a surface")
+    i = sub.add_parser("info", help="domain, area and boundary length of a surface; the faces of a CAD file")
     i.add_argument("surface", metavar="SURFACE", help=_surface_help())
+    i.add_argument("--json", action="store_true",
+                   help="print JSON (a STEP or IGES file: {\"units\": ..., \"faces\": [...]})")
 
     sub.add_parser("examples", help="list the bundled example surfaces")
     return p
@@ -177,23 +215,40 @@ def _cmd_flatten(args) -> int:
         return _cmd_flatten_planar(args, out)
     # refuse bad export targets and options before the solve, not after it
     targets = [check_target(p) for p in args.export]
-    options = ExportOptions(seam_allowance_mm=args.seam_allowance, units=args.units, paper=args.paper,
+    opened = resolve_piece(args)
+    units = args.units
+    if units is None:
+        units = opened.units if opened.cad is not None else "m"
+        if units not in ("mm", "cm", "m", "in"):
+            raise SettingsError(f"{Path(args.surface).name} is in {units}; exports take mm, cm, m or in: "
+                                f"give --units")
+    options = ExportOptions(seam_allowance_mm=args.seam_allowance, units=units, paper=args.paper,
                             name=args.name or Path(args.surface).stem, dxf_variant=args.dxf_variant,
                             obj_texture=args.obj_texture)
-    surface, source = resolve_surface(args.surface)
+    surface, source, region = opened.surface, opened.source, opened.region
+    from core.region import cover_for
+
+    cover = cover_for(surface, region)
+    if opened.cad is not None:
+        _check_face_size(opened, args.spacing)
+    seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
-        seed=_floats(args.seed, 2, "seed"), angle_deg=args.angle, paths=args.paths, solver=args.solver,
+        seed=seed, angle_deg=args.angle, paths=args.paths, solver=args.solver,
         tol=args.tol, max_iter=args.max_iter,
         max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"),
-        yarns=_yarns(args), darts=_darts(args, surface), max_nodes=args.max_nodes)
+        yarns=_yarns(args), darts=_darts(args, surface), max_nodes=args.max_nodes, region=region)
     initial = None
     if args.warm_start:
         initial = state_from_dict(_read_json(args.warm_start), surface, settings)
-    result = flatten(surface, settings, initial=initial, area=region_area(surface),
+    result = flatten(surface, settings, initial=initial, area=cover.area if cover.trimmed else region_area(surface),
                      callback=None if args.quiet else _Progress())
     if out is not None:
-        write_json(out, result_to_dict(result, source))
+        doc = result_to_dict(result, source)
+        if opened.cad is not None:  # which face of which file, in which units
+            doc["settings"]["face"] = opened.face
+            doc["settings"]["units"] = opened.cad.units
+        write_json(out, doc)
     written = export_all(result, targets, options) if targets else []
     m = result.metrics
     if not args.quiet:
@@ -204,6 +259,24 @@ def _cmd_flatten(args) -> int:
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
     _print_warnings(result.warnings)
     return 0
+
+
+def _check_face_size(opened, spacing: float) -> None:
+    """SettingsError when the chosen face (or every face of the file) is too
+    small for the spacing: less area than 4 cells."""
+    faces = opened.cad.faces
+    need = 4.0 * spacing * spacing
+    name = Path(opened.cad.path).name
+    largest = max(float(f.area) for f in faces)
+    if largest < need:
+        raise SettingsError(f"every face of {name} is too small for spacing {spacing:g} (the largest has area "
+                            f"{largest:.4g} {opened.cad.units}^2); use a spacing below about "
+                            f"{0.5 * largest ** 0.5:.2g}")
+    face = opened.cad.face(opened.face)
+    if float(face.area) < need:
+        raise SettingsError(f"face {face.index} of {name} (area {face.area:.4g} {opened.cad.units}^2) is too small "
+                            f"for spacing {spacing:g}; use a spacing below about {0.5 * face.area ** 0.5:.2g} "
+                            f"or another face")
 
 
 def _print_warnings(warnings) -> None:
@@ -221,7 +294,8 @@ def _cmd_flatten_planar(args, out: Path) -> int:
 
     unused = [name for name, value, default in (
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
-        ("--seed", args.seed, "0.5,0.5"), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
+        ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
+        ("--region", args.region, None), ("--face", args.face, None),
         ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None)) if value != default]
     if unused:
         raise SettingsError(f"--method planar does not use {', '.join(unused)}")
@@ -229,6 +303,8 @@ def _cmd_flatten_planar(args, out: Path) -> int:
     if args.solver not in solvers:
         raise SettingsError("--method planar has solvers fast (Levenberg-Marquardt) and none (the unfolding only)")
     surface, source = resolve_surface(args.surface)
+    if reader_region(args.surface):
+        raise SettingsError("--method planar covers a whole surface, not a trimmed face; use --method spring")
     settings = PlanarSettings(
         spacing=args.spacing, darts=_darts(args, surface), solver=solvers[args.solver],
         tol=args.tol, max_iter=args.max_iter,
@@ -262,7 +338,7 @@ class _Progress:
         return False
 
 
-def _read_json(path: str) -> dict:
+def _read_json(path: str, what: str = "result") -> dict:
     import json
 
     try:
@@ -271,13 +347,36 @@ def _read_json(path: str) -> dict:
     except OSError as exc:
         raise SettingsError(f"cannot read {path}: {exc.strerror or exc}") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SettingsError(f"{path} is not a JSON result file: {exc}") from None
+        raise SettingsError(f"{path} is not a JSON {what} file: {exc}") from None
 
 
 def _cmd_info(args) -> int:
-    from core.quadrature import boundary_length, region_area
+    import json
 
-    surface, source = resolve_surface(args.surface)
+    from core.quadrature import boundary_length, region_area
+    from core.readers import open_path
+
+    opened = open_path(args.surface, surface_only=True)
+    if opened.cad is not None:
+        from core.cad import cad_info
+
+        info = cad_info(opened.cad)
+        if args.json:
+            print(json.dumps(info))
+            return 0
+        print(f"{opened.source}: {len(info['faces'])} face{'s' if len(info['faces']) != 1 else ''}, "
+              f"units {info['units']}")
+        for f in info["faces"]:
+            box = ", ".join(f"{x:.6g}" for x in f["bbox"])
+            print(f"  face {f['index']}: {f['kind']}, area {f['area']:.10g}, "
+                  f"{'trimmed' if f['trimmed'] else 'untrimmed'}, bbox [{box}]")
+        return 0
+    surface, source = opened.surface, opened.source
+    if args.json:
+        d = surface.domain
+        print(json.dumps({"domain": d.tolist(), "area": region_area(surface),
+                          "boundary_length": boundary_length(surface)}))
+        return 0
     d = surface.domain
     print(f"{source}: {surface!r}")
     print(f"domain u [{d[0, 0]:g}, {d[0, 1]:g}], v [{d[1, 0]:g}, {d[1, 1]:g}]")

@@ -54,6 +54,7 @@ class CoverageGrid:
     shape: tuple[int, int]
     edges_u: np.ndarray
     edges_v: np.ndarray
+    inside: np.ndarray | None = None  # (samples,) bool: in a trimmed region (:meth:`core.region.Cover.coverage_grid`)
 
 
 def cell_diagonal(r_weft: float, r_warp: float) -> float:
@@ -103,22 +104,24 @@ def coverage_grid(surface: NurbsSurface, reach: float) -> CoverageGrid:
 def _far(grid: CoverageGrid, xyz: np.ndarray, reach: float) -> np.ndarray:
     """(samples,) bool: samples farther than ``reach`` from every node."""
     if len(xyz) == 0:
-        return np.ones(len(grid.uv), dtype=bool)
+        return np.ones(len(grid.uv), dtype=bool) if grid.inside is None else grid.inside.copy()
     d = cKDTree(np.asarray(xyz, dtype=float)).query(grid.xyz, distance_upper_bound=reach)[0]
-    return d > reach
+    return d > reach if grid.inside is None else (d > reach) & grid.inside
 
 
-def uncovered_share(surface: NurbsSurface, xyz: np.ndarray, reach: float) -> float:
-    """Share (0..1) of the region's area farther than ``reach`` from every point of ``xyz (n, 3)``."""
-    grid = coverage_grid(surface, reach)
+def uncovered_share(surface: NurbsSurface, xyz: np.ndarray, reach: float, grid: CoverageGrid | None = None) -> float:
+    """Share (0..1) of the region's area farther than ``reach`` from every point of ``xyz (n, 3)``
+    (``grid``: a region's own, :meth:`core.region.Cover.coverage_grid`)."""
+    grid = coverage_grid(surface, reach) if grid is None else grid
     far = _far(grid, xyz, reach)
     total = float(grid.area.sum())
     return float(grid.area[far].sum() / total) if total > 0 else 0.0
 
 
-def uncovered_points(surface: NurbsSurface, xyz: np.ndarray, reach: float) -> np.ndarray:
+def uncovered_points(surface: NurbsSurface, xyz: np.ndarray, reach: float,
+                     grid: CoverageGrid | None = None) -> np.ndarray:
     """(k, 2) parameters of the uncovered samples."""
-    grid = coverage_grid(surface, reach)
+    grid = coverage_grid(surface, reach) if grid is None else grid
     return grid.uv[_far(grid, xyz, reach)]
 
 
@@ -165,10 +168,10 @@ def _outline(mask: np.ndarray, eu: np.ndarray, ev: np.ndarray) -> np.ndarray:
 
 
 def uncovered_regions(surface: NurbsSurface, xyz: np.ndarray, reach: float,
-                      min_share: float = 0.002) -> list[UncoveredRegion]:
+                      min_share: float = 0.002, grid: CoverageGrid | None = None) -> list[UncoveredRegion]:
     """The connected uncovered regions of at least ``min_share`` of the
     region's area, largest first."""
-    grid = coverage_grid(surface, reach)
+    grid = coverage_grid(surface, reach) if grid is None else grid
     far = _far(grid, xyz, reach)
     if not far.any():
         return []

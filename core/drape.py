@@ -318,6 +318,7 @@ class _Builder:
         self.tree, self.tree_n = None, 0
         self.separated = None  # callable(uv_a, uv_b) -> bool: a dart lies between
         self.on_add = None  # callable() after every batch of new nodes (progress reports)
+        self.inside = None  # callable(uv) -> (k,) bool: in the piece's region (a trimmed face), else the domain
         self.rmin = min(settings.r_weft, settings.r_warp)
         dom = surface.domain
         self.dom = dom
@@ -344,7 +345,11 @@ class _Builder:
     def accept_uv(self, uv: np.ndarray, conv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Converged and inside the domain (to round-off); returns (ok, clipped uv)."""
         inside = np.all((uv >= self.dom[:, 0] - self.tol_uv) & (uv <= self.dom[:, 1] + self.tol_uv), axis=1)
-        return conv & inside, np.clip(uv, self.dom[:, 0], self.dom[:, 1])
+        uv = np.clip(uv, self.dom[:, 0], self.dom[:, 1])
+        ok = conv & inside
+        if self.inside is not None and ok.any():
+            ok[ok] = self.inside(uv[ok])
+        return ok, uv
 
     def far_from_mesh(self, P: np.ndarray) -> np.ndarray:
         """(k,) bool: points at least half a spacing from every node and from each other.
@@ -535,7 +540,8 @@ class _Builder:
 
 
 def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
-          area: float | None = None, progress=None, progress_interval: float = 0.06) -> DrapeResult:
+          area: float | None = None, progress=None, progress_interval: float = 0.06,
+          inside=None) -> DrapeResult:
     """Lay the spring mesh onto the surface (paper section 3.1).
 
     ``area`` (the region's area, if known) lets an oversize mesh be refused up
@@ -546,6 +552,10 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
     report is slow (see ``REPORT_SHARE``): a live view of the drape. An
     exception it raises ends the drape there and propagates (how a caller
     stops a drape).
+
+    ``inside(uv) -> (k,) bool``, if given, is the piece's region (a trimmed
+    face, :meth:`core.region.Cover.contains`): a node is laid only inside it,
+    as it is only inside the domain.
     """
     t0 = time.perf_counter()
     s = settings
@@ -569,6 +579,7 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
             raise SettingsError(f"spacing {s.r_weft:g} needs {need}, {over}; the smallest spacing "
                                 f"that fits is about {smallest:.3g}")
     b = _Builder(surface, s)
+    b.inside = inside
     if progress is not None:
         last, wait = [time.perf_counter()], [progress_interval]  # end of the last report, wait after it
 
@@ -608,7 +619,7 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
 
 def refill(surface: NurbsSurface, settings: DrapeSettings, ij: np.ndarray, uv: np.ndarray,
            dead_ij: np.ndarray = np.zeros((0, 2), dtype=np.int64),
-           separated=None) -> tuple[np.ndarray, np.ndarray]:
+           separated=None, inside=None) -> tuple[np.ndarray, np.ndarray]:
     """Node Filling from an existing mesh state (population control, paper 3.3).
 
     ij : (n, 2) lattice positions and uv : (n, 2) parameters of the current
@@ -619,6 +630,7 @@ def refill(surface: NurbsSurface, settings: DrapeSettings, ij: np.ndarray, uv: n
     """
     b = _Builder(surface, settings)
     b.separated = separated
+    b.inside = inside  # the region (a trimmed face): nodes only inside it
     b.add(np.asarray(ij, dtype=np.int64), np.asarray(uv, dtype=float), 0)
     n0 = len(b.uv)
     dead = np.asarray(dead_ij, dtype=np.int64).reshape(-1, 2)

@@ -25,7 +25,7 @@ sample. The map from each 2D outline point to its 3D boundary point (and its
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -105,7 +105,7 @@ class Pattern:
     def perimeter(self) -> float:
         """Length of the outline along the region's boundary (dart legs excluded),
         over all pieces."""
-        if len(self.pieces) > 1:
+        if len(self.pieces) > 1 or (self.pieces and self.pieces[0].n_region_holes):
             return sum(p.perimeter for p in self.pieces)
         seg = np.linalg.norm(np.roll(self.outline, -1, axis=0) - self.outline, axis=1)
         if self.on_boundary is None:
@@ -265,7 +265,9 @@ class Piece:
 
     outline (k, 2), outline3d (k, 3), outline_uv (k, 2), on_boundary (k,) :
     as in :class:`Pattern`; nodes : indices of the mesh nodes of the piece;
-    holes : closed polygons of darts lying inside the piece.
+    holes : closed 2D polygons inside the piece: first the region's holes
+        (a trimmed face's inner loops, clockwise; ``n_region_holes`` of them,
+        part of the boundary), then the darts lying inside the piece.
     """
 
     outline: np.ndarray
@@ -274,11 +276,16 @@ class Piece:
     on_boundary: np.ndarray
     nodes: np.ndarray
     holes: tuple = ()
+    n_region_holes: int = 0
 
     @property
     def perimeter(self) -> float:
+        """Length along the region's boundary: the outline (dart legs excluded) and the region's holes."""
         seg = np.linalg.norm(np.roll(self.outline, -1, axis=0) - self.outline, axis=1)
-        return float(seg[self.on_boundary & np.roll(self.on_boundary, -1)].sum())
+        out = float(seg[self.on_boundary & np.roll(self.on_boundary, -1)].sum())
+        if self.n_region_holes:
+            out += sum(polygon_perimeter(h) for h in self.holes[:self.n_region_holes])
+        return out
 
     @property
     def area(self) -> float:
@@ -293,15 +300,18 @@ class Piece:
         """The piece in result files. ``perimeter_outline`` runs along the region's
         boundary only (what boundary_error_pct measures), ``sew_length`` along
         every sew line (dart legs and holes too)."""
-        return {"outline": self.outline.tolist(), "outline3d": self.outline3d.tolist(),
-                "on_boundary": self.on_boundary.tolist(), "holes": [h.tolist() for h in self.holes],
-                "nodes": self.nodes.tolist(), "area": self.area,
-                "perimeter_outline": self.perimeter, "sew_length": self.sew_length}
+        out = {"outline": self.outline.tolist(), "outline3d": self.outline3d.tolist(),
+               "on_boundary": self.on_boundary.tolist(), "holes": [h.tolist() for h in self.holes],
+               "nodes": self.nodes.tolist(), "area": self.area,
+               "perimeter_outline": self.perimeter, "sew_length": self.sew_length}
+        if self.n_region_holes:
+            out["region_holes"] = self.n_region_holes  # the first holes are the face's inner loops
+        return out
 
 
 def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
                  samples: tuple[np.ndarray, np.ndarray] | None = None, darts=None,
-                 uv: np.ndarray | None = None) -> Pattern:
+                 uv: np.ndarray | None = None, hole_samples=(), cover=None) -> Pattern:
     """The 2D pattern of a mesh state: relaxed lattice and outline.
 
     With ``darts`` (a :class:`core.darts.DartSet`, and the nodes' ``uv``),
@@ -312,6 +322,14 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
     to the tip, down the other); a dart with both ends on the boundary is a
     cut, and the outline of each piece follows it from one end to the other.
     Darts inside the region become holes.
+
+    ``samples`` are the outer boundary's (uv, xyz) (default: the domain's,
+    :func:`boundary_samples`); ``hole_samples`` a list of (uv, xyz) of the
+    region's holes (a trimmed face, :meth:`core.region.Cover.boundary_samples`):
+    each is mapped like the outline and becomes a hole of the piece it lies in
+    (the first ``n_region_holes`` holes; their length counts in the perimeter).
+    ``cover`` (a trimmed :class:`core.region.Cover`): each dart's curve is
+    clipped to the region, and its mouth is where it meets the outer loop.
     """
     xy = mesh.lattice_xy()
     spacing = min(mesh.r_weft, mesh.r_warp)
@@ -327,13 +345,23 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
             raise SettingsError("no point of the boundary maps into the pattern: the mesh is too broken "
                                 "to flatten; try a smaller spacing")
         piece = _oriented(piece)
-        return Pattern(xy, piece.outline, piece.outline3d, piece.outline_uv, piece.on_boundary, (), (),
+        if hole_samples:
+            (piece,), more = _region_holes([piece], hole_samples, surface, mesh, xyz, xy, frames, uv, spacing,
+                                           None, np.zeros(mesh.n_nodes, dtype=np.int64))
+            lost += more
+        return Pattern(xy, piece.outline, piece.outline3d, piece.outline_uv, piece.on_boundary, (), piece.holes,
                        (piece,), lost)
     uv = np.asarray(uv, dtype=float)
     # the darts: curves and both sides' legs
     openings, ends = [], []
+    trimmed = cover is not None and cover.trimmed
     for dart in darts.darts:
-        cuv = _resample_uv(surface, dart.curve_uv(surface), spacing / 4)
+        raw = dart.curve_uv(surface)
+        if trimmed:
+            raw = cover.clip_curve(raw)
+            if len(raw) >= 2 and cover.edge_distance(raw[-1:])[0] < cover.edge_distance(raw[:1])[0]:
+                raw = raw[::-1]  # mouth first: the end on the region's edge
+        cuv = _resample_uv(surface, raw, spacing / 4)
         if len(cuv) < 2:
             continue
         c3 = surface.points(cuv)
@@ -346,7 +374,7 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
                 ok &= ~others.crossing(cuv[rows.ravel()], uv[nodes])
                 return ok.reshape(rows.shape)
             legs[sgn] = map_points(c3, mesh, xyz, xy, valid=valid_side, frames=frames)
-        on_edge = _boundary_distance(surface, cuv[[0, -1]]) < 1e-6
+        on_edge = (cover.edge_distance(cuv[[0, -1]]) if trimmed else _boundary_distance(surface, cuv[[0, -1]])) < 1e-6
         openings.append(DartOpening(dart.name, dart.kind, cuv, c3, legs[1], legs[-1], bool(on_edge[0])))
         ends.append((dart, cuv, c3, legs, on_edge))
     # boundary samples at a dart's end are replaced by the legs' ends
@@ -446,6 +474,9 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
         if good.sum() >= 2:
             finite_openings.append(DartOpening(o.name, o.kind, o.curve_uv[good], o.curve3d[good], o.leg_a[good],
                                                o.leg_b[good], o.mouth))
+    if hole_samples:
+        kept, more = _region_holes(kept, hole_samples, surface, mesh, xyz, xy, frames, uv, spacing, darts, comp)
+        unmapped += more
     pieces = sorted((_oriented(p) for p in kept), key=lambda p: -abs(polygon_area(p.outline)))
     main = pieces[0]
     return Pattern(xy, main.outline, main.outline3d, main.outline_uv, main.on_boundary,
@@ -492,14 +523,49 @@ def _finite_piece(p: Piece) -> tuple[Piece | None, int]:
         return None, lost
     if lost == 0 and len(holes) == len(p.holes):
         return p, 0
-    return Piece(p.outline[good], p.outline3d[good], p.outline_uv[good], p.on_boundary[good], p.nodes, holes), lost
+    n_region = sum(1 for h in (h[np.isfinite(h).all(axis=1)] for h in p.holes[:p.n_region_holes]) if len(h) >= 3)
+    return Piece(p.outline[good], p.outline3d[good], p.outline_uv[good], p.on_boundary[good], p.nodes, holes,
+                 n_region), lost
 
 
 def _oriented(p: Piece) -> Piece:
     """The piece with its outline counter-clockwise."""
     if polygon_area(p.outline) >= 0:
         return p
-    return Piece(p.outline[::-1], p.outline3d[::-1], p.outline_uv[::-1], p.on_boundary[::-1], p.nodes, p.holes)
+    return Piece(p.outline[::-1], p.outline3d[::-1], p.outline_uv[::-1], p.on_boundary[::-1], p.nodes, p.holes,
+                 p.n_region_holes)
+
+
+def _region_holes(pieces, hole_samples, surface, mesh, xyz, xy, frames, uv, spacing, darts, comp):
+    """The pieces with the region's holes mapped into the plane (clockwise),
+    each put first among the holes of the piece its nearest node belongs to;
+    also the count of hole points no node maps."""
+    pieces = list(pieces)
+    lost = 0
+    for huv, hq in hole_samples:
+        valid = None
+        if uv is not None:
+            sheet = _same_sheet(surface, mesh, xyz, uv, huv, spacing)
+            if darts is not None and len(darts):
+                def valid(rows, nn, huv=huv, sheet=sheet):
+                    return ~darts.crossing(huv[rows.ravel()], uv[nn.ravel()]).reshape(rows.shape) & sheet(rows, nn)
+            else:
+                valid = sheet
+        h2, near = map_points(hq, mesh, xyz, xy, valid=valid, frames=frames, nearest=True)
+        good = np.isfinite(h2).all(axis=1)
+        lost += int((~good).sum())
+        h2 = h2[good]
+        if len(h2) < 3:
+            continue
+        if polygon_area(h2) > 0:
+            h2 = h2[::-1]
+        c = np.bincount(comp[near[near >= 0]]).argmax()
+        for n_, p in enumerate(pieces):
+            if len(p.nodes) and comp[p.nodes[0]] == c:
+                k = p.n_region_holes
+                pieces[n_] = replace(p, holes=p.holes[:k] + (h2,) + p.holes[k:], n_region_holes=k + 1)
+                break
+    return pieces, lost
 
 
 def _components(mesh: SpringMesh) -> np.ndarray:

@@ -29,6 +29,7 @@ from core.metrics import (cell_areas, cell_shear_deg, deformation_summary, metri
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
+from core.region import Cover, Region, cover_for
 from core.solver import STOPPED, Problem, SolveResult, SolverOptions, State, iterate
 from core.solver import stopped_result as stopped_solve
 from core.solvers import solver_entry, solver_names
@@ -58,6 +59,9 @@ class FlattenSettings:
     darts : plane and curve darts (:mod:`core.darts`)
     max_nodes : refuse meshes estimated larger than this (or than the available
         memory holds, :func:`core.drape.node_limit`), up front
+    region : the piece's region of the (u, v) domain (:class:`core.region.Region`:
+        a trimmed face's loops), or None for the whole domain; the seed must
+        lie in it (:attr:`core.region.Cover.default_seed` is a good one)
 
     Settings check themselves when made (:func:`validate_settings`): a value
     no solve can use is a one-line SettingsError, here and not mid-solve.
@@ -76,6 +80,7 @@ class FlattenSettings:
     yarns: tuple[YarnConstraint, ...] = ()
     darts: tuple = ()
     max_nodes: int = 2_000_000
+    region: Region | None = None
 
     def __post_init__(self):
         validate_settings(self)
@@ -123,6 +128,8 @@ def validate_settings(s: FlattenSettings) -> None:
     for y in s.yarns:
         if not isinstance(y, YarnConstraint):
             raise SettingsError(f"yarn constraints must be YarnConstraint, got {type(y).__name__}")
+    if s.region is not None and not isinstance(s.region, Region):
+        raise SettingsError(f"region must be a core.region.Region or None, got {type(s.region).__name__}")
     for d in s.darts:
         if not isinstance(d, tuple(DART_KINDS.values())):
             raise SettingsError(f"darts must be {' or '.join(c.__name__ for c in DART_KINDS.values())}, "
@@ -143,7 +150,9 @@ def settings_to_dict(s: FlattenSettings, form: str = "result") -> dict:
     their labels beyond the name (:data:`~core.darts.RESULT_DART_KEYS`) and the
     yarns inline. form "project": :data:`SETTINGS_KEYS` only (darts and yarns
     are listed beside them), ``spacing_warp`` null when it follows the weft
-    spacing. Either way an infinite time budget is null.
+    spacing, and ``region`` (null for the whole domain). Either way an
+    infinite time budget is null; a result's settings have ``region`` only
+    when there is one (:meth:`core.region.Region.to_dict`).
     """
     if form not in ("result", "project"):
         raise ValueError(f"form must be 'result' or 'project', got {form!r}")
@@ -162,7 +171,12 @@ def settings_to_dict(s: FlattenSettings, form: str = "result") -> dict:
         "darts": [d.to_dict(RESULT_DART_KEYS) for d in s.darts],
         "max_nodes": s.max_nodes,
     }
-    return out if form == "result" else {k: out[k] for k in SETTINGS_KEYS}
+    region = None if s.region is None else s.region.to_dict()
+    if form == "result":
+        if region is not None:
+            out["region"] = region
+        return out
+    return {**{k: out[k] for k in SETTINGS_KEYS}, "region": region}
 
 
 @dataclass(frozen=True)
@@ -199,34 +213,44 @@ class FlattenResult:
 
 
 def compute_metrics(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, pattern: Pattern,
-                    yarns=(), L3: float | None = None, A3: float | None = None) -> dict:
+                    yarns=(), L3: float | None = None, A3: float | None = None,
+                    cover: Cover | None = None) -> dict:
     """Energy, boundary and area errors (:func:`core.geom.outline_errors`: L3
-    and A3 the surface's boundary length and area, L2 and A2 the outline's),
-    thread strain, shear and sizes."""
-    L3 = boundary_length(surface) if L3 is None else L3
-    A3 = region_area(surface) if A3 is None else A3
+    and A3 the region's boundary length and area (``cover``'s; default the
+    whole surface's), L2 and A2 the outline's), thread strain, shear and sizes."""
+    trimmed = cover is not None and cover.trimmed
+    if L3 is None:
+        L3 = cover.boundary_length if trimmed else boundary_length(surface)
+    if A3 is None:
+        A3 = cover.area if trimmed else region_area(surface)
     m = {"energy": Energy(surface, mesh, yarns).value_xyz(xyz),
          **outline_errors(pattern.perimeter, L3, pattern.area, A3)}
     m.update(deformation_summary(xyz, mesh))
-    m.update(coverage_metrics(surface, xyz, mesh.r_weft, mesh.r_warp))
+    m.update(coverage_metrics(surface, xyz, mesh.r_weft, mesh.r_warp, cover if trimmed else None))
     m["nodes"] = mesh.n_nodes
     m["springs"] = mesh.n_springs
     m["cells"] = int(len(mesh.cells))
     return m
 
 
-def coverage_metrics(surface: NurbsSurface, xyz: np.ndarray, r_weft: float, r_warp: float) -> dict:
+def coverage_metrics(surface: NurbsSurface, xyz: np.ndarray, r_weft: float, r_warp: float,
+                     cover: Cover | None = None) -> dict:
     """``uncovered_pct``: 100 x the share of the region's area farther than a
     cell diagonal from every node (:mod:`core.coverage`), and
     ``max_gap_spacings``: the largest distance from a point of the region to
     the nearest node, in spacings (max(r_weft, r_warp)); about half a diagonal
     when the mesh covers the region, half the width of the widest gap when not."""
     reach = cell_diagonal(r_weft, r_warp)
-    grid = coverage_grid(surface, reach)
+    grid = coverage_grid(surface, reach) if cover is None else cover.coverage_grid(reach)
     d = cKDTree(xyz).query(grid.xyz)[0]
+    if grid.inside is not None:  # a trimmed region: only its samples
+        d = d[grid.inside]
+        grid_area = grid.area[grid.inside]
+    else:
+        grid_area = grid.area
     far = d > reach
-    total = float(grid.area.sum())
-    return {"uncovered_pct": float(100 * grid.area[far].sum() / total) if total > 0 else 0.0,
+    total = float(grid_area.sum())
+    return {"uncovered_pct": float(100 * grid_area[far].sum() / total) if total > 0 else 0.0,
             "max_gap_spacings": float(d.max(initial=0.0) / max(r_weft, r_warp))}
 
 
@@ -244,17 +268,25 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
     ds = settings.drape_settings()
     material = settings.material
     darts = DartSet(surface, settings.darts)
+    cover = cover_for(surface, settings.region)
+    inside = cover.contains if cover.trimmed else None
 
     def build(ij, uv):
         keep = darts.keep_springs(np.asarray(uv)) if len(darts) else None
         return build_mesh(ij, ds.r_weft, ds.r_warp, material, keep=keep)
 
     def refill_nodes(mesh, uv, dead):
-        return refill(surface, ds, mesh.ij, uv, dead, separated=darts.crossing if len(darts) else None)
+        return refill(surface, ds, mesh.ij, uv, dead, separated=darts.crossing if len(darts) else None,
+                      inside=inside)
 
     # a node whose step would carry it through a dart is deleted (3.3)
-    invalid = darts.crossing if len(darts) else None
-    return Problem(surface, build, settings.yarns, refill_nodes, invalid, cut=invalid)
+    cut = darts.crossing if len(darts) else None
+    invalid = cut
+    if inside is not None:  # a node that leaves the region is deleted, as one that leaves the domain
+        def invalid(uv_old, uv_new, *xyz):
+            bad = ~inside(uv_new)
+            return bad if cut is None else bad | cut(uv_old, uv_new, *xyz)
+    return Problem(surface, build, settings.yarns, refill_nodes, invalid, cut=cut)
 
 
 UNCOVERED_LIMIT = 0.10
@@ -273,7 +305,7 @@ def _check_area(surface: NurbsSurface, area: float) -> None:
                             f"across): it is a curve or a point, not a sheet")
 
 
-def _uncovered_share(surface: NurbsSurface, xyz: np.ndarray, reach: float) -> float:
+def _uncovered_share(surface: NurbsSurface, xyz: np.ndarray, reach: float, inside=None) -> float:
     """Share of the surface's area farther than ``reach`` from every point of ``xyz``
     (Gauss points of the domain, at most ~200,000 of them, weighted by area)."""
     nu, nv = surface.shape
@@ -281,21 +313,31 @@ def _uncovered_share(surface: NurbsSurface, xyz: np.ndarray, reach: float) -> fl
     uv, w = domain_gauss_rule(surface, int(np.clip(np.sqrt(200_000 / cells), 1, 8)))
     S, su, sv = surface.derivatives(uv)
     a = w * np.linalg.norm(np.cross(su, sv), axis=1)
+    if inside is not None:  # a trimmed region: only its part of the domain
+        a = np.where(inside(uv), a, 0.0)
     far = cKDTree(xyz).query(S, distance_upper_bound=reach)[0] > reach
     return float(a[far].sum() / a.sum())
 
 
-def _check_drape(surface: NurbsSurface, d, ds: DrapeSettings) -> None:
-    """SettingsError unless a new drape can give a pattern of the whole surface."""
+def _check_drape(surface: NurbsSurface, d, ds: DrapeSettings, cover: Cover | None = None) -> None:
+    """SettingsError unless a new drape can give a pattern of the whole surface (or region)."""
     r = max(ds.r_weft, ds.r_warp)
+    trimmed = cover is not None and cover.trimmed
     seed = f"({ds.seed[0]:g}, {ds.seed[1]:g})"
     if not node_frames(d.mesh, d.xyz)[2].any():
         n = d.mesh.n_nodes
         placed = f"the drape placed {n:,} node{'s' if n != 1 else ''} but no complete cell of the mesh"
-        edge = cKDTree(boundary_polyline(surface, 1024)[1])
+        if trimmed:
+            outer, holes = cover.boundary_samples(cover.boundary_length / 4096, 1, 16)
+            edge = cKDTree(np.vstack([outer[1]] + [h[1] for h in holes]))
+        else:
+            edge = cKDTree(boundary_polyline(surface, 1024)[1])
         g = np.linspace(0.0, 1.0, 33)
         dom = surface.domain
         grid = np.column_stack([a.ravel() for a in np.meshgrid(*(lo + g * (hi - lo) for lo, hi in dom))])
+        if trimmed:
+            inside = cover.contains(grid)
+            grid = grid[inside] if inside.any() else cover.seed_uv(cover.default_seed)[None]
         inner = float(edge.query(surface.points(grid))[0].max())  # how far the surface reaches from its edge
         if inner < r:
             raise SettingsError(
@@ -306,7 +348,7 @@ def _check_drape(surface: NurbsSurface, d, ds: DrapeSettings) -> None:
         raise SettingsError(
             f"{placed}: from the seed {seed}, {dist:.3g} from the surface's edge, the threads leave the "
             f"surface (or stop) within a spacing; move the seed inward, away from poles, corners and edges")
-    share = _uncovered_share(surface, d.xyz, 2 * r)
+    share = _uncovered_share(surface, d.xyz, 2 * r, cover.contains if trimmed else None)
     if share > UNCOVERED_LIMIT:
         raise SettingsError(
             f"the drape from seed {seed} covers only {100 * (1 - share):.0f} % of the surface "
@@ -354,8 +396,13 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     :class:`~core.errors.SolverError`: no result holds a non-finite number.
     """
     t0 = time.perf_counter()
-    A3 = region_area(surface) if area is None else area
+    cover = cover_for(surface, settings.region)
+    A3 = (cover.area if cover.trimmed else region_area(surface)) if area is None else area
     _check_area(surface, A3)
+    if cover.trimmed and initial is None and not cover.contains(cover.seed_uv(settings.seed)[None])[0]:
+        ds_ = cover.default_seed
+        raise SettingsError(f"the seed ({settings.seed[0]:g}, {settings.seed[1]:g}) lies outside the piece's region; "
+                            f"use a seed inside it, e.g. {ds_[0]:.4g},{ds_[1]:.4g} (its point farthest from the edge)")
     problem = make_problem(surface, settings)
     if initial is None:
         progress = None
@@ -366,8 +413,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
                 order = np.lexsort((ij[:, 1], ij[:, 0]))
                 drape_progress(problem.build(ij[order], uv[order]), uv[order], xyz[order])
         d = drape(surface, settings.drape_settings(), settings.material, area=A3, progress=progress,
-                  progress_interval=drape_interval)
-        _check_drape(surface, d, settings.drape_settings())
+                  progress_interval=drape_interval, inside=cover.contains if cover.trimmed else None)
+        _check_drape(surface, d, settings.drape_settings(), cover)
         state, stats = State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
     else:
         uv = np.asarray(initial.uv, dtype=float)
@@ -388,8 +435,13 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         raise SettingsError(f"no complete cell of the mesh is left ({state.mesh.n_nodes:,} nodes): there is "
                             f"nothing to make a pattern from; try a smaller spacing or another seed")
     darts = DartSet(surface, settings.darts)
-    pattern = make_pattern(surface, state.mesh, xyz, darts=darts if len(darts) else None, uv=state.uv)
-    metrics = compute_metrics(surface, state.mesh, xyz, pattern, settings.yarns, A3=A3)
+    if cover.trimmed:  # the outline along the outer loop, the holes along the inner ones
+        outer, holes = cover.boundary_samples(min(state.mesh.r_weft, state.mesh.r_warp))
+        pattern = make_pattern(surface, state.mesh, xyz, samples=outer, darts=darts if len(darts) else None,
+                               uv=state.uv, hole_samples=holes, cover=cover)
+    else:
+        pattern = make_pattern(surface, state.mesh, xyz, darts=darts if len(darts) else None, uv=state.uv)
+    metrics = compute_metrics(surface, state.mesh, xyz, pattern, settings.yarns, A3=A3, cover=cover)
     metrics.update({
         "iterations": solve.nit if solve else 0,
         "energy_evaluations": solve.nfev if solve else 0,
@@ -508,7 +560,9 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
         },
         "darts": _darts_dict(result),
         "uncovered_regions": [g.to_dict() for g in uncovered_regions(
-            result.surface, xyz, cell_diagonal(mesh.r_weft, mesh.r_warp))]
+            result.surface, xyz, cell_diagonal(mesh.r_weft, mesh.r_warp),
+            grid=cover_for(result.surface, result.settings.region).coverage_grid(
+                cell_diagonal(mesh.r_weft, mesh.r_warp)) if result.settings.region is not None else None)]
         if result.metrics.get("uncovered_pct") else [],
         "warnings": list(result.warnings),
     }

@@ -9,11 +9,14 @@ them (:mod:`core.document`) and an autosave writes one without locking.
 
 The file (``.flatweave``) is JSON::
 
-    {"format": "flatweave-project", "version": 3, "flatweave": "0.1.0",
+    {"format": "flatweave-project", "version": 4, "flatweave": "0.1.0",
      "name": "octant", "source": "resources/surfaces/octant.json",
      "surface": {geomdl JSON document},
      "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
-                  solver, tol, max_iter, max_seconds, max_nodes},
+                  solver, tol, max_iter, max_seconds, max_nodes,
+                  region: null (the whole domain) or {"loops": [[[u, v], ...], ...]
+                          (outer loop first, then the holes), "corners": per loop
+                          [point indices] or null} (core.region.Region)},
      "darts": [{"kind": "plane", "name", "visible", "plane": [a, b, c, d], "box": [6] or null}
                or {"kind": "curve", "name", "visible", "uv": [[u, v], ...],
                    "handles": [[u, v], ...] (optional), "view_dir": [dx, dy, dz] (optional)}],
@@ -28,7 +31,9 @@ energy plot comes back with the project). Version 3 added the result's
 ``warnings`` and ``metrics.uncovered_pct`` and a yarn's ``point``; an older
 result gets its warnings made from its saved metrics when read (its coverage
 measured on the rebuilt mesh, which is the saved one), an older yarn is an
-explicit index. A dart's ``visible``, ``handles``
+explicit index. Version 4 added ``settings.region`` (the piece's region of
+the surface's domain: a trimmed CAD face, or a region given in (u, v)); an
+older file's is null, the whole domain. A dart's ``visible``, ``handles``
 and ``view_dir`` came during version 1 and are optional (a dart without them
 is visible and has no drawn points). Older files are read by upgrading their
 document one version at a time (:data:`UPGRADES`) before it is read as the
@@ -79,13 +84,13 @@ __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSIO
            "load_project", "result_from_dict", "project_problems", "new_project", "UPGRADES"]
 
 PROJECT_FORMAT = "flatweave-project"
-PROJECT_VERSION = 3
+PROJECT_VERSION = 4
 PROJECT_SUFFIX = ".flatweave"
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
 """Model units a user can choose, with their length in metres."""
 
-DRAPE_KEYS = ("spacing", "spacing_warp", "seed", "angle_deg", "paths", "max_nodes")
+DRAPE_KEYS = ("spacing", "spacing_warp", "seed", "angle_deg", "paths", "max_nodes", "region")
 """Settings that decide the drape: changing one needs a new drape, not a warm start."""
 
 
@@ -272,6 +277,7 @@ def settings_from_dict(d: Any, darts: Any = (), yarns: Any = (), where: str = "p
         max_iter=f.integer(d["max_iter"], "settings.max_iter"),
         max_seconds=math.inf if max_seconds is None else max_seconds,
         max_nodes=f.integer(d["max_nodes"], "settings.max_nodes"),
+        region=_region_from(f, d.get("region")),
         darts=_darts_from(f, darts),
         yarns=_yarns_from(f, yarns),
     )
@@ -281,6 +287,17 @@ def settings_from_dict(d: Any, darts: Any = (), yarns: Any = (), where: str = "p
     except SettingsError as exc:
         raise ProjectError(f"{where}: {exc}") from None
     return out
+
+
+def _region_from(f: _Fields, value: Any):
+    """settings.region: null (the whole domain) or :meth:`core.region.Region.to_dict`'s form."""
+    if value is None:
+        return None
+    from core.region import Region
+    try:
+        return Region.from_dict(value)
+    except SettingsError as exc:
+        raise f.fail(f"settings.region: {exc}") from None
 
 
 def _darts_from(f: _Fields, value: Any) -> tuple:
@@ -385,7 +402,16 @@ def _upgrade_2_to_3(d: dict) -> dict:
     return d
 
 
-UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3}
+def _upgrade_3_to_4(d: dict) -> dict:
+    """Version 3 had no region: every piece was its surface's whole domain (``settings.region`` null)."""
+    d = dict(d)
+    if isinstance(d.get("settings"), dict):
+        d["settings"] = {**d["settings"], "region": None}
+    d["version"] = 4
+    return d
+
+
+UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3, 3: _upgrade_3_to_4}
 """Version -> the function that turns a document of that version into one of the next."""
 
 
@@ -560,6 +586,10 @@ def project_problems(project: Project) -> list[str]:
             problems.append("non-finite node positions")
         elif n and np.abs(r.surface.points(r.uv) - r.xyz).max() > 1e-9 * max(1.0, r.surface.bbox_diagonal()):
             problems.append("xyz is not the surface at uv")
+    if not problems and n and r.settings.region is not None:
+        from core.region import cover_for
+        if not cover_for(r.surface, r.settings.region).contains(r.uv).all():
+            problems.append("nodes lie outside the piece's region")
     if len(r.pattern.outline) < 3:
         problems.append("the pattern has no outline")
     for key in ("energy", "boundary_error_pct", "area_error_pct", "nodes"):
@@ -571,11 +601,19 @@ def project_problems(project: Project) -> list[str]:
 
 
 def new_project(surface: NurbsSurface, name: str = "untitled", source: str | None = None,
-                spacing: float | None = None, units: str = "m") -> Project:
+                spacing: float | None = None, units: str = "m", region=None) -> Project:
     """A project with default settings for ``surface``: the woven material and,
     unless given, a spacing of about a 25th of the square root of its area
-    (rounded to two significant digits), which makes about 600 nodes."""
+    (rounded to two significant digits), which makes about 600 nodes. With a
+    ``region`` (a trimmed face, :class:`core.region.Region`) the area is the
+    region's and the seed its point farthest from its edge."""
+    if region is None:
+        area, extra = float(region_area(surface)), {}
+    else:
+        from core.region import cover_for
+        cover = cover_for(surface, region)
+        area, extra = cover.area, {"region": region, "seed": cover.default_seed}
     if spacing is None:
-        raw = math.sqrt(float(region_area(surface))) / 25.0
+        raw = math.sqrt(area) / 25.0
         spacing = float(f"{raw:.2g}") if raw > 0 and math.isfinite(raw) else 1.0
-    return Project(surface, FlattenSettings(spacing=float(spacing)), name=name, source=source, units=units)
+    return Project(surface, FlattenSettings(spacing=float(spacing), **extra), name=name, source=source, units=units)

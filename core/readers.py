@@ -65,6 +65,11 @@ class Opened:
     units : model units when the file says (bundled examples: their units), else None
     example : the bundled example's name, else None
     reader : name of the reader that parsed the file
+    region : the piece's region of the surface's domain (a trimmed CAD
+        face, :class:`core.region.Region`), or None for the whole domain
+    cad : a STEP or IGES file's faces (:class:`core.cad.CadFile`), else None
+    face : which of them ``surface`` and ``region`` are (None while a file
+        with several faces has none chosen: :meth:`with_face`)
     """
 
     path: Path | None = None
@@ -75,6 +80,34 @@ class Opened:
     units: str | None = None
     example: str | None = None
     reader: str = ""
+    region: Any = None
+    cad: Any = None
+    face: int | None = None
+
+    def with_face(self, index) -> "Opened":
+        """The CAD file's face ``index`` (its surface, region and units); a
+        one-line SettingsError when there is no such face."""
+        if self.cad is None:
+            raise SettingsError(f"{self.source or self.path}: --face is for STEP and IGES files")
+        from core.region import region_from_cad_face
+        face = self.cad.face(index)
+        return dataclasses.replace(self, surface=face.surface, region=region_from_cad_face(face), face=face.index)
+
+    def choose_face(self, index=None) -> "Opened":
+        """A CAD file's face ``index``, or its only face when ``index`` is None;
+        a one-line SettingsError saying how to choose when there are several."""
+        if self.cad is None:
+            if index is not None:
+                raise SettingsError(f"{self.source or self.path}: --face is for STEP and IGES files")
+            return self
+        if index is None:
+            if self.face is not None:
+                return self
+            n = len(self.cad.faces)
+            name = Path(self.cad.path).name
+            raise SettingsError(f"{name} has {n} faces: choose one with --face N (0 to {n - 1}; "
+                                f"'python -m core info {name}' lists them)")
+        return self.with_face(index)
 
     @property
     def name(self) -> str:
@@ -93,8 +126,10 @@ class Opened:
         if self.project is not None:
             return self.project
         units = self.units if self.units in UNITS else "m"
+        if self.surface is None:
+            self.choose_face()  # raises: a CAD file with several faces and none chosen
         return new_project(self.surface, self.name if self.path is None else self.path.stem, self.source,
-                           self.spacing, units)
+                           self.spacing, units, region=self.region)
 
 
 _READERS: dict[str, Reader] = {}
@@ -240,13 +275,28 @@ def _load_project(path: Path) -> Opened:
     return Opened(project=project, surface=project.surface)
 
 
-def _load_geomdl_json(path: Path) -> NurbsSurface:
-    from core.surface_io import load_surface
+def _load_geomdl_json(path: Path):
+    from core.surface_io import load_trimmed_surface
 
-    return load_surface(path)
+    surface, region = load_trimmed_surface(path)
+    return surface if region is None else Opened(surface=surface, region=region)
 
 
 # ".flatweave" is core.project.PROJECT_SUFFIX, written out so that importing the
 # registry does not import the project module (a test checks they agree).
 register_reader("flatweave-project", (".flatweave",), _load_project, "flatweave project", project=True)
 register_reader("geomdl-json", (".json",), _load_geomdl_json, "geomdl JSON surface")
+
+
+def _load_cad(path: Path) -> Opened:
+    """A STEP or IGES file (:func:`core.cad.read_cad_faces`): its faces, the
+    file's units, and, when it has one face, that face chosen."""
+    from core.cad import read_cad_faces
+
+    cad = read_cad_faces(path)
+    opened = Opened(cad=cad, units=cad.units)
+    return opened.with_face(0) if len(cad.faces) == 1 else opened
+
+
+register_reader("step", (".step", ".stp"), _load_cad, "STEP faces")
+register_reader("iges", (".iges", ".igs"), _load_cad, "IGES faces")

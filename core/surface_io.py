@@ -23,8 +23,10 @@ Decisions about inputs geomdl would also accept:
   surface in the plane z = 0. Any other number of coordinates is an error.
 - Knot vectors are kept as written. geomdl's importer rescales them to [0, 1];
   we do not, so parameters and derivative magnitudes are the file's own.
-- Trimmed surfaces (a non-empty ``trims`` entry) are refused: ignoring the
-  trim curves would give the wrong piece of fabric.
+- Trimmed surfaces (a non-empty ``trims`` entry) are refused by
+  :func:`load_surface` (ignoring the trim curves would give the wrong piece
+  of fabric); :func:`load_trimmed_surface` (the ``.json`` reader's) reads
+  them as a surface and its :class:`core.region.Region`.
 - Numbers must be JSON numbers (not strings, not booleans), finite (the
   ``NaN`` / ``Infinity`` literals Python's json accepts are refused, and so
   are overflowing literals such as ``1e999``) and of magnitude at most 1e100,
@@ -86,8 +88,10 @@ def _describe(value: Any) -> str:
 class _Reader:
     """Validates one surface record, raising SurfaceError prefixed with ``source``."""
 
-    def __init__(self, source: str):
+    def __init__(self, source: str, allow_trims: bool = False):
         self.source = _one_line(source, 200)
+        self.allow_trims = allow_trims
+        self.trims = []  # the record's trim curves, when allowed
 
     def fail(self, problem: str) -> SurfaceError:
         return SurfaceError(_one_line(f"{self.source}: {problem}", 400))
@@ -131,6 +135,13 @@ class _Reader:
         if not isinstance(value, list):
             raise self.fail(f"{where} must be a list of numbers, got {_describe(value)}")
         return np.array([self.number(x, f"{where}[{k}]") for k, x in enumerate(value)], dtype=float)
+
+    def points2(self, value: Any, where: str) -> np.ndarray:
+        """(n, 2) float from a JSON list of [u, v] pairs (a trim curve's)."""
+        if not isinstance(value, list) or not all(isinstance(r, list) and len(r) == 2 for r in value):
+            raise self.fail(f"{where} must be a list of [u, v] pairs, got {_describe(value)}")
+        return np.array([[self.number(x, f"{where}[{k}]") for x in r] for k, r in enumerate(value)],
+                        dtype=float).reshape(-1, 2)
 
     def point_list(self, value: Any, where: str) -> np.ndarray:
         """(n, 3) float from a JSON list of [x, y, z] (or [x, y], then z = 0)."""
@@ -193,8 +204,9 @@ class _Reader:
             tdata = self.obj(rec["trims"], "trims").get("data", [])
             if not isinstance(tdata, list):
                 raise self.fail(f"trims.data must be a list, got {_describe(tdata)}")
-            if tdata:
+            if tdata and not self.allow_trims:
                 raise self.fail("trimmed surfaces are not supported (the file has trim curves)")
+            self.trims = list(tdata)
 
         deg = {d: self.integer(self.key(rec, f"degree_{d}", where), f"degree_{d}", 1) for d in "uv"}
         size = {d: self.integer(self.key(rec, f"size_{d}", where), f"size_{d}", 1) for d in "uv"}
@@ -279,7 +291,10 @@ def parse_surface_json(data: bytes | str, source: str = "surface data") -> Nurbs
     problem: empty input, binary data, invalid JSON (with line and column),
     and everything :func:`surface_from_json_dict` checks.
     """
-    reader = _Reader(source)
+    return _parse(data, _Reader(source))
+
+
+def _parse(data, reader: "_Reader") -> NurbsSurface:
     if isinstance(data, (bytes, bytearray, memoryview)):
         raw = bytes(data)
         if not raw.strip():
@@ -335,6 +350,106 @@ def load_surface(path: str | os.PathLike) -> NurbsSurface:
     except ValueError as exc:  # e.g. a NUL character in the path
         raise SurfaceError(_one_line(f"{name!r}: cannot read file: {exc}", 400)) from None
     return parse_surface_json(raw, source=name)
+
+
+def load_trimmed_surface(path: str | os.PathLike):
+    """``(surface, region)`` of a geomdl JSON file whose surface may have trim
+    curves (``trims``); region is None without them (the whole domain), else
+    a :class:`core.region.Region`.
+
+    Each trim is a closed loop: a ``spline`` curve (degree, knotvector,
+    control_points with optional weights, in (u, v)), a ``freeform`` polyline
+    (``points``) or a ``container`` of such curves chained end to end (each
+    curve's start is a corner); ``reversed`` (geomdl's trim sense) reverses
+    it. As in STEP and OpenNURBS, a counter-clockwise loop bounds the piece
+    and a clockwise one is a hole; without a counter-clockwise loop the outer
+    loop is the domain's edge. Curves are sampled at 64 points a knot span.
+    """
+    name = os.fspath(path)
+    try:
+        raw = Path(name).read_bytes()
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise SurfaceError(_one_line(f"{name}: cannot read file: {reason}", 400)) from None
+    except ValueError as exc:
+        raise SurfaceError(_one_line(f"{name!r}: cannot read file: {exc}", 400)) from None
+    reader = _Reader(name, allow_trims=True)
+    surface = _parse(raw, reader)
+    if not reader.trims:
+        return surface, None
+    loops, corners = [], []
+    for k, t in enumerate(reader.trims):
+        pts, starts = _trim_loop(reader, reader.obj(t, f"trims.data[{k}]"), f"trims.data[{k}]")
+        loops.append(pts)
+        corners.append(starts)
+    area = [0.5 * float(np.dot(p[:, 0], np.roll(p[:, 1], -1)) - np.dot(p[:, 1], np.roll(p[:, 0], -1)))
+            for p in loops]
+    outer = [k for k, a in enumerate(area) if a > 0]
+    if len(outer) > 1:
+        raise reader.fail(f"the trims have {len(outer)} outer (counter-clockwise) loops: flatweave reads one "
+                          f"piece per surface")
+    from core.errors import SettingsError
+    from core.region import Region
+    if outer:
+        order = outer + [k for k in range(len(loops)) if k not in outer]
+        out_loops, out_corners = [loops[k] for k in order], [corners[k] for k in order]
+    else:
+        (u0, u1), (v0, v1) = surface.domain
+        out_loops = [np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]])] + loops
+        out_corners = [[0, 1, 2, 3]] + corners
+    try:
+        region = Region.from_loops(out_loops[0], out_loops[1:], corners=out_corners)
+    except SettingsError as exc:
+        raise reader.fail(f"trims: {exc}") from None
+    return surface, region
+
+
+def _trim_curve(reader: "_Reader", c: dict, where: str) -> np.ndarray:
+    kind = c.get("type", "spline")
+    if kind == "freeform":
+        pts = reader.points2(reader.key(c, "points", where), f"{where}.points")
+    elif kind == "spline":
+        from scipy.interpolate import BSpline
+        p = reader.integer(reader.key(c, "degree", where), f"{where}.degree", 1)
+        knots = reader.vector(reader.key(c, "knotvector", where), f"{where}.knotvector")
+        cp = reader.obj(reader.key(c, "control_points", where), f"{where}.control_points")
+        P = reader.points2(reader.key(cp, "points", f"{where}.control_points"), f"{where}.control_points.points")
+        w = reader.vector(cp["weights"], f"{where}.control_points.weights") if "weights" in cp else np.ones(len(P))
+        if len(knots) != len(P) + p + 1 or len(w) != len(P) or np.any(np.diff(knots) < 0) or np.any(w <= 0):
+            raise reader.fail(f"{where}: a spline trim needs len(knotvector) = points + degree + 1, "
+                              f"non-decreasing knots and positive weights")
+        spans = np.unique(knots[p:len(P) + 1])
+        t = np.unique(np.concatenate([np.linspace(a, b, 65) for a, b in zip(spans[:-1], spans[1:])]))
+        h = BSpline(knots, np.column_stack([P * w[:, None], w]), p)(t)
+        pts = h[:, :2] / h[:, 2:]
+    else:
+        raise reader.fail(f"{where}.type must be 'spline' or 'freeform', got {_describe(kind)}")
+    if len(pts) < 2:
+        raise reader.fail(f"{where} has fewer than 2 points")
+    return pts[::-1] if c.get("reversed") in (1, True) else pts
+
+
+def _trim_loop(reader: "_Reader", t: dict, where: str):
+    """(points (n, 2), corner indices) of one trim loop."""
+    if t.get("type") == "container":
+        data = reader.key(t, "data", where)
+        if not isinstance(data, list) or not data:
+            raise reader.fail(f"{where}.data must be a non-empty list of curves")
+        curves = [_trim_curve(reader, reader.obj(c, f"{where}.data[{i}]"), f"{where}.data[{i}]")
+                  for i, c in enumerate(data)]
+        if t.get("reversed") in (1, True):
+            curves = [c[::-1] for c in curves[::-1]]
+    else:
+        curves = [_trim_curve(reader, t, where)]
+    starts, pieces, n = [], [], 0
+    for c in curves:
+        starts.append(n)
+        pieces.append(c[:-1])
+        n += len(c) - 1
+    pts = np.vstack(pieces)
+    if not np.allclose(curves[-1][-1], curves[0][0], atol=1e-6 * max(1.0, float(np.ptp(pts, axis=0).max()))):
+        raise reader.fail(f"{where}: the trim loop is not closed (it ends away from its start)")
+    return pts, (starts if len(curves) > 1 else None)
 
 
 # ---------------------------------------------------------------------- writing

@@ -78,9 +78,10 @@ def test_toy_reader_through_the_cli(toy_formats, tmp_path, capsys):
 
 
 def test_dialog_filters_come_from_the_registries(toy_formats):
-    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.toy);;flatweave project (*.flatweave);;"
-                                       "geomdl JSON surface (*.json);;toy surface (*.toy)")
-    assert readers.dialog_filter(project=False).startswith("All supported (*.json *.toy);;")
+    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.step *.stp *.iges *.igs *.toy);;"
+                                       "flatweave project (*.flatweave);;geomdl JSON surface (*.json);;"
+                                       "STEP faces (*.step *.stp);;IGES faces (*.iges *.igs);;toy surface (*.toy)")
+    assert readers.dialog_filter(project=False).startswith("All supported (*.json *.step *.stp *.iges *.igs *.toy);;")
     assert dialog_filter().split(";;")[-1] == "outline vertex counts (*.txt)"
     assert ".txt" in FORMATS and list(FORMATS)[-1] == ".txt"
 
@@ -92,11 +93,12 @@ def test_toy_formats_are_gone_after_the_fixture():
 
 # ---------------------------------------------------------------------- the reader registry
 def test_builtin_readers_and_filter():
-    assert readers.suffixes() == [PROJECT_SUFFIX, ".json"]
-    assert readers.dialog_filter() == ("All supported (*.flatweave *.json);;flatweave project (*.flatweave);;"
-                                       "geomdl JSON surface (*.json)")
+    assert readers.suffixes() == [PROJECT_SUFFIX, ".json", ".step", ".stp", ".iges", ".igs"]
+    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.step *.stp *.iges *.igs);;"
+                                       "flatweave project (*.flatweave);;geomdl JSON surface (*.json);;"
+                                       "STEP faces (*.step *.stp);;IGES faces (*.iges *.igs)")
     assert reader_for("a" + PROJECT_SUFFIX.upper()).project and not reader_for("a.JSON").project
-    assert reader_for("a.step") is None
+    assert reader_for("a.step").name == "step" and reader_for("a.IGS").name == "iges" and reader_for("a.3dm") is None
 
 
 def test_example_by_name_and_by_file_has_its_spacing_and_units():
@@ -128,7 +130,8 @@ def test_surface_file_and_project_file(tmp_path):
 
 @pytest.mark.parametrize("name, words", [
     ("teapot", ["'teapot' is neither a file nor a bundled example", "octant"]),
-    ("piece.step", ["piece.step", "'.step'", ".flatweave", ".json"]),
+    ("piece.3dm", ["piece.3dm", "'.3dm'", ".flatweave", ".json", ".step"]),
+    ("piece.step", ["piece.step", "no such file"]),
     ("nowhere.json", ["nowhere.json", "cannot read file"]),
 ])
 def test_open_errors_are_one_line(tmp_path, name, words):
@@ -157,7 +160,8 @@ def test_registration_is_checked():
         register_reader("bad", "json", _toy_reader, "no dot")
     with pytest.raises(ValueError, match="already have an exporter"):
         register_exporter(".DXF", _txt_writer, "again", needs_sheet=True)
-    assert readers.suffixes() == [PROJECT_SUFFIX, ".json"] and "bad" not in [r.name for r in readers.readers()]
+    assert readers.suffixes() == [PROJECT_SUFFIX, ".json", ".step", ".stp", ".iges", ".igs"]
+    assert "bad" not in [r.name for r in readers.readers()]
 
 
 def test_a_reader_must_return_a_surface_or_opened(tmp_path):
