@@ -28,6 +28,7 @@ from core.recovery import Orphan, Session, find_orphans, save_with_backups
 from core.readers import dialog_filter, open_path, reader_for
 
 from app.actions import view_choices
+from app.facepicker import FacePicker
 from app.worker import one_line
 
 __all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS", "stored_view"]
@@ -67,6 +68,7 @@ class Files(QObject):
         self.window = window
         self.session: Session | None = None
         self.recovery_box: QMessageBox | None = None
+        self.face_picker: FacePicker | None = None  # open while a CAD file's face is being chosen
         self.recovery_problem: str | None = None
         if recovery:
             try:
@@ -95,13 +97,55 @@ class Files(QObject):
             opened = open_path(path)
             if opened.project is not None:
                 self.window.set_project(opened.project, path)
-            else:
-                self.window.set_surface(opened.surface, path)
+            elif opened.cad is not None and opened.face is None:
+                self.pick_face(opened)
+                return True
+            else:  # a surface, or a CAD file's only face (its region and units with it)
+                self.window.set_project(opened.as_project())
         except (FlatweaveError, OSError) as exc:
             reader = reader_for(path)
             self.window.show_error(f"Cannot open {'project' if reader and reader.project else 'surface'}: {exc}")
             return False
         self._status(f"Opened {path}", 5000)
+        return True
+
+    def pick_face(self, opened) -> FacePicker:
+        """Show the face picker (non-modal) for a STEP or IGES file with several
+        faces; its OK opens the chosen face (:meth:`open_face`)."""
+        if self.face_picker is not None:
+            self.face_picker.close()
+        doc = self.window.document
+        asked_at = None if doc is None else doc.revision  # unsaved work was asked about at this revision
+        picker = FacePicker(opened, self.window)
+        picker.chosen.connect(lambda index: self.open_face(opened, index, asked_at))
+        picker.finished.connect(lambda _result: self._picker_closed(picker))
+        self.face_picker = picker
+        picker.show()
+        self._status(f"{opened.path.name} has {len(opened.cad.faces)} faces: choose one", 10000)
+        return picker
+
+    def _picker_closed(self, picker) -> None:
+        if self.face_picker is picker:
+            self.face_picker = None
+
+    def open_face(self, opened, index: int, asked_at: int | None = None) -> bool:
+        """Open face ``index`` of a CAD file (``opened``, :func:`core.readers.open_path`'s)
+        as a new document: its surface and trimmed region; the project's name and
+        source say which face of which file (``source`` is ``"path#face=N"``).
+        Unsaved work is asked about unless it was when the file was opened
+        (``asked_at``, the document's revision then)."""
+        doc = self.window.document
+        if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
+            return False
+        try:
+            face = opened.with_face(index)
+            project = face.as_project()
+        except (FlatweaveError, OSError) as exc:
+            self.window.show_error(f"Cannot open face {index} of {opened.path.name}: {exc}")
+            return False
+        project = replace(project, name=f"{project.name} face {face.face}", source=f"{opened.source}#face={face.face}")
+        self.window.set_project(project)
+        self._status(f"Opened face {face.face} of {opened.path}", 5000)
         return True
 
     def open_example(self, name: str) -> bool:
@@ -305,7 +349,10 @@ class Files(QObject):
         self.autosave_timer.stop()
 
     def close(self) -> None:
-        """Wait for the last autosave and end the session normally (nothing to recover)."""
+        """Close the face picker, wait for the last autosave and end the session normally (nothing to recover)."""
+        if self.face_picker is not None:
+            self.face_picker.close()
+            self.face_picker = None
         self._autosaver.shutdown(wait=True)
         if self.session is not None:
             self.session.close()

@@ -23,7 +23,7 @@ from app.aspects import HISTORY, WHOLE, Aspect
 from app.frames import FrameMaker
 from app.viewbase import ViewOptions
 
-__all__ = ["Presenter", "surface_grid", "history_rows", "GRID_POINTS"]
+__all__ = ["Presenter", "surface_grid", "piece_grid", "history_rows", "GRID_POINTS"]
 
 GRID_POINTS = 60
 CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
@@ -40,6 +40,25 @@ def surface_grid(surface: NurbsSurface, n: int = GRID_POINTS):
     uv = np.stack([u, v], axis=-1)
     ev = surface.evaluate(uv.reshape(-1, 2))
     return uv, ev.xyz.reshape(n, n, 3), ev.normal.reshape(n, n, 3)
+
+
+def piece_grid(surface: NurbsSurface, region=None, n: int = GRID_POINTS):
+    """A surface's grid (:func:`surface_grid`) cut to a trimmed piece's region
+    (a :class:`core.region.Region`; None: the whole domain).
+
+    Returns uv, xyz, normals as :func:`surface_grid`, keep : (n-1, n-1) bool,
+    the quads whose centres lie in the region (None untrimmed), and loops :
+    the region's loops on the surface, (k, 3) each (None untrimmed)."""
+    uv, xyz, normals = surface_grid(surface, n)
+    if region is None:
+        return uv, xyz, normals, None, None
+    from core.region import cover_for
+
+    cover = cover_for(surface, region)
+    centres = 0.25 * (uv[:-1, :-1] + uv[1:, :-1] + uv[1:, 1:] + uv[:-1, 1:])
+    keep = cover.contains(centres.reshape(-1, 2)).reshape(n - 1, n - 1)
+    loops = [surface.points(loop) for loop in cover.loops]
+    return uv, xyz, normals, keep, loops
 
 
 def history_rows(history, iterations=None) -> list[tuple[float, float, bool]]:
@@ -75,6 +94,7 @@ class Presenter:
         self.first_nodes: int | None = None  # nodes of the run's first frame after the drape
         self.surface_info = ""  # the surface's description (the status bar's, with no result)
         self._curve_cache: dict = {}
+        self._region = None  # the trimmed piece's region drawn (None: the whole surface)
         self.view.hover_callback = self.show_hover
         self.pattern_view.hover_callback = self.show_hover
 
@@ -82,8 +102,8 @@ class Presenter:
     def document_changed(self, project: Project, cause: str, aspects: Aspect) -> None:
         w = self.window
         whole = cause in WHOLE
-        if aspects & Aspect.SURFACE:
-            self._show_surface(project.surface)
+        if aspects & Aspect.SURFACE or (aspects & Aspect.SETTINGS and project.settings.region is not self._region):
+            self._show_surface(project.surface, project.settings.region)
         if aspects & (Aspect.SETTINGS | Aspect.DISPLAY | Aspect.NAME) or whole:
             w.settings_panel.set_project(project)
         new_surface = bool(aspects & Aspect.SURFACE) or cause == "reset"
@@ -122,14 +142,18 @@ class Presenter:
         text = f"{m.get('iterations', 0)} iterations  EN {m.get('energy', 0):.4g}  {m.get('nodes', 0):,} nodes"
         return text if project.result_is_current else f"{text} (settings changed since)"
 
-    def _show_surface(self, surface: NurbsSurface) -> None:
-        _, xyz, normals = surface_grid(surface)
-        self.view.set_surface(xyz, normals)
+    def _show_surface(self, surface: NurbsSurface, region=None) -> None:
+        """Draw the surface: its trimmed piece and the piece's loops when ``region`` is set."""
+        _, xyz, normals, keep, loops = piece_grid(surface, region)
+        self._region = region
+        self.view.set_surface(xyz, normals, keep=keep, loops=loops)
         self.pattern_view.clear_frame()
         self.frame = None
         kind = "rational" if surface.rational else "polynomial"
         (nu, nv), p, q = surface.shape, surface.degree_u, surface.degree_v
         self.surface_info = f"{kind}, degree {p}x{q}, {nu}x{nv} control points"
+        if region is not None:
+            self.surface_info += f", trimmed ({region.n_holes} hole{'s' if region.n_holes != 1 else ''})"
         self.info_label.setText(self.surface_info)
 
     # ------------------------------------------------------------------ darts and yarns

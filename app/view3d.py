@@ -20,12 +20,12 @@ import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkDoubleArray
 from vtkmodules.vtkInteractionWidgets import vtkBoxWidget, vtkImplicitPlaneWidget
 from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
-from vtkmodules.vtkRenderingCore import vtkActor2D, vtkCoordinate, vtkPolyDataMapper2D
+from vtkmodules.vtkRenderingCore import vtkActor2D, vtkCellPicker, vtkCoordinate, vtkPolyDataMapper2D
 
 from app.camera import fit_view, home_view
 from app.viewbase import SCALE_TITLES, ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
-__all__ = ["SurfaceView", "grid_faces", "grid_boundary", "bar_labels"]
+__all__ = ["SurfaceView", "FaceView", "grid_faces", "grid_boundary", "bar_labels"]
 
 SURFACE_COLOR = "#d8c3a5"
 EDGE_COLOR = "#3b3b3b"
@@ -34,6 +34,10 @@ SELECTED_COLOR = "#d4145a"
 PREVIEW_COLOR = "#ff7f00"
 YARN_COLOR = "#6a3d9a"
 PICK_COLOR = "#00a0d0"
+LOOP_COLOR = "#000000"
+FAINT_COLOR = "#c8c8c8"
+CHOSEN_COLOR = "#e08a1e"
+CLICK_SLOP = 4  # pixels: a press and release closer than this is a click (not a turn of the camera)
 TEXT_COLOR = (0.1, 0.1, 0.1)
 TOOL_PRIORITY = 10.0  # above the camera style (0) and VTK's widgets (0.5): tools see clicks first
 VIEW_ANGLE = 30.0  # degrees, vertical (VTK's default)
@@ -59,6 +63,14 @@ def grid_faces(nu: int, nv: int) -> np.ndarray:
     c = idx[1:, 1:].ravel()
     d = idx[:-1, 1:].ravel()
     return np.column_stack([np.full_like(a, 4), a, b, c, d]).ravel()
+
+
+def kept_grid_faces(keep: np.ndarray) -> np.ndarray:
+    """VTK cell array of the quads of an (nu, nv) grid kept by ``keep``
+    ((nu-1, nv-1) bool, quad (i, j) at ``keep[i, j]``): a trimmed piece."""
+    keep = np.asarray(keep, dtype=bool)
+    cells = grid_faces(keep.shape[0] + 1, keep.shape[1] + 1).reshape(-1, 5)
+    return cells[keep.ravel()].ravel()
 
 
 def grid_boundary(nu: int, nv: int) -> np.ndarray:
@@ -117,6 +129,9 @@ class SurfaceView(ViewBase):
         self._boundary: pv.PolyData | None = None
         self._surface_actors: list = []
         self._shape: tuple[int, int] | None = None
+        self.loops: list[np.ndarray] = []  # a trimmed piece's loops as drawn ((k, 3) each); [] untrimmed
+        self.kept_cells = 0  # the surface's quads drawn (fewer than the grid's for a trimmed piece)
+
         def overlay(color, line_width=3.0, points=False, size=12.0):
             poly = pv.PolyData()
             kw = (dict(point_size=size, render_points_as_spheres=True) if points else dict(line_width=line_width))
@@ -224,11 +239,15 @@ class SurfaceView(ViewBase):
         return min(0.45, (self._bar_width_px + 2 * BAR_MARGIN) / w)
 
     # ------------------------------------------------------------------ content
-    def set_surface(self, xyz: np.ndarray, normals: np.ndarray | None = None) -> None:
+    def set_surface(self, xyz: np.ndarray, normals: np.ndarray | None = None, keep: np.ndarray | None = None,
+                    loops=None) -> None:
         """Show a new surface, clear the mesh and fit the camera.
 
         xyz : (nu, nv, 3) float, grid points; normals : (nu, nv, 3) float or None,
-        unit normals at them (used for smooth shading).
+        unit normals at them (used for smooth shading). A trimmed piece: ``keep``
+        ((nu-1, nv-1) bool) the grid's quads in its region, and ``loops`` its
+        boundary loops on the surface ((k, 3) each, closed implicitly), drawn
+        as black lines instead of the grid's rim.
         """
         xyz = np.asarray(xyz, dtype=float)
         nu, nv = xyz.shape[:2]
@@ -237,13 +256,19 @@ class SurfaceView(ViewBase):
             p.remove_actor(actor, render=False)
         self._surface_actors.clear()
 
-        mesh = pv.PolyData(xyz.reshape(-1, 3).copy(), grid_faces(nu, nv))
+        mesh = pv.PolyData(xyz.reshape(-1, 3).copy(), grid_faces(nu, nv) if keep is None else kept_grid_faces(keep))
         if normals is not None:
             mesh.point_data["Normals"] = np.asarray(normals, dtype=float).reshape(-1, 3)
             mesh.point_data.active_normals_name = "Normals"
-        loop = grid_boundary(nu, nv)
-        # lines= in the constructor: no vertex cells, so the grid points are not drawn
-        boundary = pv.PolyData(mesh.points.copy(), lines=np.concatenate([[loop.size], loop]))
+        if loops is None:
+            loop = grid_boundary(nu, nv)
+            # lines= in the constructor: no vertex cells, so the grid points are not drawn
+            boundary = pv.PolyData(mesh.points.copy(), lines=np.concatenate([[loop.size], loop]))
+        else:
+            pts, cells = polyline_cells([np.asarray(c, dtype=float).reshape(-1, 3) for c in loops], closed=True)
+            boundary = pv.PolyData(pts, lines=cells) if len(pts) else pv.PolyData()
+        self.loops = [] if loops is None else [np.asarray(c, dtype=float).reshape(-1, 3) for c in loops]
+        self.kept_cells = int(mesh.n_cells)
 
         surface_actor = p.add_mesh(mesh, color=SURFACE_COLOR, specular=0.2, name=f"{self._name}-surface",
                                    render=False, reset_camera=False, pickable=False)
@@ -253,9 +278,10 @@ class SurfaceView(ViewBase):
         mapper.SetResolveCoincidentTopologyToPolygonOffset()
         mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(4.0, 600.0)
         self._surface_actors.append(surface_actor)
-        self._surface_actors.append(p.add_mesh(
-            boundary, color=EDGE_COLOR, line_width=2, name=f"{self._name}-rim",
-            render=False, reset_camera=False, pickable=False))
+        if boundary.n_points:
+            self._surface_actors.append(p.add_mesh(
+                boundary, color=EDGE_COLOR if loops is None else LOOP_COLOR, line_width=2 if loops is None else 3,
+                name=f"{self._name}-rim", render=False, reset_camera=False, pickable=False))
         self._surface, self._boundary, self._shape = mesh, boundary, (nu, nv)
         self.clear_frame()
         self.clear_overlays()
@@ -628,4 +654,86 @@ class SurfaceView(ViewBase):
             self.mouse_handler = None
             self.hide_plane_widget()
             self.hide_box_widget()
+        super().close()
+
+
+class FaceView(ViewBase):
+    """The face picker's 3D view (:mod:`app.facepicker`): every face of a CAD
+    file as a triangle mesh, the chosen one highlighted and the others faint.
+    A left click (a press and release on one spot; a drag turns the camera)
+    on a face calls ``on_pick(index)``."""
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self._plotter.add_axes()
+        self._actors: list = []
+        self.chosen: int | None = None
+        self.on_pick: Callable[[int], None] | None = None
+        self._press: tuple[int, int] | None = None
+        self._face_picker = vtkCellPicker()
+        self._face_picker.SetTolerance(0.0)
+        self._face_picker.PickFromListOn()
+        iren = self._plotter.iren.interactor
+        for event, callback in (("LeftButtonPressEvent", self._on_press),
+                                ("LeftButtonReleaseEvent", self._on_release)):
+            # passive: called even while the camera style holds the mouse (it grabs the focus on a press)
+            iren.GetCommand(iren.AddObserver(event, callback, TOOL_PRIORITY)).SetPassiveObserver(1)
+
+    def set_faces(self, meshes) -> None:
+        """Show the faces: ``meshes`` a (points (n, 3), triangles (m, 3) int) pair each."""
+        p = self._plotter
+        for actor in self._actors:
+            p.remove_actor(actor, render=False)
+        self._actors = []
+        for k, (pts, tris) in enumerate(meshes):
+            tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+            cells = np.column_stack([np.full(len(tris), 3), tris]).ravel()
+            mesh = pv.PolyData(np.asarray(pts, dtype=float).reshape(-1, 3), cells)
+            self._actors.append(p.add_mesh(mesh, color=FAINT_COLOR, name=f"{self._name}-face{k}", render=False,
+                                           reset_camera=False, pickable=True, opacity=0.6))
+        self.chosen = None
+        p.reset_camera(render=False)
+        self.render()
+
+    def select(self, index: int | None) -> None:
+        """Highlight face ``index`` (None: none); the others are drawn faint."""
+        self.chosen = index
+        for k, actor in enumerate(self._actors):
+            actor.prop.color = CHOSEN_COLOR if k == index else FAINT_COLOR
+            actor.prop.opacity = 1.0 if k == index else 0.6
+        self.render()
+
+    def face_at(self, x: float, y: float) -> int | None:
+        """The face under display point (x, y) (VTK's, origin bottom left), or None."""
+        if not self._actors:
+            return None
+        picker = self._face_picker
+        picker.InitializePickList()
+        for actor in self._actors:
+            picker.AddPickList(actor)
+        if not picker.Pick(float(x), float(y), 0.0, self._plotter.renderer):
+            return None
+        actor = picker.GetActor()
+        for k, a in enumerate(self._actors):
+            if actor is not None and a.GetAddressAsString("vtkActor") == actor.GetAddressAsString("vtkActor"):
+                return k
+        return None
+
+    def _on_press(self, iren, _event) -> None:
+        self._press = iren.GetEventPosition()
+
+    def _on_release(self, iren, _event) -> None:
+        press, self._press = self._press, None
+        if press is None or self._closed:
+            return
+        x, y = iren.GetEventPosition()
+        if abs(x - press[0]) > CLICK_SLOP or abs(y - press[1]) > CLICK_SLOP:
+            return
+        k = self.face_at(x, y)
+        if k is not None and self.on_pick is not None:
+            self.on_pick(k)
+
+    def close(self) -> None:
+        if not self._closed:
+            self.on_pick = None
         super().close()
