@@ -130,6 +130,7 @@ class SurfaceView(ViewBase):
         self._surface_actors: list = []
         self._shape: tuple[int, int] | None = None
         self.loops: list[np.ndarray] = []  # a trimmed piece's loops as drawn ((k, 3) each); [] untrimmed
+        self._fit_points = np.zeros((0, 3))  # what the home view frames
         self.kept_cells = 0  # the surface's quads drawn (fewer than the grid's for a trimmed piece)
 
         def overlay(color, line_width=3.0, points=False, size=12.0):
@@ -286,7 +287,15 @@ class SurfaceView(ViewBase):
         self.clear_frame()
         self.clear_overlays()
         self._apply_surface_visibility()
+        self._fit_points = np.asarray(mesh.points)
         self._home = home_view(xyz, normals)
+        used = np.zeros(nu * nv, dtype=bool)
+        if keep is not None:
+            used[kept_grid_faces(keep).reshape(-1, 5)[:, 1:].ravel()] = True
+        if used.any():  # a trimmed piece: the camera frames the piece, not the whole patch
+            self._fit_points = self._fit_points[used]
+            self._home = home_view(self._fit_points, None if normals is None else
+                                   np.asarray(normals, dtype=float).reshape(-1, 3)[used])
         self.reset_camera()
 
     @property
@@ -309,7 +318,7 @@ class SurfaceView(ViewBase):
     def _fit_home(self) -> None:
         p = self._plotter
         w, h = self.device_size()
-        frame = fit_view(np.asarray(self._surface.points), *self._home, aspect=w / h,
+        frame = fit_view(np.asarray(self._fit_points), *self._home, aspect=w / h,
                          region=(0.0, 1.0 - self.bar_column_fraction(), 0.0, 1.0), view_angle=VIEW_ANGLE)
         cam = p.renderer.GetActiveCamera()
         cam.ParallelProjectionOff()

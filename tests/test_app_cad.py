@@ -84,6 +84,8 @@ def test_pick_a_face_by_clicking_run_export_save_and_reopen(make_window, qtbot, 
         win.run()
     assert blocker.args[0].result is not None and not blocker.args[0].stopped
     assert win.project.result is not None
+    # the numbers shown are the piece's (its area and boundary, not the whole patch's)
+    assert win.frame.stats["area_error_pct"] < 5.0 and win.frame.stats["boundary_error_pct"] < 5.0
     dxf = tmp_path / "piece.dxf"
     with qtbot.waitSignal(win.export_finished, timeout=60000):
         assert win.export_to([dxf], ExportOptions())
