@@ -24,6 +24,7 @@ from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern
 from core.pipeline import FlattenResult, FlattenSettings
 from core.quadrature import boundary_length, region_area
+from core.region import cover_for
 
 __all__ = ["Frame", "FrameMaker"]
 
@@ -97,14 +98,17 @@ class FrameMaker:
     # ------------------------------------------------------------------ cached
     @property
     def L3(self) -> float:
-        if self._L3 is None:
-            self._L3 = float(boundary_length(self.surface))
+        if self._L3 is None:  # a trimmed piece's: its loops' length
+            region = self.settings.region
+            self._L3 = float(boundary_length(self.surface) if region is None else
+                             cover_for(self.surface, region).boundary_length)
         return self._L3
 
     @property
     def A3(self) -> float:
-        if self._A3 is None:
-            self._A3 = float(region_area(self.surface))
+        if self._A3 is None:  # a trimmed piece's: its region's area
+            region = self.settings.region
+            self._A3 = float(region_area(self.surface) if region is None else cover_for(self.surface, region).area)
         return self._A3
 
     def dart_curves(self) -> tuple:
