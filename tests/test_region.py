@@ -378,3 +378,19 @@ def test_a_geomdl_file_with_trims_is_a_trimmed_piece(octant, tmp_path):
     assert opened.region.n_holes == 0
     assert cover_for(opened.surface, opened.region).contains(np.array([[0.5, 0.5], [0.05, 0.05]])).tolist() == \
         [True, False]
+
+
+@needs_ocp
+@pytest.mark.parametrize("name", ["empty.step", "binary_garbage.step", "truncated.step", "garbage_body.step",
+                                  "not_step.stp", "curve_only.igs", "not_iges.igs"])
+def test_bad_cad_files_are_one_line_and_exit_2(tmp_path, name):
+    """The bad-input corpus's CAD files: `info` and `flatten` each say what is wrong in one
+    line and exit 2 (the reader runs Open CASCADE in a child process, so nothing it does
+    can take the command down)."""
+    path = ROOT / "tests" / "data" / "bad" / name
+    for args in (("info", path), ("flatten", path, "--spacing", "1", "--out", tmp_path / "r.json")):
+        p = _cli(*args)
+        assert p.returncode == 2, (name, p.stderr)
+        assert p.stderr.count("\n") == 1 and p.stderr.startswith("flatweave: error: "), (name, p.stderr)
+        assert "Traceback" not in p.stderr
+    assert not (tmp_path / "r.json").exists()
