@@ -75,7 +75,7 @@ def instrument(surface) -> None:
         solver._Normal.assemble = _timed("assemble", solver._Normal.assemble)
         solver._Normal.__init__ = _timed("pattern (_Normal)", solver._Normal.__init__)
         solver._Round.switch_off = _timed("switch_off", solver._Round.switch_off)
-        solver._Round.solve = _timed("solve (factorise + triangular)", solver._Round.solve)
+        solver._Round.factorise = _timed("solve (factorise + triangular)", solver._Round.factorise)
         solver._Run.try_refill = _timed("try_refill", solver._Run.try_refill)
         solver._Run.snapshot = _timed("snapshot", solver._Run.snapshot)
         solver.Problem.invalid = _timed("invalid (dart crossing)", solver.Problem.invalid)

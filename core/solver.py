@@ -475,6 +475,7 @@ class _Normal:
         self.csc_indices, self.csc_indptr = probe.indices, probe.indptr
         # both ends of every spring, for one bincount per entry of the diagonal blocks
         self.ends_num = np.concatenate([a, b])
+        self.ends_all = np.concatenate([energy.a, energy.b])
 
     def _diag_sum(self, idx: np.ndarray, blocks: np.ndarray, out: np.ndarray) -> None:
         ok = idx >= 0
@@ -501,6 +502,59 @@ class _Normal:
         A = sp.csc_matrix((data.reshape(-1)[self.csc_take], self.csc_indices, self.csc_indptr),
                           shape=(self.nvar, self.nvar))
         return A, damp.ravel()
+
+    def assemble_exact(self, energy: Energy, ev, Q: np.ndarray, Jd: np.ndarray, damp_rel: float, fix=None):
+        """What ``_hessian_blocks`` then ``assemble`` give (A + damping as CSC, the damping
+        vector), plus G (n, 3) and the scale ``big``, without the (m, 4, 4) spring blocks:
+        a node's diagonal block is its Gram matrix times the sum of k c over its springs
+        plus the springs' axial terms (three bincounts), the off-diagonal blocks are four
+        numbers per spring. ``fix(D, big, G)`` may change the node blocks D (n, 2, 2)
+        before the damping is taken from them (switched-off nodes, the pin)."""
+        S, Su, Sv = ev.xyz, ev.su, ev.sv
+        a, b, n = energy.a, energy.b, energy.n
+        d = S[a] - S[b]
+        kc = energy.k * (1.0 - energy.rest / np.maximum(np.sqrt(_dot(d, d)), 1e-300))
+        ax = energy.k - kc
+        q0, q1, q2, q3 = (np.ascontiguousarray(Q[:, i]) for i in range(4))
+        Sua, Sva, Sub, Svb = Su[a], Sv[a], Su[b], Sv[b]
+        cross = np.empty((len(a), 2, 2))
+        cross[:, 0, 0] = ax * q0 * q2 - kc * _dot(Sua, Sub)
+        cross[:, 0, 1] = ax * q0 * q3 - kc * _dot(Sua, Svb)
+        cross[:, 1, 0] = ax * q1 * q2 - kc * _dot(Sva, Sub)
+        cross[:, 1, 1] = ax * q1 * q3 - kc * _dot(Sva, Svb)
+        ends = self.ends_all
+        ax2 = np.concatenate([ax, ax])
+        qa, qb = np.concatenate([q0, q2]), np.concatenate([q1, q3])
+        kcsum = np.bincount(ends, np.concatenate([kc, kc]), minlength=n)
+        D = np.empty((n, 2, 2))
+        D[:, 0, 0] = kcsum * _dot(Su, Su) + np.bincount(ends, ax2 * qa * qa, minlength=n)
+        D[:, 0, 1] = kcsum * _dot(Su, Sv) + np.bincount(ends, ax2 * qa * qb, minlength=n)
+        D[:, 1, 1] = kcsum * _dot(Sv, Sv) + np.bincount(ends, ax2 * qb * qb, minlength=n)
+        D[:, 1, 0] = D[:, 0, 1]
+        big = max(float(np.abs(cross).max(initial=0.0)), float(np.abs(D).max(initial=0.0)), 1e-300)
+        _, G = energy.force_xyz(S)
+        D[:, 0, 0] += _dot(G, ev.suu)
+        D[:, 0, 1] += _dot(G, ev.suv)
+        D[:, 1, 0] = D[:, 0, 1]
+        D[:, 1, 1] += _dot(G, ev.svv)
+        if not (np.isfinite(cross).all() and np.isfinite(D).all()):
+            return None, None, G, big
+        if fix is not None:
+            fix(D, big, G)
+        diag = D[self.order]
+        if len(Jd):
+            self._diag_sum(self.dir_num, Jd[:, :, None] * Jd[:, None, :], diag)
+        dd = diag[:, [0, 1], [0, 1]]
+        damp = damp_rel * np.maximum(dd, 1e-12 * max(dd.max(initial=0.0), 1e-300))
+        diag[:, 0, 0] += damp[:, 0]
+        diag[:, 1, 1] += damp[:, 1]
+        data = np.empty((self.nnzb, 2, 2))
+        data[self.pos_diag] = diag
+        data[self.pos_ab] = cross[self.both]
+        data[self.pos_ba] = cross[self.both].transpose(0, 2, 1)
+        A = sp.csc_matrix((data.reshape(-1)[self.csc_take], self.csc_indices, self.csc_indptr),
+                          shape=(self.nvar, self.nvar))
+        return A, damp.ravel(), G, big
 
     def gradient(self, Q, rs, Jd, rd, energy: Energy) -> np.ndarray:
         """J^T r over the free variables, in block order."""
@@ -823,16 +877,26 @@ def _iterate_fast(run: _Run):
                 if not chord:
                     stale = None
             if not chord:
-                Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
-                if not (np.isfinite(Hs).all() and np.isfinite(Hn).all()):
-                    bad = Hs if not np.isfinite(Hs).all() else Hn
-                    raise _not_finite("the energy's Hessian", bad, run.nit + 1, _cause(surface, rnd.uv, ev))
-                big = max(float(np.abs(Hs).max(initial=0.0)), 1e-300)
-                if not rnd.alive.all():  # switched-off nodes keep still
-                    Hn[~rnd.alive] = eye * big
-                if pinned is not None:  # the orientation anchor moves along its plane only
-                    Hn[pinned] += _pin_block(run.pin, rnd.uv[pinned], G[pinned], ev.su[pinned], ev.sv[pinned], big)
-                A, damp = normal.assemble(Hs, Jd, Hn, lam)
+                def fix(Hn, big, G):
+                    if not rnd.alive.all():  # switched-off nodes keep still
+                        Hn[~rnd.alive] = eye * big
+                    if pinned is not None:  # the orientation anchor moves along its plane only
+                        Hn[pinned] += _pin_block(run.pin, rnd.uv[pinned], G[pinned], ev.su[pinned], ev.sv[pinned],
+                                                 big)
+
+                if opts.reuse:
+                    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, lam, fix)
+                    if A is None:
+                        Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
+                        bad = Hs if not np.isfinite(Hs).all() else Hn
+                        raise _not_finite("the energy's Hessian", bad, run.nit + 1, _cause(surface, rnd.uv, ev))
+                else:  # the reference path: the spring blocks, then their assembly
+                    Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
+                    if not (np.isfinite(Hs).all() and np.isfinite(Hn).all()):
+                        bad = Hs if not np.isfinite(Hs).all() else Hn
+                        raise _not_finite("the energy's Hessian", bad, run.nit + 1, _cause(surface, rnd.uv, ev))
+                    fix(Hn, max(float(np.abs(Hs).max(initial=0.0)), 1e-300), G)
+                    A, damp = normal.assemble(Hs, Jd, Hn, lam)
                 g = normal.gradient(Q, rs, Jd, rd, energy)
                 if not np.isfinite(g).all():
                     raise _not_finite("the energy's gradient", g, run.nit + 1, _cause(surface, rnd.uv, ev))
