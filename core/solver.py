@@ -12,7 +12,9 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
   tenfold after every step the quadratic model predicts well (rho > 0.75),
   which took fewer iterations than Nielsen's rule (docs/decisions.md). The
   500:1 stiffness of woven cloth, which makes gradient methods crawl, costs it
-  nothing.
+  nothing. While no node is switched off, the last factorisation is tried
+  first (a chord step) and a new one made only when its step is not accepted
+  (``SolverOptions.reuse``; docs/decisions.md).
 
 Both are generators (:func:`iterate`) that yield a :class:`Snapshot` after every
 iteration, so a GUI can draw and a caller can stop within one iteration by no
