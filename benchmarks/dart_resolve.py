@@ -75,7 +75,9 @@ def instrument(surface) -> None:
         solver._Normal.assemble = _timed("assemble", solver._Normal.assemble)
         solver._Normal.__init__ = _timed("pattern (_Normal)", solver._Normal.__init__)
         solver._Round.switch_off = _timed("switch_off", solver._Round.switch_off)
-        solver._Round.solve = _timed("solve (factorise + triangular)", solver._Round.solve)
+        if hasattr(solver._Normal, "assemble_exact"):
+            solver._Normal.assemble_exact = _timed("hessian + assembly (assemble_exact)",
+                                                   solver._Normal.assemble_exact)
         solver._Run.try_refill = _timed("try_refill", solver._Run.try_refill)
         solver._Run.snapshot = _timed("snapshot", solver._Run.snapshot)
         solver.Problem.invalid = _timed("invalid (dart crossing)", solver.Problem.invalid)
@@ -107,8 +109,9 @@ def timed_flatten(surface, settings, initial=None) -> tuple[object, float, dict,
     return r, total, dict(TIMES), dict(COUNTS)
 
 
-STAGES = ["total", "solver", "factorise (splu)", "solve (factorise + triangular)", "hessian blocks",
-          "assemble", "residuals", "surface evaluate", "switch_off", "try_refill", "pattern (_Normal)",
+STAGES = ["total", "solver", "factorise (splu)", "hessian blocks", "assemble",
+          "hessian + assembly (assemble_exact)", "residuals", "surface evaluate", "switch_off", "try_refill",
+          "pattern (_Normal)",
           "invalid (dart crossing)", "snapshot", "make_pattern", "compute_metrics"]
 
 

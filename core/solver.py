@@ -12,7 +12,9 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
   tenfold after every step the quadratic model predicts well (rho > 0.75),
   which took fewer iterations than Nielsen's rule (docs/decisions.md). The
   500:1 stiffness of woven cloth, which makes gradient methods crawl, costs it
-  nothing.
+  nothing. While no node is switched off, the last factorisation is tried
+  first (a chord step) and a new one made only when its step is not accepted
+  (``SolverOptions.reuse``; docs/decisions.md).
 
 Both are generators (:func:`iterate`) that yield a :class:`Snapshot` after every
 iteration, so a GUI can draw and a caller can stop within one iteration by no
@@ -75,6 +77,13 @@ class SolverOptions:
     refill : refill uncovered regions after convergence
     delete : delete nodes that leave the domain (off: a fixed population, for
         comparing minimisers; nodes outside sit on the surface's extension)
+    reuse : fast solver: while no node is switched off, try the last
+        factorisation's step first (a chord step, one triangular solve) and
+        factorise again only when it is not accepted; raise lambda to at least
+        1e-7 on a rejected step; skip a refill while nothing changed since one
+        found nothing. Off: the reference path (a factorisation every
+        iteration, lambda doubled from wherever it was), which the tests
+        compare against.
     """
 
     method: str = "fast"
@@ -84,6 +93,7 @@ class SolverOptions:
     anchor_seed: bool = True
     refill: bool = True
     delete: bool = True
+    reuse: bool = True
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -459,6 +469,15 @@ class _Normal:
         self.pos_ba = pos[nb + k:]
         self.nnzb = len(perm)
         self.dir_num = num[energy.dir_nodes]
+        # where each entry of the block data goes in the CSC matrix SuperLU takes (found once
+        # per pattern by converting entry numbers; the assembly then only gathers)
+        probe = sp.bsr_matrix((np.arange(1.0, 4 * self.nnzb + 1).reshape(-1, 2, 2), self.indices, self.indptr),
+                              shape=(self.nvar, self.nvar)).tocsc()
+        self.csc_take = probe.data.astype(np.int64) - 1
+        self.csc_indices, self.csc_indptr = probe.indices, probe.indptr
+        # both ends of every spring, for one bincount per entry of the diagonal blocks
+        self.ends_num = np.concatenate([a, b])
+        self.ends_all = np.concatenate([energy.a, energy.b])
 
     def _diag_sum(self, idx: np.ndarray, blocks: np.ndarray, out: np.ndarray) -> None:
         ok = idx >= 0
@@ -470,10 +489,9 @@ class _Normal:
         """(A + damping as CSC, the damping vector) from spring blocks Hs
         (m, 4, 4), yarn rows Jd (c, 2) and node blocks Hn (n, 2, 2).
         Damping is lambda diag(A) (Marquardt)."""
-        data = np.zeros((self.nnzb, 2, 2))
+        data = np.empty((self.nnzb, 2, 2))
         diag = Hn[self.order].copy()
-        self._diag_sum(self.a, Hs[:, :2, :2], diag)
-        self._diag_sum(self.b, Hs[:, 2:, 2:], diag)
+        self._diag_sum(self.ends_num, np.concatenate([Hs[:, :2, :2], Hs[:, 2:, 2:]]), diag)
         if len(Jd):
             self._diag_sum(self.dir_num, Jd[:, :, None] * Jd[:, None, :], diag)
         d = diag[:, [0, 1], [0, 1]]
@@ -483,8 +501,62 @@ class _Normal:
         data[self.pos_diag] = diag
         data[self.pos_ab] = Hs[self.both, :2, 2:]
         data[self.pos_ba] = Hs[self.both, 2:, :2]
-        A = sp.bsr_matrix((data, self.indices, self.indptr), shape=(self.nvar, self.nvar))
-        return A.tocsc(), damp.ravel()
+        A = sp.csc_matrix((data.reshape(-1)[self.csc_take], self.csc_indices, self.csc_indptr),
+                          shape=(self.nvar, self.nvar))
+        return A, damp.ravel()
+
+    def assemble_exact(self, energy: Energy, ev, Q: np.ndarray, Jd: np.ndarray, damp_rel: float, fix=None):
+        """What ``_hessian_blocks`` then ``assemble`` give (A + damping as CSC, the damping
+        vector), plus G (n, 3) and the scale ``big``, without the (m, 4, 4) spring blocks:
+        a node's diagonal block is its Gram matrix times the sum of k c over its springs
+        plus the springs' axial terms (three bincounts), the off-diagonal blocks are four
+        numbers per spring. ``fix(D, big, G)`` may change the node blocks D (n, 2, 2)
+        before the damping is taken from them (switched-off nodes, the pin)."""
+        S, Su, Sv = ev.xyz, ev.su, ev.sv
+        a, b, n = energy.a, energy.b, energy.n
+        d = S[a] - S[b]
+        kc = energy.k * (1.0 - energy.rest / np.maximum(np.sqrt(_dot(d, d)), 1e-300))
+        ax = energy.k - kc
+        q0, q1, q2, q3 = (np.ascontiguousarray(Q[:, i]) for i in range(4))
+        Sua, Sva, Sub, Svb = Su[a], Sv[a], Su[b], Sv[b]
+        cross = np.empty((len(a), 2, 2))
+        cross[:, 0, 0] = ax * q0 * q2 - kc * _dot(Sua, Sub)
+        cross[:, 0, 1] = ax * q0 * q3 - kc * _dot(Sua, Svb)
+        cross[:, 1, 0] = ax * q1 * q2 - kc * _dot(Sva, Sub)
+        cross[:, 1, 1] = ax * q1 * q3 - kc * _dot(Sva, Svb)
+        ends = self.ends_all
+        ax2 = np.concatenate([ax, ax])
+        qa, qb = np.concatenate([q0, q2]), np.concatenate([q1, q3])
+        kcsum = np.bincount(ends, np.concatenate([kc, kc]), minlength=n)
+        D = np.empty((n, 2, 2))
+        D[:, 0, 0] = kcsum * _dot(Su, Su) + np.bincount(ends, ax2 * qa * qa, minlength=n)
+        D[:, 0, 1] = kcsum * _dot(Su, Sv) + np.bincount(ends, ax2 * qa * qb, minlength=n)
+        D[:, 1, 1] = kcsum * _dot(Sv, Sv) + np.bincount(ends, ax2 * qb * qb, minlength=n)
+        D[:, 1, 0] = D[:, 0, 1]
+        big = max(float(np.abs(cross).max(initial=0.0)), float(np.abs(D).max(initial=0.0)), 1e-300)
+        _, G = energy.force_xyz(S)
+        D[:, 0, 0] += _dot(G, ev.suu)
+        D[:, 0, 1] += _dot(G, ev.suv)
+        D[:, 1, 0] = D[:, 0, 1]
+        D[:, 1, 1] += _dot(G, ev.svv)
+        if not (np.isfinite(cross).all() and np.isfinite(D).all()):
+            return None, None, G, big
+        if fix is not None:
+            fix(D, big, G)
+        diag = D[self.order]
+        if len(Jd):
+            self._diag_sum(self.dir_num, Jd[:, :, None] * Jd[:, None, :], diag)
+        dd = diag[:, [0, 1], [0, 1]]
+        damp = damp_rel * np.maximum(dd, 1e-12 * max(dd.max(initial=0.0), 1e-300))
+        diag[:, 0, 0] += damp[:, 0]
+        diag[:, 1, 1] += damp[:, 1]
+        data = np.empty((self.nnzb, 2, 2))
+        data[self.pos_diag] = diag
+        data[self.pos_ab] = cross[self.both]
+        data[self.pos_ba] = cross[self.both].transpose(0, 2, 1)
+        A = sp.csc_matrix((data.reshape(-1)[self.csc_take], self.csc_indices, self.csc_indptr),
+                          shape=(self.nvar, self.nvar))
+        return A, damp.ravel(), G, big
 
     def gradient(self, Q, rs, Jd, rd, energy: Energy) -> np.ndarray:
         """J^T r over the free variables, in block order."""
@@ -725,12 +797,15 @@ class _Round:
                                        rest=mesh.rest[on], k=mesh.k[on], cells=num[cells])
         run.uv = self.uv[idx]
 
+    def factorise(self, A):
+        """Sparse LU factorisation of A in the pattern's own order (nested
+        dissection): no iterative solver or other ordering measured was
+        faster (docs/decisions.md)."""
+        return splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+
     def solve(self, A, g: np.ndarray) -> np.ndarray:
-        """A x = -g by a sparse LU factorisation in the pattern's own order
-        (nested dissection): no iterative solver or other ordering measured
-        was faster (docs/decisions.md)."""
-        lu = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        return lu.solve(-g)
+        """A x = -g (one factorisation)."""
+        return self.factorise(A).solve(-g)
 
 
 def _round_topology(mesh: SpringMesh) -> tuple[np.ndarray, np.ndarray]:
@@ -757,12 +832,22 @@ def _round_topology(mesh: SpringMesh) -> tuple[np.ndarray, np.ndarray]:
     return corners, edges
 
 
+_LAM_JUMP = 1e-7
+"""A rejected step raises lambda to at least this: after a run of good steps lambda can
+reach 1e-18, and doubling from there took 8 rejected factorisations (docs/decisions.md)."""
+
+
 def _iterate_fast(run: _Run):
     surface = run.problem.surface
     opts = run.options
     lam, nu = 1e-4, 2.0
     eye = np.eye(2)
     loose = max(opts.tol, 1e-3)
+    # the last factorisation, while it may serve again: (lu, A, damp) of this round, made after
+    # its last switch-off, its step accepted (a chord step's model is that matrix, undamped)
+    stale = None
+    last_decrease = math.inf
+    quiet = False  # a refill found nothing and no node was switched off since
 
     def start():
         rd_ = _Round(run)
@@ -780,31 +865,53 @@ def _iterate_fast(run: _Run):
         if not converged and not run.budget_left():
             yield run.snapshot(E, ev.xyz[rnd.alive], False)
             return
+        chord = False
         if not converged:
             energy, normal = rnd.energy, rnd.normal
-            Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
-            if not (np.isfinite(Hs).all() and np.isfinite(Hn).all()):
-                bad = Hs if not np.isfinite(Hs).all() else Hn
-                raise _not_finite("the energy's Hessian", bad, run.nit + 1, _cause(surface, rnd.uv, ev))
-            big = max(float(np.abs(Hs).max(initial=0.0)), 1e-300)
-            if not rnd.alive.all():  # switched-off nodes keep still
-                Hn[~rnd.alive] = eye * big
             pinned = _node_at(rnd.mesh, run.pin.ij) if run.pin is not None else None
-            if pinned is not None:  # the orientation anchor moves along its plane only
-                Hn[pinned] += _pin_block(run.pin, rnd.uv[pinned], G[pinned], ev.su[pinned], ev.sv[pinned], big)
-            A, damp = normal.assemble(Hs, Jd, Hn, lam)
-            g = normal.gradient(Q, rs, Jd, rd, energy)
-            if not np.isfinite(g).all():
-                raise _not_finite("the energy's gradient", g, run.nit + 1, _cause(surface, rnd.uv, ev))
-            try:
-                step = rnd.solve(A, g)
-                if not np.isfinite(step).all():
-                    raise RuntimeError("non-finite step")
-            except RuntimeError:  # singular: damp harder
-                lam *= 10
-                run.nit += 1
-                continue
-            # decrease predicted by the undamped quadratic model
+            if stale is not None:  # a chord step on the last factorisation
+                g = normal.gradient(Q, rs, Jd, rd, energy)
+                if not np.isfinite(g).all():
+                    raise _not_finite("the energy's gradient", g, run.nit + 1, _cause(surface, rnd.uv, ev))
+                lu, A, damp = stale
+                step = lu.solve(-g)
+                chord = bool(np.isfinite(step).all())
+                if not chord:
+                    stale = None
+            if not chord:
+                def fix(Hn, big, G):
+                    if not rnd.alive.all():  # switched-off nodes keep still
+                        Hn[~rnd.alive] = eye * big
+                    if pinned is not None:  # the orientation anchor moves along its plane only
+                        Hn[pinned] += _pin_block(run.pin, rnd.uv[pinned], G[pinned], ev.su[pinned], ev.sv[pinned],
+                                                 big)
+
+                if opts.reuse:
+                    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, lam, fix)
+                    if A is None:
+                        Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
+                        bad = Hs if not np.isfinite(Hs).all() else Hn
+                        raise _not_finite("the energy's Hessian", bad, run.nit + 1, _cause(surface, rnd.uv, ev))
+                else:  # the reference path: the spring blocks, then their assembly
+                    Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
+                    if not (np.isfinite(Hs).all() and np.isfinite(Hn).all()):
+                        bad = Hs if not np.isfinite(Hs).all() else Hn
+                        raise _not_finite("the energy's Hessian", bad, run.nit + 1, _cause(surface, rnd.uv, ev))
+                    fix(Hn, max(float(np.abs(Hs).max(initial=0.0)), 1e-300), G)
+                    A, damp = normal.assemble(Hs, Jd, Hn, lam)
+                g = normal.gradient(Q, rs, Jd, rd, energy)
+                if not np.isfinite(g).all():
+                    raise _not_finite("the energy's gradient", g, run.nit + 1, _cause(surface, rnd.uv, ev))
+                try:
+                    lu = rnd.factorise(A)
+                    step = lu.solve(-g)
+                    if not np.isfinite(step).all():
+                        raise RuntimeError("non-finite step")
+                except RuntimeError:  # singular: damp harder
+                    lam *= 10
+                    run.nit += 1
+                    continue
+            # decrease predicted by the undamped quadratic model (a chord step's: the factorised matrix)
             pred = -float(g @ step) - 0.5 * float(step @ (A @ step) - (damp * step) @ step)
             tol_now = opts.tol if rnd.settled else loose
             if 0 <= pred <= 0.1 * tol_now * E and lam <= 1e-2:
@@ -824,10 +931,13 @@ def _iterate_fast(run: _Run):
                 rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
                 E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
             run.nfev += 1
-            run.nit += 1
             if not np.isfinite(E2) and _broken_inside(surface, uv_try, ev2.xyz, ev2.su, ev2.sv):
-                raise _not_finite("the energy", E2, run.nit, _cause(surface, uv_try, ev2))
+                raise _not_finite("the energy", E2, run.nit + 1, _cause(surface, uv_try, ev2))
             rho = (E - E2) / pred if pred > 0 else -1.0
+            if chord and not (np.isfinite(E2) and rho > 0.5):
+                stale = None  # the old matrix no longer models EN well: factorise (same iteration)
+                continue
+            run.nit += 1
             if np.isfinite(E2) and rho > 1e-4:
                 decrease = E - E2
                 lam *= 0.1 if rho > 0.75 else max(1 / 3, 1 - (2 * rho - 1) ** 3)
@@ -837,6 +947,7 @@ def _iterate_fast(run: _Run):
                 run.uv = uv_try[rnd.alive]
                 ev = ev2
                 if bad.any():
+                    stale, quiet = None, False
                     rnd.switch_off(bad, ev.xyz)
                     rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
                     E = 0.5 * (rs @ rs + rd @ rd)
@@ -844,20 +955,29 @@ def _iterate_fast(run: _Run):
                         raise _not_finite("the energy", E, run.nit, _cause(surface, rnd.uv[rnd.alive]))
                     yield run.snapshot(E, ev.xyz[rnd.alive], True)
                     continue
+                if opts.reuse and not chord:
+                    stale = (lu, A, damp)
+                elif chord and decrease > 0.1 * last_decrease:
+                    stale = None  # the chord steps converge slowly: a new factorisation will do better
+                last_decrease = decrease
                 rs, Q, rd, Jd, E = rs2, Q2, rd2, Jd2, E2
                 yield run.snapshot(E, ev.xyz[rnd.alive], False)
                 # until the population has settled, a loose tolerance will do
                 converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
             else:
-                lam *= nu
+                stale = None
+                lam = max(lam * nu, _LAM_JUMP) if opts.reuse else lam * nu
                 nu *= 2
                 yield run.snapshot(E, ev.xyz[rnd.alive], False)
                 converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
         if converged:
-            if run.try_refill():
+            # a refill that found nothing finds nothing again while no node has left since
+            if not (opts.reuse and quiet) and run.try_refill():
+                stale, quiet = None, False
                 rnd, ev, (rs, Q, rd, Jd), E = start()
                 yield run.snapshot(E, ev.xyz, True)
                 continue
+            quiet = True
             if not rnd.settled and E > rnd.floor:
                 rnd.settled = True  # nothing to refill: now converge tightly
                 continue
