@@ -341,15 +341,20 @@ def load_surface(path: str | os.PathLike) -> NurbsSurface:
     SurfaceError : one line naming the file and the problem, for a file that
         cannot be read or does not hold exactly one valid untrimmed surface.
     """
+    name, raw = _read_bytes(path)
+    return parse_surface_json(raw, source=name)
+
+
+def _read_bytes(path) -> tuple[str, bytes]:
+    """(the path as given, the file's bytes); a one-line SurfaceError when it cannot be read."""
     name = os.fspath(path)
     try:
-        raw = Path(name).read_bytes()
+        return name, Path(name).read_bytes()
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
         raise SurfaceError(_one_line(f"{name}: cannot read file: {reason}", 400)) from None
     except ValueError as exc:  # e.g. a NUL character in the path
         raise SurfaceError(_one_line(f"{name!r}: cannot read file: {exc}", 400)) from None
-    return parse_surface_json(raw, source=name)
 
 
 def load_trimmed_surface(path: str | os.PathLike):
@@ -365,14 +370,7 @@ def load_trimmed_surface(path: str | os.PathLike):
     and a clockwise one is a hole; without a counter-clockwise loop the outer
     loop is the domain's edge. Curves are sampled at 64 points a knot span.
     """
-    name = os.fspath(path)
-    try:
-        raw = Path(name).read_bytes()
-    except OSError as exc:
-        reason = exc.strerror or type(exc).__name__
-        raise SurfaceError(_one_line(f"{name}: cannot read file: {reason}", 400)) from None
-    except ValueError as exc:
-        raise SurfaceError(_one_line(f"{name!r}: cannot read file: {exc}", 400)) from None
+    name, raw = _read_bytes(path)
     reader = _Reader(name, allow_trims=True)
     surface = _parse(raw, reader)
     if not reader.trims:
