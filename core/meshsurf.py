@@ -1,0 +1,608 @@
+"""Triangle meshes (STL, OBJ, PLY, OFF) made into a NURBS surface and a region.
+
+The engine works on a parametric surface; a mesh becomes one in four steps:
+
+1. **read** (:func:`read_mesh`): trimesh parses the file after a cheap check
+   of what its header claims against the file's size (:func:`check_mesh_file`:
+   a truncated binary STL or a header claiming gigabytes is refused at once,
+   before anything is allocated);
+2. **repair and check** (:func:`clean_mesh`): duplicate vertices merged,
+   degenerate and repeated triangles dropped, the winding made consistent; a
+   mesh with NaN coordinates, no triangles, non-manifold edges, no consistent
+   orientation or several parts (unless one is chosen) is refused in one line;
+3. **parameterise** (:func:`lscm`): a free-boundary least-squares conformal
+   map (Levy et al. 2002) of the mesh into the plane, a sparse linear least
+   squares problem solved with scipy; a developable mesh maps isometrically,
+   up to one scale;
+4. **fit** (:func:`fit_bspline`): a bicubic B-spline surface (C2) over the
+   map's bounding box, by least squares through the vertices with a small
+   thin-plate smoothing term (it also extends the surface smoothly over the
+   parts of the box the map does not reach).
+
+The region (:class:`core.region.Region`) is the map's boundary: the outer
+loop and the holes of the mesh, in the surface's (u, v). The distance from
+every vertex to the surface point it maps to (an upper bound of its distance
+to the surface) gives :class:`MeshFit`'s largest and mean deviation, reported
+by ``info``, in the result file's metrics and in the project file.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from core.errors import SettingsError, SurfaceError
+from core.nurbs import NurbsSurface, basis_functions
+
+__all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MESH_SUFFIXES", "MAX_TRIANGLES", "check_mesh_file",
+           "read_mesh", "clean_mesh", "lscm", "fit_bspline", "mesh_surface", "load_mesh_piece",
+           "boundary_loops", "fit_deviation"]
+
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off")
+
+MAX_TRIANGLES = 2_000_000
+"""Most triangles a mesh file may have (a 100,000-triangle mesh takes a few
+seconds; docs/decisions.md, "Meshes in")."""
+
+FIT_TOL = 2e-4
+"""The fit is refined until its largest deviation is below this fraction of
+the mesh's bounding-box diagonal (or the control net reaches
+:data:`MAX_CTRL`)."""
+
+MAX_CTRL = 96  # control points per direction at most
+SMOOTH = 1e-5  # weight of the roughness term against the mean squared distance (both in model units squared)
+
+
+# --------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class MeshFit:
+    """How the surface made from a mesh follows it (model units).
+
+    source : the mesh file
+    vertices, triangles : of the part made a surface, after repair
+    size : the mesh's bounding-box diagonal
+    max_deviation, mean_deviation : largest and mean distance from a vertex
+        to the surface point it maps to
+    ctrl : (nu, nv), the fitted control net
+    repairs : what was repaired, e.g. ``("merged 120 duplicate vertices",)``
+    """
+
+    source: str
+    vertices: int
+    triangles: int
+    size: float
+    max_deviation: float
+    mean_deviation: float
+    ctrl: tuple = (0, 0)
+    repairs: tuple = ()
+
+    def metrics(self) -> dict:
+        """The keys the result file's metrics get."""
+        return {"fit_max_deviation": self.max_deviation, "fit_mean_deviation": self.mean_deviation}
+
+    def to_dict(self) -> dict:
+        return {"source": self.source, "vertices": self.vertices, "triangles": self.triangles, "size": self.size,
+                "max_deviation": self.max_deviation, "mean_deviation": self.mean_deviation,
+                "ctrl": list(self.ctrl), "repairs": list(self.repairs)}
+
+    @classmethod
+    def from_dict(cls, d) -> "MeshFit":
+        try:
+            return cls(str(d["source"]), int(d["vertices"]), int(d["triangles"]), float(d["size"]),
+                       float(d["max_deviation"]), float(d["mean_deviation"]), tuple(int(x) for x in d.get("ctrl", ())),
+                       tuple(str(x) for x in d.get("repairs", ())))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise SettingsError(f"a mesh fit record is malformed: {exc}") from None
+
+    def describe(self) -> str:
+        return (f"fit to {self.triangles} triangles: max deviation {self.max_deviation:.4g} "
+                f"({100 * self.max_deviation / self.size:.3g} % of the mesh's size {self.size:.4g}), "
+                f"mean {self.mean_deviation:.4g} ({100 * self.mean_deviation / self.size:.3g} %)")
+
+
+class FittedSurface(NurbsSurface):
+    """A :class:`NurbsSurface` fitted to a mesh; ``fit`` says how closely."""
+
+    def __init__(self, *args, fit: MeshFit, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.fit = fit
+
+
+@dataclass(frozen=True)
+class MeshPiece:
+    """A mesh made a surface: the surface, its region, the map.
+
+    surface : FittedSurface over [0, 1]^2
+    region : the map's boundary loops in (u, v) (outer first, then holes)
+    vertices (n, 3), triangles (m, 3), uv (n, 2) : the repaired mesh and
+        every vertex's (u, v)
+    deviation (n,) : per vertex distance to the surface (for a colour map)
+    """
+
+    surface: FittedSurface
+    region: object
+    vertices: np.ndarray
+    triangles: np.ndarray
+    uv: np.ndarray
+    deviation: np.ndarray
+
+    @property
+    def fit(self) -> MeshFit:
+        return self.surface.fit
+
+
+# --------------------------------------------------------------------------- reading
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _claim(name: str, n_tri: int, n_bytes: int, size: int) -> None:
+    """Refuse a header whose counts the file cannot hold, before any allocation."""
+    if n_tri > MAX_TRIANGLES:
+        raise SurfaceError(f"{name}: the header claims {n_tri:,} triangles ({n_bytes / 2**30:.3g} GB); "
+                           f"at most {MAX_TRIANGLES:,} are read")
+    if n_bytes > size:
+        raise SurfaceError(f"{name} is truncated: its header claims {n_tri:,} triangles ({n_bytes:,} bytes) "
+                           f"but the file has {size:,} bytes")
+
+
+def check_mesh_file(path) -> str:
+    """Check what a mesh file's header claims against its size; returns the
+    trimesh file type. One-line SurfaceError on a file that cannot be right."""
+    p = Path(path)
+    name = p.name
+    try:
+        size = p.stat().st_size
+        with open(p, "rb") as fh:
+            head = fh.read(65536)
+    except OSError as exc:
+        raise SurfaceError(f"cannot read {p}: {exc.strerror or exc}") from None
+    if size == 0:
+        raise SurfaceError(f"{name} is empty")
+    suffix = p.suffix.lower()
+    if suffix == ".stl":
+        if size >= 84:
+            n = int(np.frombuffer(head[80:84], "<u4")[0])
+            if size == 84 + 50 * n:
+                if n == 0:
+                    raise SurfaceError(f"{name} has no triangles")
+                _claim(name, n, 84 + 50 * n, size)
+                return "stl"
+        text = head.lstrip().lower()
+        if text.startswith(b"solid") and (b"facet" in text or size < 1024 or b"endsolid" in text):
+            # ASCII: a facet takes at least ~100 bytes; no header to check beyond that
+            if size / 100 > MAX_TRIANGLES * 3:
+                raise SurfaceError(f"{name} is too large ({size:,} bytes) to be a mesh of at most "
+                                   f"{MAX_TRIANGLES:,} triangles")
+            return "stl"
+        if size < 84:
+            raise SurfaceError(f"{name} is truncated: {size} bytes, less than a binary STL header (84)")
+        n = int(np.frombuffer(head[80:84], "<u4")[0])
+        _claim(name, n, 84 + 50 * n, size)
+        raise SurfaceError(f"{name} is not a binary STL: its header claims {n:,} triangles "
+                           f"({84 + 50 * n:,} bytes) but the file has {size:,} bytes")
+    if suffix == ".ply":
+        end = head.find(b"end_header")
+        if not head.startswith(b"ply") or end < 0:
+            raise SurfaceError(f"{name} is not a PLY file (no 'ply ... end_header' header)")
+        lines = head[:end].decode("ascii", "replace").splitlines()
+        fmt = next((ln.split()[1] for ln in lines if ln.startswith("format ") and len(ln.split()) > 1), "ascii")
+        counts, record, current = {}, {}, None
+        for ln in lines:
+            w = ln.split()
+            if len(w) >= 3 and w[0] == "element":
+                current = w[1]
+                try:
+                    counts[current] = int(w[2])
+                except ValueError:
+                    raise SurfaceError(f"{name}: bad PLY element line {ln!r}") from None
+                record[current] = 0
+            elif len(w) >= 3 and w[0] == "property" and current is not None:
+                if w[1] == "list" and len(w) >= 5:  # at least the count and three indices
+                    record[current] += _PLY_SIZES.get(w[2], 1) + 3 * _PLY_SIZES.get(w[3], 1)
+                else:
+                    record[current] += _PLY_SIZES.get(w[1], 1)
+        nv, nf = counts.get("vertex", 0), counts.get("face", 0)
+        if nf == 0:
+            raise SurfaceError(f"{name} has no triangles (no faces in its header)")
+        body = size - end - len(b"end_header")
+        if fmt == "ascii":  # "x y z\n" and "3 a b c\n" take at least 6 and 8 bytes
+            need = 6 * nv + 8 * nf
+        else:
+            need = sum(counts[k] * record[k] for k in counts)
+        _claim(name, nf, need, body)
+        return "ply"
+    if suffix == ".off":
+        words = re.sub(rb"#[^\n]*", b"", head).split()
+        if not words or not words[0].upper().endswith(b"OFF"):
+            raise SurfaceError(f"{name} is not an OFF file (it does not start with 'OFF')")
+        try:
+            nv, nf = int(words[1]), int(words[2])
+        except (IndexError, ValueError):
+            raise SurfaceError(f"{name}: the OFF header has no vertex and face counts") from None
+        if nf == 0:
+            raise SurfaceError(f"{name} has no triangles")
+        _claim(name, nf, 6 * nv + 8 * nf, size)
+        return "off"
+    if suffix == ".obj":
+        if size / 8 > MAX_TRIANGLES * 3:  # "f 1 2 3\n" is 8 bytes
+            raise SurfaceError(f"{name} is too large ({size:,} bytes) for at most {MAX_TRIANGLES:,} triangles")
+        return "obj"
+    raise SurfaceError(f"{name}: not a mesh file ({', '.join(MESH_SUFFIXES)})")
+
+
+def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (n, 3) float, triangles (m, 3) int) of a mesh file, as
+    written (polygons split into triangles by trimesh); nothing repaired."""
+    file_type = check_mesh_file(path)
+    name = Path(path).name
+    try:
+        import trimesh
+    except ImportError:
+        raise SurfaceError(f"{name}: reading meshes needs trimesh (pip install 'flatweave[mesh]')") from None
+    import logging
+    logging.getLogger("trimesh").setLevel(logging.ERROR)  # it logs what it skips; we say what matters
+    try:
+        with open(path, "rb") as fh:
+            loaded = trimesh.load(fh, file_type=file_type, process=False, force="mesh")
+    except Exception as exc:  # the parser's own complaint, in one line
+        text = " ".join(str(exc).split())[:200] or type(exc).__name__
+        raise SurfaceError(f"{name} cannot be read as {file_type.upper()}: {text}") from None
+    V = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
+    F = np.asarray(getattr(loaded, "faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
+    if len(F) == 0:
+        raise SurfaceError(f"{name} has no triangles")
+    if F.min() < 0 or F.max() >= len(V):
+        raise SurfaceError(f"{name}: a triangle refers to a vertex that is not in the file")
+    return V, F
+
+
+# --------------------------------------------------------------------------- repair and checks
+def _edges(F: np.ndarray) -> np.ndarray:
+    """(3m, 2) directed edges of the triangles, edge k of triangle t at row 3t + k."""
+    return np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)
+
+
+def _edge_table(F: np.ndarray):
+    """Undirected edges: (unique (e, 2) sorted pairs, per directed edge its
+    undirected index (3m,), faces per undirected edge (e,))."""
+    E = _edges(F)
+    key = np.sort(E, axis=1)
+    uniq, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return uniq, inv.reshape(-1), count
+
+
+def _orient(F: np.ndarray, name: str) -> tuple[np.ndarray, int]:
+    """The triangles wound consistently within each part (triangles sharing
+    an edge traverse it in opposite senses); returns (F, flipped count).
+    SurfaceError when a part cannot be oriented (a Moebius strip)."""
+    m = len(F)
+    E = _edges(F)
+    _, inv, count = _edge_table(F)
+    # pairs of triangles across each interior edge (two directed edges per undirected one)
+    order = np.argsort(inv, kind="stable")
+    inner = count[inv[order]] == 2
+    d = order[inner].reshape(-1, 2)  # directed-edge rows of the two sides
+    ta, tb = d[:, 0] // 3, d[:, 1] // 3
+    same = np.all(E[d[:, 0]] == E[d[:, 1]], axis=1)  # same sense: one of them must flip
+    G = sp.coo_matrix((np.ones(2 * len(ta)), (np.r_[ta, tb], np.r_[tb, ta])), shape=(m, m)).tocsr()
+    from scipy.sparse.csgraph import breadth_first_order
+    # a spanning tree from triangle 0 (one part: clean_mesh chose it); a triangle's flip relative to its
+    # parent is "same sense across their shared edge", accumulated to the root by pointer jumping
+    _, pred = breadth_first_order(G, 0, directed=False, return_predecessors=True)
+    pred = np.where(pred < 0, -1, pred).astype(np.int64)
+    key = np.minimum(ta, tb) * m + np.maximum(ta, tb)
+    order = np.argsort(key)
+    key, same_sorted = key[order], same[order]
+    child = np.nonzero(pred >= 0)[0]
+    q = np.minimum(child, pred[child]) * m + np.maximum(child, pred[child])
+    acc = np.zeros(m, dtype=bool)
+    acc[child] = same_sorted[np.searchsorted(key, q)]
+    p = pred.copy()
+    while np.any(p >= 0):
+        live = np.nonzero(p >= 0)[0]
+        acc[live] ^= acc[p[live]]
+        p[live] = p[p[live]]
+    flip = acc
+    F = F.copy()
+    F[flip] = F[flip][:, ::-1]
+    E = _edges(F)
+    bad = np.all(E[d[:, 0]] == E[d[:, 1]], axis=1)
+    if np.any(bad):
+        raise SurfaceError(f"{name} cannot be oriented (its triangles' winding cannot be made consistent, "
+                           f"as on a Moebius strip)")
+    return F, int(flip.sum())
+
+
+def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
+    """Repair and check a mesh; returns (V, F, repairs).
+
+    Merges vertices that coincide (to 1e-9 of the mesh's size), drops
+    triangles with a repeated vertex or no area and repeated triangles, and
+    winds the triangles consistently. Refuses in one line: NaN or infinite
+    coordinates, no triangles, an edge of more than two triangles, a mesh of
+    several parts unless ``component`` (0 = the largest) picks one.
+    """
+    V = np.asarray(V, dtype=float)
+    F = np.asarray(F, dtype=np.int64)
+    repairs = []
+    if len(F) == 0:
+        raise SurfaceError(f"{name} has no triangles")
+    used = np.unique(F)
+    if not np.isfinite(V[used]).all():
+        bad = int((~np.isfinite(V[used]).all(axis=1)).sum())
+        raise SurfaceError(f"{name} has {bad} vertices with NaN or infinite coordinates")
+    V = V[used]
+    F = np.searchsorted(used, F)
+    size = float(np.linalg.norm(np.ptp(V, axis=0)))
+    if not size > 0:
+        raise SurfaceError(f"{name}: all its vertices are at one point")
+    # merge coincident vertices (an STL repeats every vertex in each of its triangles)
+    q = np.round((V - V.min(axis=0)) / (1e-9 * size)).astype(np.int64)
+    _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    inv = inv.reshape(-1)
+    if len(first) < len(V):
+        repairs.append(f"merged {len(V) - len(first)} duplicate vertices")
+    V, F = V[first], inv[F]
+    # degenerate triangles: a repeated vertex, or (numerically) no area
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    degenerate = (F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0]) | (area2 <= 1e-14 * size * size)
+    if degenerate.any():
+        repairs.append(f"dropped {int(degenerate.sum())} degenerate triangles")
+        F = F[~degenerate]
+    if len(F) == 0:
+        raise SurfaceError(f"{name} has no triangles with an area")
+    _, keep = np.unique(np.sort(F, axis=1), axis=0, return_index=True)
+    if len(keep) < len(F):
+        repairs.append(f"dropped {len(F) - len(keep)} repeated triangles")
+        F = F[np.sort(keep)]
+    _, inv_e, count = _edge_table(F)
+    if count.max() > 2:
+        n_bad = int((count > 2).sum())
+        raise SurfaceError(f"{name} has {n_bad} non-manifold edge{'s' if n_bad != 1 else ''} "
+                           f"(shared by more than two triangles); repair the mesh or keep one sheet")
+    # parts: triangles joined through edges
+    tri = np.repeat(np.arange(len(F)), 3)
+    order = np.argsort(inv_e, kind="stable")
+    inner = count[inv_e[order]] == 2
+    pairs = tri[order[inner]].reshape(-1, 2)
+    G = sp.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(F), len(F)))
+    n_parts, labels = connected_components(G, directed=False)
+    if n_parts > 1:
+        sizes = np.bincount(labels)
+        rank = np.argsort(-sizes, kind="stable")
+        if component is None:
+            listed = ", ".join(str(int(s)) for s in sizes[rank[:5]]) + (", ..." if n_parts > 5 else "")
+            raise SurfaceError(f"{name} has {n_parts} separate parts ({listed} triangles): choose one with "
+                               f"--face N (0 = the largest, to {n_parts - 1})")
+        if not 0 <= component < n_parts:
+            raise SettingsError(f"{name} has {n_parts} parts; --face must be 0 to {n_parts - 1}")
+        F = F[labels == rank[component]]
+        repairs.append(f"part {component} of {n_parts}")
+    elif component not in (None, 0):
+        raise SettingsError(f"{name} has one part; --face must be 0")
+    used = np.unique(F)
+    V, F = V[used], np.searchsorted(used, F)
+    F, flipped = _orient(F, name)
+    if flipped and flipped < len(F):
+        repairs.append(f"re-wound {flipped} triangles")
+    return V, F, tuple(repairs)
+
+
+def boundary_loops(F: np.ndarray, name: str = "the mesh") -> list[np.ndarray]:
+    """The boundary loops of a consistently wound manifold mesh, each an
+    array of vertex indices in the boundary's sense (the mesh on its left)."""
+    E = _edges(F)
+    _, inv, count = _edge_table(F)
+    B = E[count[inv] == 1]
+    if len(B) == 0:
+        return []
+    nxt = {}
+    starts, ends = B[:, 0], B[:, 1]
+    if len(np.unique(starts)) < len(starts):
+        raise SurfaceError(f"{name} has a non-manifold vertex (two parts of its boundary touch at a vertex); "
+                           f"repair the mesh")
+    nxt = dict(zip(starts.tolist(), ends.tolist()))
+    loops, seen = [], set()
+    for s in starts.tolist():
+        if s in seen:
+            continue
+        loop, v = [], s
+        while v not in seen:
+            seen.add(v)
+            loop.append(v)
+            v = nxt[v]
+        loops.append(np.asarray(loop, dtype=np.int64))
+    return loops
+
+
+# --------------------------------------------------------------------------- the map
+def lscm(V: np.ndarray, F: np.ndarray, pins: tuple[int, int] | None = None) -> np.ndarray:
+    """(n, 2) free-boundary least-squares conformal map of a disk-like mesh.
+
+    Per triangle the map's v gradient should be its u gradient turned by 90
+    degrees about the normal; the squared misfits, weighted by area, are
+    minimised with two vertices pinned (far apart on the boundary, unless
+    given). The map keeps the triangles' orientation.
+    """
+    n, m = len(V), len(F)
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    nrm = np.cross(b - a, c - a)
+    dbl = np.linalg.norm(nrm, axis=1)  # twice the area
+    nrm /= dbl[:, None]
+    e1 = (b - a) / np.linalg.norm(b - a, axis=1)[:, None]
+    e2 = np.cross(nrm, e1)
+    # gradient of the hat function of corner k: n x (opposite edge) / (2A), in the frame (e1, e2)
+    opp = [c - b, a - c, b - a]
+    g = np.stack([np.cross(nrm, o) / dbl[:, None] for o in opp], axis=1)  # (m, 3, 3)
+    gx, gy = g @ e1[:, :, None], g @ e2[:, :, None]
+    gx, gy = gx[..., 0], gy[..., 0]  # (m, 3): d(phi_k)/dx, d(phi_k)/dy
+    w = np.sqrt(0.5 * dbl)[:, None]
+    # n x grad u - grad v = 0: x row: -du/dy - dv/dx, y row: du/dx - dv/dy
+    rows = np.repeat(np.arange(2 * m).reshape(m, 2), 3, axis=1).reshape(m, 2, 3)  # (m, 2, 3)
+    cols = F[:, None, :].repeat(2, axis=1)
+    Au = np.stack([-gy * w, gx * w], axis=1)
+    Av = np.stack([-gx * w, -gy * w], axis=1)
+    A = sp.csr_matrix((np.r_[Au.ravel(), Av.ravel()], (np.r_[rows.ravel(), rows.ravel()],
+                                                      np.r_[cols.ravel(), cols.ravel() + n])), shape=(2 * m, 2 * n))
+    if pins is None:
+        loops = boundary_loops(F)
+        ring = max(loops, key=len) if loops else np.arange(n)
+        p0 = ring[np.argmax(np.linalg.norm(V[ring] - V[ring[0]], axis=1))]
+        p1 = ring[np.argmax(np.linalg.norm(V[ring] - V[p0], axis=1))]
+        pins = (int(p0), int(p1))
+    p0, p1 = pins
+    fixed_idx = np.array([p0, p1, p0 + n, p1 + n])
+    d = float(np.linalg.norm(V[p1] - V[p0]))
+    fixed_val = np.array([0.0, d, 0.0, 0.0])
+    free = np.setdiff1d(np.arange(2 * n), fixed_idx)
+    Af = A[:, free]
+    rhs = -(A[:, fixed_idx] @ fixed_val)
+    N = (Af.T @ Af).tocsc()
+    from scipy.sparse.linalg import spsolve
+    x = np.empty(2 * n)
+    x[fixed_idx] = fixed_val
+    x[free] = spsolve(N, Af.T @ rhs)
+    uv = np.stack([x[:n], x[n:]], axis=1)
+    if not np.isfinite(uv).all():
+        raise SurfaceError("the mesh could not be mapped to the plane (the conformal map is singular)")
+    return uv
+
+
+# --------------------------------------------------------------------------- the fit
+def _clamped_knots(n_ctrl: int, p: int = 3) -> np.ndarray:
+    inner = np.linspace(0.0, 1.0, n_ctrl - p + 1)
+    return np.r_[np.zeros(p), inner, np.ones(p)]
+
+
+def _design(knots: np.ndarray, n_ctrl: int, x: np.ndarray, p: int = 3):
+    spans = np.clip(np.searchsorted(knots, x, side="right") - 1, p, n_ctrl - 1)
+    N = basis_functions(knots, p, spans, x, order=0)[0]
+    return spans - p, N  # first control index, (n, p+1) values
+
+
+def _second_differences(nu: int, nv: int):
+    """The roughness of a control net: the sum of its squared second
+    differences (d2/du2, twice d2/dudv, d2/dv2), divided by the number of
+    control points, as a matrix on the flattened (nu, nv) grid. On a smooth
+    surface it shrinks as h^4 with the knot spacing h (a P-spline penalty), so
+    refining the net weakens its pull while it still fixes the control points
+    no vertex reaches (the box's corners outside the map)."""
+    def d2(k):
+        return sp.diags([np.ones(k - 2), -2 * np.ones(k - 2), np.ones(k - 2)], [0, 1, 2], shape=(k - 2, k))
+
+    def d1(k):
+        return sp.diags([-np.ones(k - 1), np.ones(k - 1)], [0, 1], shape=(k - 1, k))
+    Iu, Iv = sp.identity(nu), sp.identity(nv)
+    Duu = sp.kron(d2(nu), Iv)
+    Dvv = sp.kron(Iu, d2(nv))
+    Duv = sp.kron(d1(nu), d1(nv))
+    return ((Duu.T @ Duu + 2 * Duv.T @ Duv + Dvv.T @ Dvv) / (nu * nv)).tocsr()
+
+
+def fit_bspline(uv: np.ndarray, X: np.ndarray, nu: int, nv: int, smooth: float = SMOOTH) -> np.ndarray:
+    """(nu, nv, 3) control net of the bicubic B-spline over [0, 1]^2 that
+    minimises mean |S(uv_i) - X_i|^2 + smooth * (thin-plate energy)."""
+    ku, kv = _clamped_knots(nu), _clamped_knots(nv)
+    iu, Nu = _design(ku, nu, uv[:, 0])
+    iv, Nv = _design(kv, nv, uv[:, 1])
+    n = len(uv)
+    rows = np.repeat(np.arange(n), 16)
+    cols = ((iu[:, None, None] + np.arange(4)[None, :, None]) * nv + (iv[:, None, None] + np.arange(4)[None, None, :]))
+    vals = Nu[:, :, None] * Nv[:, None, :]
+    B = sp.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(n, nu * nv))
+    M = (B.T @ B) / n + smooth * _second_differences(nu, nv)
+    rhs = (B.T @ X) / n
+    from scipy.sparse.linalg import splu
+    lu = splu(M.tocsc())
+    C = lu.solve(np.ascontiguousarray(rhs))
+    return C.reshape(nu, nv, 3)
+
+
+def fit_deviation(surface: NurbsSurface, uv: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """(n,) distance from each X_i to S(uv_i)."""
+    return np.linalg.norm(surface.points(uv) - X, axis=1)
+
+
+def _normalise_map(uv: np.ndarray) -> tuple[np.ndarray, float]:
+    """The map turned to its principal axes (longer along u) and scaled into
+    [0, 1]^2; returns (uv, aspect = extent v / extent u)."""
+    c = uv - uv.mean(axis=0)
+    _, vec = np.linalg.eigh(c.T @ c)
+    R = vec[:, ::-1]  # major axis first
+    if np.linalg.det(R) < 0:  # a rotation, never a mirror: the orientation stays
+        R[:, 1] = -R[:, 1]
+    q = c @ R
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    ext = hi - lo
+    return (q - lo) / ext, float(ext[1] / ext[0])
+
+
+def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple = ()) -> MeshPiece:
+    """A repaired, consistently wound, one-part mesh (:func:`clean_mesh`)
+    made a :class:`MeshPiece`: surface, region, map and deviations.
+
+    A closed mesh, or one of higher genus, is refused (it needs a region).
+    """
+    from core.region import Region
+
+    V = np.asarray(V, dtype=float)
+    F = np.asarray(F, dtype=np.int64)
+    loops = boundary_loops(F, name)
+    n_edges = len(_edge_table(F)[0])
+    chi = len(V) - n_edges + len(F)
+    genus = (2 - chi - len(loops)) // 2
+    if not loops:
+        raise SurfaceError(f"{name} is a closed mesh (no boundary): it needs a region to flatten; "
+                           f"cut the piece out of the mesh so it has a boundary")
+    if genus > 0:
+        raise SurfaceError(f"{name} has genus {genus} (handles): it needs a region to flatten; "
+                           f"cut the piece out of the mesh so it is a disk, with holes if need be")
+    size = float(np.linalg.norm(np.ptp(V, axis=0)))
+    raw = lscm(V, F)
+    uv, aspect = _normalise_map(raw)
+    # control net: a few vertices per knot cell, more along the longer side, refined to FIT_TOL
+    n_cells = max(len(V) / 8.0, 16.0)
+    cu = math.sqrt(n_cells / max(aspect, 1e-3))
+    base = min(max(int(cu), 4), 24) + 3
+    nu = base
+    nv = min(max(int(round((base - 3) * aspect)), 4), MAX_CTRL - 3) + 3
+    while True:
+        C = fit_bspline(uv, V, nu, nv)
+        surf = NurbsSurface(3, 3, _clamped_knots(nu), _clamped_knots(nv), C)
+        dev = fit_deviation(surf, uv, V)
+        if dev.max() <= FIT_TOL * size or max(nu, nv) >= MAX_CTRL or nu * nv * 4 > len(V):
+            break
+        nu = min(int(nu * 1.5), MAX_CTRL)
+        nv = min(max(int(round((nu - 3) * aspect)), 4), MAX_CTRL - 3) + 3
+    fit = MeshFit(str(source), len(V), len(F), size, float(dev.max()), float(dev.mean()), (nu, nv), tuple(repairs))
+    surface = FittedSurface(3, 3, _clamped_knots(nu), _clamped_knots(nv), C, fit=fit)
+    loops_uv = [uv[lp] for lp in loops]
+    areas = [abs(_loop_area(p)) for p in loops_uv]
+    k = int(np.argmax(areas))
+    outer = loops_uv[k]
+    holes = [p for i, p in enumerate(loops_uv) if i != k and areas[i] > 1e-12]
+    region = Region.from_loops(outer, holes)
+    return MeshPiece(surface, region, V, F, uv, dev)
+
+
+def _loop_area(p: np.ndarray) -> float:
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def load_mesh_piece(path, component: int | None = None) -> MeshPiece:
+    """Read, repair and fit the mesh file ``path`` (``component``: which part
+    of a mesh of several, 0 = the largest)."""
+    p = Path(path)
+    V, F = read_mesh(p)
+    V, F, repairs = clean_mesh(V, F, p.name, component)
+    return mesh_surface(V, F, source=os.fspath(p), name=p.name, repairs=repairs)
