@@ -371,7 +371,12 @@ def _cmd_info(args) -> int:
             print(f"  face {f['index']}: {f['kind']}, area {f['area']:.10g}, "
                   f"{'trimmed' if f['trimmed'] else 'untrimmed'}, bbox [{box}]")
         return 0
+    if opened.mesh is not None and opened.surface is None:  # a mesh of several parts
+        opened.choose_face()  # raises: says how to choose one
     surface, source = opened.surface, opened.source
+    fit = getattr(surface, "fit", None)
+    if fit is not None:  # a mesh: the piece is the map's region, and the fit's deviation is the news
+        return _info_mesh(opened, fit, args.json)
     if args.json:
         d = surface.domain
         print(json.dumps({"domain": d.tolist(), "area": region_area(surface),
@@ -381,6 +386,26 @@ def _cmd_info(args) -> int:
     print(f"{source}: {surface!r}")
     print(f"domain u [{d[0, 0]:g}, {d[0, 1]:g}], v [{d[1, 0]:g}, {d[1, 1]:g}]")
     print(f"area {region_area(surface):.10g}, boundary length {boundary_length(surface):.10g}")
+    return 0
+
+
+def _info_mesh(opened, fit, as_json: bool) -> int:
+    """``info`` of a mesh made a surface (core.meshsurf): the fit and the piece."""
+    import json
+
+    from core.region import cover_for
+
+    cover = cover_for(opened.surface, opened.region)
+    if as_json:
+        print(json.dumps({"domain": opened.surface.domain.tolist(), "area": cover.area,
+                          "boundary_length": cover.boundary_length, "holes": opened.region.n_holes,
+                          "fit": fit.to_dict(), **fit.metrics()}))
+        return 0
+    print(f"{opened.source}: mesh of {fit.vertices} vertices and {fit.triangles} triangles"
+          + (f" ({'; '.join(fit.repairs)})" if fit.repairs else ""))
+    print(f"surface: {opened.surface!r}, {fit.describe()}")
+    print(f"area {cover.area:.10g}, boundary length {cover.boundary_length:.10g}, "
+          f"{opened.region.n_holes} hole{'s' if opened.region.n_holes != 1 else ''}")
     return 0
 
 

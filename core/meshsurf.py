@@ -43,7 +43,7 @@ from core.nurbs import NurbsSurface, basis_functions
 
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MESH_SUFFIXES", "MAX_TRIANGLES", "check_mesh_file",
            "read_mesh", "clean_mesh", "lscm", "fit_bspline", "mesh_surface", "load_mesh_piece",
-           "boundary_loops", "fit_deviation"]
+           "boundary_loops", "fit_deviation", "SeveralParts", "MeshFile", "open_mesh", "with_fit"]
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off")
 
@@ -136,6 +136,14 @@ class MeshPiece:
     @property
     def fit(self) -> MeshFit:
         return self.surface.fit
+
+
+class SeveralParts(SurfaceError):
+    """A mesh of several parts and none chosen; ``n_parts`` says how many."""
+
+    def __init__(self, message: str, n_parts: int):
+        super().__init__(message)
+        self.n_parts = n_parts
 
 
 # --------------------------------------------------------------------------- reading
@@ -381,8 +389,8 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
         rank = np.argsort(-sizes, kind="stable")
         if component is None:
             listed = ", ".join(str(int(s)) for s in sizes[rank[:5]]) + (", ..." if n_parts > 5 else "")
-            raise SurfaceError(f"{name} has {n_parts} separate parts ({listed} triangles): choose one with "
-                               f"--face N (0 = the largest, to {n_parts - 1})")
+            raise SeveralParts(f"{name} has {n_parts} separate parts ({listed} triangles): choose one with "
+                               f"--face N (0 = the largest, to {n_parts - 1})", n_parts)
         if not 0 <= component < n_parts:
             raise SettingsError(f"{name} has {n_parts} parts; --face must be 0 to {n_parts - 1}")
         F = F[labels == rank[component]]
@@ -606,3 +614,39 @@ def load_mesh_piece(path, component: int | None = None) -> MeshPiece:
     V, F = read_mesh(p)
     V, F, repairs = clean_mesh(V, F, p.name, component)
     return mesh_surface(V, F, source=os.fspath(p), name=p.name, repairs=repairs)
+
+
+def with_fit(surface: NurbsSurface, fit: MeshFit) -> FittedSurface:
+    """``surface`` as a :class:`FittedSurface` carrying ``fit`` (a project reopened)."""
+    return FittedSurface(surface.degree_u, surface.degree_v, surface.knots_u, surface.knots_v, surface.ctrlpts,
+                         surface.weights if surface.rational else None, fit=fit)
+
+
+@dataclass(frozen=True, eq=False)
+class MeshFile:
+    """A mesh file of several parts, read and waiting for a part to be chosen."""
+
+    path: Path
+    vertices: np.ndarray
+    triangles: np.ndarray
+    n_parts: int
+
+    def piece(self, component: int) -> MeshPiece:
+        V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
+        return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name, repairs=repairs)
+
+
+def open_mesh(path):
+    """The reader of :mod:`core.readers`: an ``Opened`` with the surface and
+    region of a one-part mesh, or, for several parts, the :class:`MeshFile`
+    (``Opened.mesh``) to choose one from (``Opened.choose_face``)."""
+    from core.readers import Opened
+
+    p = Path(path)
+    V, F = read_mesh(p)
+    try:
+        V2, F2, repairs = clean_mesh(V, F, p.name)
+    except SeveralParts as exc:
+        return Opened(mesh=MeshFile(p, V, F, exc.n_parts))
+    piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
+    return Opened(surface=piece.surface, region=piece.region)

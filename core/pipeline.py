@@ -457,6 +457,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "pieces": len(pattern.pieces),
         "unmapped_points": pattern.unmapped,
     })
+    if getattr(surface, "fit", None) is not None:  # a surface fitted to a mesh (core.meshsurf)
+        metrics.update(surface.fit.metrics())
     check_result_finite(state.uv, xyz, pattern, metrics)
     result = FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
                            tuple(float(e) for e in solve.history) if solve else ())

@@ -375,6 +375,8 @@ def project_to_dict(project: Project) -> dict:
         "display": {"units": p.units, "shear_warning_deg": float(p.shear_warning_deg),
                     "shear_limit_deg": float(p.shear_limit_deg), **({"view": dict(p.view)} if p.view else {})},
         "result": None if p.result is None else _result_doc(p.result, p.source),
+        # a surface fitted to a mesh: which mesh and how closely (core.meshsurf.MeshFit); optional key
+        **({"surface_fit": p.surface.fit.to_dict()} if getattr(p.surface, "fit", None) is not None else {}),
     }
 
 
@@ -499,6 +501,12 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
         surface = surface_from_json_dict(surface_doc, source=f"{where}: surface")
     except FlatweaveError as exc:
         raise ProjectError(str(exc)) from None
+    if d.get("surface_fit") is not None:  # fitted to a mesh: the mesh file is not needed again
+        from core.meshsurf import MeshFit, with_fit
+        try:
+            surface = with_fit(surface, MeshFit.from_dict(d["surface_fit"]))
+        except FlatweaveError as exc:
+            raise ProjectError(f"{where}: {exc}") from None
     settings = settings_from_dict(f.get(d, "settings", "project"), d.get("darts", []), d.get("yarns", []), where)
     display = f.obj(d.get("display", {}), "display")
     view = f.obj(display.get("view", {}), "display.view")

@@ -70,6 +70,8 @@ class Opened:
     cad : a STEP or IGES file's faces (:class:`core.cad.CadFile`), else None
     face : which of them ``surface`` and ``region`` are (None while a file
         with several faces has none chosen: :meth:`with_face`)
+    mesh : a mesh file of several parts (:class:`core.meshsurf.MeshFile`);
+        ``--face N`` / :meth:`with_face` chooses part N (0 = the largest)
     """
 
     path: Path | None = None
@@ -83,12 +85,17 @@ class Opened:
     region: Any = None
     cad: Any = None
     face: int | None = None
+    mesh: Any = None  # a mesh file of several parts (core.meshsurf.MeshFile), until one is chosen
 
     def with_face(self, index) -> "Opened":
         """The CAD file's face ``index`` (its surface, region and units); a
         one-line SettingsError when there is no such face."""
+        if self.cad is None and self.mesh is not None:
+            piece = self.mesh.piece(index)
+            return dataclasses.replace(self, surface=piece.surface, region=piece.region, face=int(index))
         if self.cad is None:
-            raise SettingsError(f"{self.source or self.path}: --face is for STEP and IGES files")
+            raise SettingsError(f"{self.source or self.path}: --face is for STEP and IGES files and meshes of "
+                                f"several parts")
         from core.region import region_from_cad_face
         face = self.cad.face(index)
         return dataclasses.replace(self, surface=face.surface, region=region_from_cad_face(face), face=face.index)
@@ -96,9 +103,18 @@ class Opened:
     def choose_face(self, index=None) -> "Opened":
         """A CAD file's face ``index``, or its only face when ``index`` is None;
         a one-line SettingsError saying how to choose when there are several."""
+        if self.cad is None and self.mesh is not None:
+            if index is not None:
+                return self.with_face(index)
+            if self.face is not None:
+                return self
+            n, name = self.mesh.n_parts, self.mesh.path.name
+            raise SettingsError(f"{name} has {n} separate parts: choose one with --face N (0 = the largest, "
+                                f"to {n - 1})")
         if self.cad is None:
             if index is not None:
-                raise SettingsError(f"{self.source or self.path}: --face is for STEP and IGES files")
+                raise SettingsError(f"{self.source or self.path}: --face is for STEP and IGES files and "
+                                    f"meshes of several parts")
             return self
         if index is None:
             if self.face is not None:
@@ -300,3 +316,17 @@ def _load_cad(path: Path) -> Opened:
 
 register_reader("step", (".step", ".stp"), _load_cad, "STEP faces")
 register_reader("iges", (".iges", ".igs"), _load_cad, "IGES faces")
+
+
+def _load_mesh(path: Path) -> Opened:
+    """A triangle mesh (:func:`core.meshsurf.open_mesh`): repaired, mapped to
+    the plane and fitted with a bicubic surface; its boundary is the region."""
+    from core.meshsurf import open_mesh
+
+    return open_mesh(path)
+
+
+register_reader("stl", (".stl",), _load_mesh, "STL mesh")
+register_reader("obj", (".obj",), _load_mesh, "OBJ mesh")
+register_reader("ply", (".ply",), _load_mesh, "PLY mesh")
+register_reader("off", (".off",), _load_mesh, "OFF mesh")

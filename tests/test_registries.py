@@ -93,10 +93,13 @@ def test_toy_formats_are_gone_after_the_fixture():
 
 # ---------------------------------------------------------------------- the reader registry
 def test_builtin_readers_and_filter():
-    assert readers.suffixes() == [PROJECT_SUFFIX, ".json", ".step", ".stp", ".iges", ".igs"]
-    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.step *.stp *.iges *.igs);;"
+    assert readers.suffixes() == [PROJECT_SUFFIX, ".json", ".step", ".stp", ".iges", ".igs",
+                                  ".stl", ".obj", ".ply", ".off"]
+    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.step *.stp *.iges *.igs "
+                                       "*.stl *.obj *.ply *.off);;"
                                        "flatweave project (*.flatweave);;geomdl JSON surface (*.json);;"
-                                       "STEP faces (*.step *.stp);;IGES faces (*.iges *.igs)")
+                                       "STEP faces (*.step *.stp);;IGES faces (*.iges *.igs);;"
+                                       "STL mesh (*.stl);;OBJ mesh (*.obj);;PLY mesh (*.ply);;OFF mesh (*.off)")
     assert reader_for("a" + PROJECT_SUFFIX.upper()).project and not reader_for("a.JSON").project
     assert reader_for("a.step").name == "step" and reader_for("a.IGS").name == "iges" and reader_for("a.3dm") is None
 
@@ -160,7 +163,8 @@ def test_registration_is_checked():
         register_reader("bad", "json", _toy_reader, "no dot")
     with pytest.raises(ValueError, match="already have an exporter"):
         register_exporter(".DXF", _txt_writer, "again", needs_sheet=True)
-    assert readers.suffixes() == [PROJECT_SUFFIX, ".json", ".step", ".stp", ".iges", ".igs"]
+    assert readers.suffixes() == [PROJECT_SUFFIX, ".json", ".step", ".stp", ".iges", ".igs",
+                                  ".stl", ".obj", ".ply", ".off"]
     assert "bad" not in [r.name for r in readers.readers()]
 
 
