@@ -282,9 +282,10 @@ def _edge_table(F: np.ndarray):
     """Undirected edges: (unique (e, 2) sorted pairs, per directed edge its
     undirected index (3m,), faces per undirected edge (e,))."""
     E = _edges(F)
-    key = np.sort(E, axis=1)
-    uniq, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return uniq, inv.reshape(-1), count
+    n = int(F.max()) + 1
+    key = np.minimum(E[:, 0], E[:, 1]) * n + np.maximum(E[:, 0], E[:, 1])  # one int64 per edge: a fast unique
+    uniq, inv, count = np.unique(key, return_inverse=True, return_counts=True)
+    return np.stack([uniq // n, uniq % n], axis=1), inv.reshape(-1), count
 
 
 def _orient(F: np.ndarray, name: str) -> tuple[np.ndarray, int]:
@@ -354,7 +355,8 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
         raise SurfaceError(f"{name}: all its vertices are at one point")
     # merge coincident vertices (an STL repeats every vertex in each of its triangles)
     q = np.round((V - V.min(axis=0)) / (1e-9 * size)).astype(np.int64)
-    _, first, inv = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    _, first, inv = np.unique(np.ascontiguousarray(q).view(np.dtype((np.void, 24))).ravel(),
+                              return_index=True, return_inverse=True)  # rows as bytes: a 1-D unique
     inv = inv.reshape(-1)
     if len(first) < len(V):
         repairs.append(f"merged {len(V) - len(first)} duplicate vertices")
@@ -368,7 +370,9 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
         F = F[~degenerate]
     if len(F) == 0:
         raise SurfaceError(f"{name} has no triangles with an area")
-    _, keep = np.unique(np.sort(F, axis=1), axis=0, return_index=True)
+    n_v = len(V)
+    Fs = np.sort(F, axis=1)
+    _, keep = np.unique((Fs[:, 0] * n_v + Fs[:, 1]) * n_v + Fs[:, 2], return_index=True)
     if len(keep) < len(F):
         repairs.append(f"dropped {len(F) - len(keep)} repeated triangles")
         F = F[np.sort(keep)]
