@@ -78,10 +78,14 @@ def test_toy_reader_through_the_cli(toy_formats, tmp_path, capsys):
 
 
 def test_dialog_filters_come_from_the_registries(toy_formats):
-    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.step *.stp *.iges *.igs *.toy);;"
+    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.step *.stp *.iges *.igs "
+                                       "*.stl *.obj *.ply *.off *.toy);;"
                                        "flatweave project (*.flatweave);;geomdl JSON surface (*.json);;"
-                                       "STEP faces (*.step *.stp);;IGES faces (*.iges *.igs);;toy surface (*.toy)")
-    assert readers.dialog_filter(project=False).startswith("All supported (*.json *.step *.stp *.iges *.igs *.toy);;")
+                                       "STEP faces (*.step *.stp);;IGES faces (*.iges *.igs);;"
+                                       "STL mesh (*.stl);;OBJ mesh (*.obj);;PLY mesh (*.ply);;OFF mesh (*.off);;"
+                                       "toy surface (*.toy)")
+    assert readers.dialog_filter(project=False).startswith(
+        "All supported (*.json *.step *.stp *.iges *.igs *.stl *.obj *.ply *.off *.toy);;")
     assert dialog_filter().split(";;")[-1] == "outline vertex counts (*.txt)"
     assert ".txt" in FORMATS and list(FORMATS)[-1] == ".txt"
 
