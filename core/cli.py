@@ -60,6 +60,9 @@ def resolve_piece(args):
     if args.region:
         from core.region import Region
 
+        if opened.region is not None and getattr(opened.surface, "fit", None) is not None:
+            raise SettingsError(f"{Path(args.surface).name} is a mesh: its region is the mesh's boundary; "
+                                f"--region is for untrimmed surfaces")
         if opened.region is not None:
             raise SettingsError(f"face {opened.face} of {Path(args.surface).name} is trimmed already; "
                                 f"--region is for untrimmed surfaces")

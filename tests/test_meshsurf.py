@@ -359,6 +359,10 @@ def test_cli_info_and_result_metrics(tmp_path):
     assert r.returncode == 0, r.stderr
     m = json.loads(out.read_text())["metrics"]
     assert m["fit_max_deviation"] == pytest.approx(info["fit_max_deviation"])
+    region = tmp_path / "region.json"
+    region.write_text(json.dumps({"outer": [[0.2, 0.2], [0.8, 0.2], [0.8, 0.8]]}))
+    r = _cli("flatten", path, "--spacing", "0.12", "--out", out, "--region", region)
+    assert r.returncode == 2 and "is a mesh: its region is the mesh's boundary" in r.stderr
     assert m["fit_mean_deviation"] == pytest.approx(info["fit_mean_deviation"])
 
 
