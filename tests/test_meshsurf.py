@@ -387,3 +387,22 @@ def test_closed_mesh_refused_without_region():
     sphere = trimesh.creation.icosphere(3)
     with pytest.raises(SurfaceError, match="needs a region"):
         mesh_surface(*clean_mesh(sphere.vertices, sphere.faces)[:2])
+
+
+def test_developable_mesh_with_a_hole_flattens_exactly():
+    """A half cylinder with a (stair-stepped, as cut from the grid) hole: the pattern is its
+    development with the hole, area and boundary (outer loop and hole) within 0.1 %."""
+    V, F = grid_mesh(cylinder, 60, 60, hole)
+    V, F, repairs = clean_mesh(V, F, "holed cylinder")
+    piece = mesh_surface(V, F, repairs=repairs)
+    assert piece.region.n_holes == 1
+    # the development: the grid's own (u, v) scaled to the rectangle pi R x H, triangles laid flat
+    P = np.stack([R_CYL * np.arctan2(V[:, 1], V[:, 0]), V[:, 2]], 1)
+    a, b = P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]
+    flat_area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum()
+    cover = cover_for(piece.surface, piece.region)
+    assert cover.area == pytest.approx(flat_area, rel=1e-3)
+    res = flatten(piece.surface, FlattenSettings(spacing=0.06, region=piece.region, seed=cover.default_seed),
+                  area=cover.area)
+    assert abs(res.metrics["area_error_pct"]) < 0.1 and abs(res.metrics["boundary_error_pct"]) < 0.1
+    assert len(res.pattern.pieces) == 1 and len(res.pattern.pieces[0].holes) >= 1
