@@ -56,7 +56,16 @@ def resolve_piece(args):
     region (a CAD face's trims, or ``--region FILE.json``) chosen."""
     from core.readers import open_path
 
-    opened = open_path(args.surface, surface_only=True).choose_face(args.face)
+    opened = open_path(args.surface, surface_only=True)
+    if args.region and opened.mesh is not None and opened.surface is None:  # a loop drawn on a mesh
+        data = _read_json(args.region, "region")
+        if not isinstance(data, dict) or "loop3d" not in data:
+            raise SettingsError(f"{args.region}: a mesh's region is {{\"loop3d\": [[x, y, z], ...]}}, "
+                                f"a closed loop drawn on it")
+        import dataclasses
+        piece = opened.mesh.cut(data["loop3d"], args.face)
+        return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=args.face)
+    opened = opened.choose_face(args.face)
     if args.region:
         from core.region import Region
 

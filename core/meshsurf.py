@@ -43,7 +43,8 @@ from core.nurbs import NurbsSurface, basis_functions
 
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MESH_SUFFIXES", "MAX_TRIANGLES", "check_mesh_file",
            "read_mesh", "clean_mesh", "lscm", "fit_bspline", "mesh_surface", "load_mesh_piece",
-           "boundary_loops", "fit_deviation", "SeveralParts", "MeshFile", "open_mesh", "with_fit"]
+           "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "MeshFile", "cut_mesh", "open_mesh",
+           "with_fit"]
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off")
 
@@ -144,6 +145,10 @@ class SeveralParts(SurfaceError):
     def __init__(self, message: str, n_parts: int):
         super().__init__(message)
         self.n_parts = n_parts
+
+
+class NeedsRegion(SurfaceError):
+    """A closed mesh, or one with handles: it cannot be covered whole."""
 
 
 # --------------------------------------------------------------------------- reading
@@ -578,11 +583,11 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     chi = len(V) - n_edges + len(F)
     genus = (2 - chi - len(loops)) // 2
     if not loops:
-        raise SurfaceError(f"{name} is a closed mesh (no boundary): it needs a region to flatten; "
-                           f"cut the piece out of the mesh so it has a boundary")
+        raise NeedsRegion(f"{name} is a closed mesh (no boundary): it needs a region to flatten; "
+                          f"give --region with a loop3d drawn on it, or cut the piece out of the mesh")
     if genus > 0:
-        raise SurfaceError(f"{name} has genus {genus} (handles): it needs a region to flatten; "
-                           f"cut the piece out of the mesh so it is a disk, with holes if need be")
+        raise NeedsRegion(f"{name} has genus {genus} (handles): it needs a region to flatten; "
+                          f"give --region with a loop3d drawn on it, or cut the piece out of the mesh")
     size = float(np.linalg.norm(np.ptp(V, axis=0)))
     raw = lscm(V, F)
     uv, aspect = _normalise_map(raw)
@@ -639,10 +644,73 @@ class MeshFile:
     vertices: np.ndarray
     triangles: np.ndarray
     n_parts: int
+    needs_region: str = ""  # why the mesh cannot be covered whole (closed, handles); "" when it can
 
     def piece(self, component: int) -> MeshPiece:
         V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
         return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name, repairs=repairs)
+
+    def cut(self, loop3d, component: int | None = None) -> MeshPiece:
+        """The piece inside a closed loop of 3D points drawn on the mesh (:func:`cut_mesh`)."""
+        V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
+        V, F = cut_mesh(V, F, loop3d, self.path.name)
+        return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name,
+                            repairs=repairs + ("cut along a drawn loop",))
+
+
+def cut_mesh(V: np.ndarray, F: np.ndarray, loop3d, name: str = "the mesh") -> tuple[np.ndarray, np.ndarray]:
+    """The part of a mesh inside a loop drawn on it: each loop point goes to its nearest vertex,
+    consecutive ones are joined by shortest edge paths, the triangles are split into the sides
+    of that closed path, and the smaller side (by area) is kept. One-line SettingsError when the
+    loop does not separate the mesh."""
+    from scipy.sparse.csgraph import dijkstra
+    from scipy.spatial import cKDTree
+
+    try:
+        P = np.asarray(loop3d, dtype=float).reshape(-1, 3)
+    except (TypeError, ValueError):
+        raise SettingsError("a mesh region's loop3d must be a list of [x, y, z] points") from None
+    if len(P) < 3 or not np.isfinite(P).all():
+        raise SettingsError("a mesh region's loop3d needs 3 or more finite [x, y, z] points")
+    _, near = cKDTree(V).query(P)
+    near = near[np.r_[True, near[1:] != near[:-1]]]
+    if len(near) > 1 and near[-1] == near[0]:
+        near = near[:-1]
+    if len(np.unique(near)) < 3:
+        raise SettingsError(f"the loop drawn on {name} is too small for its triangles (it meets fewer than 3 vertices)")
+    uniq, _, _ = _edge_table(F)
+    w = np.linalg.norm(V[uniq[:, 0]] - V[uniq[:, 1]], axis=1)
+    G = sp.coo_matrix((np.r_[w, w], (np.r_[uniq[:, 0], uniq[:, 1]], np.r_[uniq[:, 1], uniq[:, 0]])),
+                      shape=(len(V), len(V))).tocsr()
+    _, pred = dijkstra(G, indices=near, return_predecessors=True)
+    path = []
+    for k in range(len(near)):  # a path per drawn segment: the loop's few points, not a hot loop
+        a, b = near[k], near[(k + 1) % len(near)]
+        seg, v = [], b
+        while v != a and v >= 0:
+            seg.append(v)
+            v = pred[k, v]
+        path += [a] + seg[::-1][:-1]
+    path = np.asarray(path, dtype=np.int64)
+    n = len(V)
+    cut_keys = set((np.minimum(path, np.roll(path, -1)) * n + np.maximum(path, np.roll(path, -1))).tolist())
+    E = _edges(F)
+    key = np.minimum(E[:, 0], E[:, 1]) * n + np.maximum(E[:, 0], E[:, 1])
+    _, inv, count = np.unique(key, return_inverse=True, return_counts=True)
+    order = np.argsort(inv, kind="stable")
+    inner = count[inv[order]] == 2
+    pairs = order[inner].reshape(-1, 2)
+    cut = np.isin(key[pairs[:, 0]], np.fromiter(cut_keys, dtype=np.int64))
+    t = pairs[~cut] // 3
+    A = sp.coo_matrix((np.ones(len(t)), (t[:, 0], t[:, 1])), shape=(len(F), len(F)))
+    n_sides, labels = connected_components(A, directed=False)
+    if n_sides < 2:
+        raise SettingsError(f"the loop drawn on {name} does not cut it in two; draw a closed loop on it")
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    area = np.bincount(labels, 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1))
+    F = F[labels == int(np.argmin(area))]
+    used = np.unique(F)
+    return V[used], np.searchsorted(used, F)
 
 
 def open_mesh(path):
@@ -657,5 +725,8 @@ def open_mesh(path):
         V2, F2, repairs = clean_mesh(V, F, p.name)
     except SeveralParts as exc:
         return Opened(mesh=MeshFile(p, V, F, exc.n_parts))
-    piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
+    try:
+        piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
+    except NeedsRegion as exc:  # closed, or handles: a loop drawn on it (--region) says which piece
+        return Opened(mesh=MeshFile(p, V, F, 1, str(exc)))
     return Opened(surface=piece.surface, region=piece.region)

@@ -104,10 +104,12 @@ class Opened:
         """A CAD file's face ``index``, or its only face when ``index`` is None;
         a one-line SettingsError saying how to choose when there are several."""
         if self.cad is None and self.mesh is not None:
+            if self.surface is not None:
+                return self
+            if self.mesh.needs_region:
+                raise SettingsError(self.mesh.needs_region)
             if index is not None:
                 return self.with_face(index)
-            if self.face is not None:
-                return self
             n, name = self.mesh.n_parts, self.mesh.path.name
             raise SettingsError(f"{name} has {n} separate parts: choose one with --face N (0 = the largest, "
                                 f"to {n - 1})")

@@ -406,3 +406,29 @@ def test_developable_mesh_with_a_hole_flattens_exactly():
                   area=cover.area)
     assert abs(res.metrics["area_error_pct"]) < 0.1 and abs(res.metrics["boundary_error_pct"]) < 0.1
     assert len(res.pattern.pieces) == 1 and len(res.pattern.pieces[0].holes) >= 1
+
+
+def test_closed_mesh_with_a_loop_drawn_on_it_flattens(tmp_path):
+    """A sphere: refused without a region; with a loop drawn on it (--region {"loop3d": ...}) the
+    smaller side of the loop (a cap) is cut out along mesh edges, made a surface and flattened."""
+    path = _write(tmp_path / "sphere.stl", trimesh.creation.icosphere(4))
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    z0 = 0.5
+    loop = np.stack([np.sqrt(1 - z0 * z0) * np.cos(t), np.sqrt(1 - z0 * z0) * np.sin(t), z0 + 0 * t], 1)
+    region = tmp_path / "cap.json"
+    region.write_text(json.dumps({"loop3d": loop.tolist()}))
+    piece = open_path(path).mesh.cut(loop)
+    assert piece.vertices[:, 2].min() > z0 - 0.1  # the cap above the loop, not the rest of the sphere
+    V, F = piece.vertices, piece.triangles
+    mesh_area = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum()
+    cover = cover_for(piece.surface, piece.region)
+    assert cover.area == pytest.approx(mesh_area, rel=2e-3)
+    assert cover.area == pytest.approx(2 * math.pi * (1 - z0), rel=0.02)  # the cap, up to the cut's zigzag
+    assert piece.fit.max_deviation < 1e-3 * piece.fit.size
+    out = tmp_path / "r.json"
+    r = _cli("flatten", path, "--region", region, "--spacing", "0.08", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    m = json.loads(out.read_text())["metrics"]
+    assert m["fit_max_deviation"] == pytest.approx(piece.fit.max_deviation)
+    r = _cli("flatten", path, "--spacing", "0.08", "--out", out)
+    assert r.returncode == 2 and "needs a region" in r.stderr and len(r.stderr.strip().splitlines()) == 1
