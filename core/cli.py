@@ -3,6 +3,8 @@
 Subcommands:
 
 * ``flatten SURFACE --spacing R ... --out RESULT.json``: drape, minimise, write the result
+* ``sweep SURFACE --spacing R [--angles K] [--seeds M] [--out SWEEP.json]``: solve at
+  several weft angles (and seeds), print the ranked table (:mod:`core.sweep`)
 * ``info SURFACE``: domain, area and boundary length of a surface
 * ``examples``: the bundled example surfaces
 
@@ -117,8 +119,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--region", default=None, metavar="REGION.json",
                    help='cover only a region of the (u, v) domain: {"outer": [[u, v], ...], '
                         '"holes": [[[u, v], ...], ...]} (holes optional)')
-    f.add_argument("--angle", type=float, default=0.0, metavar="DEG",
-                   help="weft direction at the seed, degrees from the u direction (default 0)")
+    f.add_argument("--angle", type=_angle, default=0.0, metavar="DEG|auto",
+                   help="weft direction at the seed, degrees from the u direction (default 0); auto: the "
+                        "best of a sweep (see the sweep command, refined to a quarter degree), recorded in the result")
     f.add_argument("--paths", choices=("plane", "geodesic"), default="plane",
                    help="constrained paths: the paper's normal-section planes or geodesics (default plane)")
     f.add_argument("--solver", choices=solver_names("spring"), default=DEFAULT_SOLVER, help=solver_help("spring"))
@@ -159,6 +162,34 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--name", default=None, metavar="TEXT",
                    help="piece name in exported labels (default: the surface's name)")
 
+    w = sub.add_parser("sweep", help="solve at several weft angles (and seeds) and rank them: area beyond the "
+                                     "lock angle, then max shear, then boundary error")
+    w.add_argument("surface", metavar="SURFACE", help=_surface_help())
+    w.add_argument("--spacing", type=float, required=True, metavar="R", help="rest length of the weft springs")
+    w.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
+    w.add_argument("--material", default="woven", metavar="NAME", help="as for flatten (default woven)")
+    w.add_argument("--seed", default=None, metavar="U,V", help="the first seed (default as for flatten)")
+    w.add_argument("--face", type=int, default=None, metavar="N", help="as for flatten")
+    w.add_argument("--region", default=None, metavar="REGION.json", help="as for flatten")
+    w.add_argument("--angles", type=int, default=12, metavar="K",
+                   help="weft angles, evenly over a period (90 degrees when weft and warp are alike, else 180; "
+                        "default 12)")
+    w.add_argument("--seeds", type=int, default=1, metavar="M",
+                   help="seeds: the first, then points well inside the piece, far apart (default 1)")
+    w.add_argument("--refine", action="store_true", help="narrow the best angle down to a quarter degree")
+    w.add_argument("--lock-angle", type=float, default=30.0, metavar="DEG",
+                   help="shear lock angle of the cloth (default 30)")
+    w.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="solves at once, in worker processes (default: the number of cores, at most 4)")
+    w.add_argument("--paths", choices=("plane", "geodesic"), default="plane", help="as for flatten")
+    w.add_argument("--solver", choices=solver_names("spring"), default=DEFAULT_SOLVER, help=solver_help("spring"))
+    w.add_argument("--tol", type=float, default=1e-9, metavar="T", help="as for flatten")
+    w.add_argument("--max-iter", type=int, default=1000, metavar="N", help="as for flatten")
+    w.add_argument("--plane-dart", action="append", default=[], metavar="A,B,C,D[:BOX]", help="as for flatten")
+    w.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json", help="as for flatten")
+    w.add_argument("--out", metavar="SWEEP.json", help="write the ranked rows as JSON")
+    w.add_argument("--quiet", action="store_true", help="no table on stdout")
+
     i = sub.add_parser("info", help="domain, area and boundary length of a surface; the faces of a CAD file")
     i.add_argument("surface", metavar="SURFACE", help=_surface_help())
     i.add_argument("--json", action="store_true",
@@ -166,6 +197,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("examples", help="list the bundled example surfaces")
     return p
+
+
+def _angle(text: str):
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is neither a number of degrees nor 'auto'") from None
+    return value
 
 
 def _yarns(args) -> tuple:
@@ -234,17 +275,33 @@ def _cmd_flatten(args) -> int:
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
-        seed=seed, angle_deg=args.angle, paths=args.paths, solver=args.solver,
+        seed=seed, angle_deg=0.0 if args.angle == "auto" else args.angle, paths=args.paths, solver=args.solver,
         tol=args.tol, max_iter=args.max_iter,
         max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"),
         yarns=_yarns(args), darts=_darts(args, surface), max_nodes=args.max_nodes, region=region)
     initial = None
     if args.warm_start:
+        if args.angle == "auto":
+            raise SettingsError("--angle auto drapes anew at each angle; it cannot warm-start (drop --warm-start)")
         initial = state_from_dict(_read_json(args.warm_start), surface, settings)
+    swept = None
+    if args.angle == "auto":
+        import dataclasses
+
+        from core.sweep import sweep
+
+        swept = sweep(surface, settings, refine=True, area=cover.area if cover.trimmed else None,
+                      seeds=1)
+        settings = dataclasses.replace(settings, angle_deg=swept.best["angle_deg"])
+        if not args.quiet:
+            print(f"angle auto: {swept.best['angle_deg']:.4g} deg, the best of {len(swept.rows)} solves "
+                  f"({swept.seconds:.1f} s)", file=sys.stderr)
     result = flatten(surface, settings, initial=initial, area=cover.area if cover.trimmed else region_area(surface),
                      callback=None if args.quiet else _Progress())
     if out is not None:
         doc = result_to_dict(result, source)
+        if swept is not None:
+            doc["sweep"] = swept.to_dict()
         if opened.cad is not None:  # which face of which file, in which units
             doc["settings"]["face"] = opened.face
             doc["settings"]["units"] = opened.cad.units
@@ -350,6 +407,49 @@ def _read_json(path: str, what: str = "result") -> dict:
         raise SettingsError(f"{path} is not a JSON {what} file: {exc}") from None
 
 
+def _cmd_sweep(args) -> int:
+    from core.fileio import write_json
+    from core.mesh import parse_material
+    from core.pipeline import FlattenSettings
+    from core.region import cover_for
+    from core.sweep import sweep
+
+    out = Path(args.out) if args.out else None
+    if out is not None and out.parent and not out.parent.exists():
+        raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    if args.workers is not None and args.workers < 1:
+        raise SettingsError(f"--workers must be 1 or more, got {args.workers}")
+    opened = resolve_piece(args)
+    surface, region = opened.surface, opened.region
+    cover = cover_for(surface, region)
+    seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
+    settings = FlattenSettings(
+        spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material), seed=seed,
+        paths=args.paths, solver=args.solver, tol=args.tol, max_iter=args.max_iter,
+        darts=_darts(args, surface), region=region)
+    if not (0 < args.lock_angle < 90):
+        raise SettingsError(f"--lock-angle must be between 0 and 90 degrees, got {args.lock_angle:g}")
+    result = sweep(surface, settings, angles=args.angles, seeds=args.seeds, lock_deg=args.lock_angle,
+                   refine=args.refine, workers=args.workers, area=cover.area if cover.trimmed else None)
+    if out is not None:
+        write_json(out, result.to_dict())
+    if not args.quiet:
+        print(f"{'rank':>4} {'angle':>7} {'seed':>13} {'beyond lock %':>13} {'max shear':>9} "
+              f"{'boundary %':>10} {'area %':>7} {'nodes':>6}")
+        for k, r in enumerate(result.rows, 1):
+            seed_text = f"{r['seed'][0]:.3f},{r['seed'][1]:.3f}"
+            if r.get("error"):
+                print(f"{k:>4} {r['angle_deg']:>7.2f} {seed_text:>13}  failed: {r['error']}")
+                continue
+            print(f"{k:>4} {r['angle_deg']:>7.2f} {seed_text:>13} {r['area_beyond_lock_pct']:>13.3f} "
+                  f"{r['max_shear_deg']:>9.3f} {r['boundary_error_pct']:>10.3f} {r['area_error_pct']:>7.3f} "
+                  f"{r['nodes']:>6}")
+    print(f"best: weft angle {result.best['angle_deg']:.4g} deg, seed {result.best['seed'][0]:.4g},"
+          f"{result.best['seed'][1]:.4g} ({len(result.rows)} solves, {result.seconds:.1f} s)"
+          + (f" -> {out}" if out else ""), file=sys.stderr)
+    return 0
+
+
 def _cmd_info(args) -> int:
     import json
 
@@ -399,7 +499,7 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    handler = {"flatten": _cmd_flatten, "info": _cmd_info, "examples": _cmd_examples}[args.command]
+    handler = {"flatten": _cmd_flatten, "sweep": _cmd_sweep, "info": _cmd_info, "examples": _cmd_examples}[args.command]
     try:
         return handler(args)
     except FlatweaveError as exc:
