@@ -144,6 +144,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cut a plane dart: the plane A x + B y + C z + D = 0 inside the box (repeatable)")
     f.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json",
                    help="cut a curve dart: a 3D polyline and a view direction (see README; repeatable)")
+    f.add_argument("--auto-darts", type=int, default=0, metavar="N",
+                   help="after the solve, add up to N suggested darts (each the one that lowers the energy most, "
+                        "from the edge inwards; stops when none lowers it by 3 %% more), listed in the result's "
+                        "darts with \"auto\": true")
     f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
                    help="refuse meshes estimated larger than N nodes, or than the available memory holds "
                         "(default 2,000,000)")
@@ -296,12 +300,31 @@ def _cmd_flatten(args) -> int:
         if not args.quiet:
             print(f"angle auto: {swept.best['angle_deg']:.4g} deg, the best of {len(swept.rows)} solves "
                   f"({swept.seconds:.1f} s)", file=sys.stderr)
+    if args.auto_darts < 0:
+        raise SettingsError(f"--auto-darts must be 0 or more, got {args.auto_darts}")
     result = flatten(surface, settings, initial=initial, area=cover.area if cover.trimmed else region_area(surface),
                      callback=None if args.quiet else _Progress())
+    suggested = []
+    if args.auto_darts:
+        from core.autodarts import suggest_darts
+
+        suggested = suggest_darts(result, count=args.auto_darts)
+        if suggested:
+            result = suggested[-1].result
+        if not args.quiet:
+            for p in suggested:
+                print(f"suggested {p.dart.name}: energy -{100 * p.gain:.1f} %, boundary error "
+                      f"{p.metrics['boundary_error_pct']:.3f} %, area error {p.metrics['area_error_pct']:.3f} %",
+                      file=sys.stderr)
+            if len(suggested) < args.auto_darts:
+                print(f"{len(suggested)} of {args.auto_darts} suggested darts: no further dart lowers the energy "
+                      f"by 3 % or more", file=sys.stderr)
     if out is not None:
         doc = result_to_dict(result, source)
         if swept is not None:
             doc["sweep"] = swept.to_dict()
+        if args.auto_darts:
+            doc["suggested_darts"] = [p.to_dict() for p in suggested]
         if opened.cad is not None:  # which face of which file, in which units
             doc["settings"]["face"] = opened.face
             doc["settings"]["units"] = opened.cad.units
@@ -353,7 +376,8 @@ def _cmd_flatten_planar(args, out: Path) -> int:
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
         ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
         ("--region", args.region, None), ("--face", args.face, None),
-        ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None)) if value != default]
+        ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None),
+        ("--auto-darts", args.auto_darts, 0)) if value != default]
     if unused:
         raise SettingsError(f"--method planar does not use {', '.join(unused)}")
     solvers = solver_entry("planar").solver_map  # --solver name -> the planar method's minimiser

@@ -568,7 +568,7 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
     }
 
 
-_OPENING_DART_KEYS = ("kind", "name", "plane", "box")  # a result's dart openings: no curve points
+_OPENING_DART_KEYS = ("kind", "name", "plane", "box", "auto")  # a result's dart openings: no curve points
 
 
 def _darts_dict(result: FlattenResult) -> list[dict]:

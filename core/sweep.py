@@ -165,10 +165,11 @@ class _Runner:
     def __init__(self, workers: int):
         self.pool = ProcessPoolExecutor(workers, mp_context=_context()) if workers > 1 else None
 
-    def map(self, jobs):
+    def map(self, jobs, fn=None):
+        fn = fn or _solve_row
         if self.pool is None:
-            return [_solve_row(j) for j in jobs]
-        return list(self.pool.map(_solve_row, jobs))
+            return [fn(j) for j in jobs]
+        return list(self.pool.map(fn, jobs))
 
     def close(self):
         if self.pool is not None:
