@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 
 from core.darts import DartSet
 from core.mesh import DIAG, SpringMesh
-from core.metrics import cell_shear_deg, spring_strain
+from core.metrics import area_beyond_lock_pct, cell_areas, cell_shear_deg, spring_strain
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern
 from core.pipeline import FlattenResult, FlattenSettings
@@ -162,7 +162,8 @@ class FrameMaker:
         thread = mesh.kind != DIAG
         stats = {"nodes": mesh.n_nodes, "springs": mesh.n_springs,
                  "max_thread_strain_pct": float(100 * np.abs(strain[thread]).max(initial=0.0)),
-                 "max_shear_deg": float(np.abs(shear).max(initial=0.0))}
+                 "max_shear_deg": float(np.abs(shear).max(initial=0.0)),
+                 "area_beyond_lock_pct": area_beyond_lock_pct(shear, cell_areas(xyz, mesh), mesh.material.lock_deg)}
         if pattern is not None:
             stats["boundary_error_pct"] = 100 * abs(pattern.perimeter - self.L3) / self.L3
             stats["area_error_pct"] = 100 * abs(pattern.area - self.A3) / self.A3
@@ -184,7 +185,7 @@ class FrameMaker:
                            final=True, status=str(m.get("solver_status", "")))
         # the result's own metrics are the reference (computed once, by the pipeline)
         for key in ("boundary_error_pct", "area_error_pct", "max_thread_strain_pct", "max_shear_deg",
-                    "uncovered_pct"):
+                    "area_beyond_lock_pct", "uncovered_pct"):
             if key in m:
                 frame.stats[key] = float(m[key])
         return frame

@@ -107,7 +107,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="rest length of the weft springs (and of the warp springs unless --spacing-warp)")
     f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
     f.add_argument("--material", default="woven", metavar="NAME",
-                   help="woven (500:500:1), isotropic (100:100:100) or a ratio WEFT:WARP:DIAG (default woven)")
+                   help="woven (500:500:1), isotropic (100:100:50), paper-isotropic (the paper's 100:100:100) "
+                        "or a ratio WEFT:WARP:DIAG (default woven)")
+    f.add_argument("--shear-angles", default=None, metavar="WARN,LOCK",
+                   help="the material's shear warning and lock angles, degrees (default the preset's, 15,30)")
     f.add_argument("--seed", default=None, metavar="U,V",
                    help="seed point as fractions of the parameter domain (default 0.5,0.5; on a trimmed "
                         "piece the point farthest from its edge)")
@@ -233,7 +236,7 @@ def _cmd_flatten(args) -> int:
         _check_face_size(opened, args.spacing)
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
-        spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
+        spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args),
         seed=seed, angle_deg=args.angle, paths=args.paths, solver=args.solver,
         tol=args.tol, max_iter=args.max_iter,
         max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"),
@@ -255,7 +258,8 @@ def _cmd_flatten(args) -> int:
         print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
               f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
-              f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
+              f"{m['area_beyond_lock_pct']:.3g} % of the area beyond the lock angle "
+              f"({result.settings.material.lock_deg:g} deg), {m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
     _print_warnings(result.warnings)
     return 0
@@ -279,6 +283,22 @@ def _check_face_size(opened, spacing: float) -> None:
                             f"or another face")
 
 
+def _material(args):
+    """The --material, with the --shear-angles given."""
+    from dataclasses import replace
+
+    from core.mesh import parse_material
+
+    material = parse_material(args.material)
+    if args.shear_angles is None:
+        return material
+    try:
+        warn, lock = (float(x) for x in args.shear_angles.split(","))
+    except ValueError:
+        raise SettingsError(f"--shear-angles must be two numbers WARN,LOCK in degrees, got {args.shear_angles!r}") from None
+    return replace(material, warn_deg=warn, lock_deg=lock)
+
+
 def _print_warnings(warnings) -> None:
     """Each warning as ``flatweave: warning: ...`` on stderr, even with --quiet
     (warnings are about the result, not progress); the exit status stays 0."""
@@ -294,6 +314,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
 
     unused = [name for name, value, default in (
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
+        ("--shear-angles", args.shear_angles, None),
         ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
         ("--region", args.region, None), ("--face", args.face, None),
         ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None)) if value != default]
