@@ -312,7 +312,8 @@ class MetricsPanel(QWidget):
     shear angles) is coloured against it."""
 
     ROWS = (("energy", "Energy EN"), ("boundary", "Boundary error"), ("area", "Area error"),
-            ("shear", "Max shear"), ("beyond_lock", "Beyond lock angle"), ("thread", "Max thread strain"), ("uncovered", "Uncovered"),
+            ("shear", "Max shear"), ("beyond_lock", "Beyond lock angle"), ("thread", "Max thread strain"),
+            ("uncovered", "Uncovered"),
             ("size", "Pattern size"), ("nodes", "Nodes / springs"), ("iterations", "Iterations"),
             ("status", "Status"), ("warnings", "Warnings"))
     LIMITED = (("boundary", "boundary_error_pct"), ("area", "area_error_pct"), ("shear", "max_shear_deg"),

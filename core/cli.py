@@ -199,7 +199,6 @@ def _darts(args, surface) -> tuple:
 
 def _cmd_flatten(args) -> int:
     from core.fileio import write_json
-    from core.mesh import parse_material
     from core.pipeline import FlattenSettings, flatten, result_to_dict, state_from_dict
     from core.quadrature import region_area
 
@@ -259,7 +258,8 @@ def _cmd_flatten(args) -> int:
               f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
               f"{m['area_beyond_lock_pct']:.3g} % of the area beyond the lock angle "
-              f"({result.settings.material.lock_deg:g} deg), {m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
+              f"({result.settings.material.lock_deg:g} deg), "
+              f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
     _print_warnings(result.warnings)
     return 0
@@ -295,7 +295,8 @@ def _material(args):
     try:
         warn, lock = (float(x) for x in args.shear_angles.split(","))
     except ValueError:
-        raise SettingsError(f"--shear-angles must be two numbers WARN,LOCK in degrees, got {args.shear_angles!r}") from None
+        raise SettingsError(f"--shear-angles must be two numbers WARN,LOCK in degrees, "
+                            f"got {args.shear_angles!r}") from None
     return replace(material, warn_deg=warn, lock_deg=lock)
 
 

@@ -83,7 +83,7 @@ def _polydata(result, n_lines: int, n_polys: int, cell_data: list, scalars: str,
 
 def vtp_surface_text(result) -> str:
     """The draped surface: nodes and lattice quads with their shear, as VTK XML PolyData."""
-    mesh, xyz = result.mesh, np.asarray(result.xyz, dtype=float)
+    mesh = result.mesh
     c = len(mesh.cells)
     f = result_fibres(result)
     data = [_array("shear_deg", f.shear_deg, "Float64"),
