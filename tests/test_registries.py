@@ -176,7 +176,7 @@ def test_a_reader_must_return_a_surface_or_opened(tmp_path):
 
 # ---------------------------------------------------------------------- the exporter registry
 def test_formats_is_a_read_only_view_of_the_registry():
-    assert list(FORMATS) == [".dxf", ".svg", ".pdf", ".vtp", ".obj"]
+    assert list(FORMATS) == [".dxf", ".svg", ".pdf", ".vtp", ".obj", ".csv"]
     assert FORMATS[".dxf"] == exporter_for(".DXF").description
     with pytest.raises(TypeError):
         FORMATS[".x"] = "y"  # type: ignore[index]

@@ -284,7 +284,7 @@ register_exporter(".svg", _svg, "SVG at true size (mm)", needs_sheet=True)
 register_exporter(".pdf", _pdf, "PDF, tiled 1:1 with overview and assembly map", needs_sheet=True)
 register_exporter(".vtp", _vtp, "VTK PolyData: draped mesh and cell shear, springs and their strain beside it",
                   needs_sheet=False, companions=_vtp_files)
-register_exporter(".csv", _csv, "CSV of fibre angles per cell: centre, (u, v), weft and warp directions, "
-                  "deviation from the rosette, shear", needs_sheet=False)
 register_exporter(".obj", _obj, "Wavefront OBJ: surface mesh, pattern as texture coordinates",
                   needs_sheet=False, companions=_obj_files)
+register_exporter(".csv", _csv, "CSV of fibre angles per cell: centre, (u, v), weft and warp directions, "
+                  "deviation from the rosette, shear", needs_sheet=False)
