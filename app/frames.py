@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 
 from core.darts import DartSet
 from core.mesh import DIAG, SpringMesh
+from core.fibres import cell_fibres, reference_direction
 from core.metrics import area_beyond_lock_pct, cell_areas, cell_shear_deg, spring_strain
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern
@@ -50,6 +51,8 @@ class Frame:
     final : this is a finished result (not a live snapshot)
     draping (property) : a frame of the drape (the mesh being laid; no energy yet)
     status : the solver's message (final frames)
+    fibre : (c,) the weft's signed deviation from the rosette per cell, degrees
+        (:mod:`core.fibres`; NaN where the rosette does not reach)
     """
 
     topology: int
@@ -70,6 +73,7 @@ class Frame:
     stats: dict = field(default_factory=dict)
     final: bool = False
     status: str = ""
+    fibre: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def draping(self) -> bool:
@@ -94,6 +98,7 @@ class FrameMaker:
         self._boundary = _EMPTY
         self._xy = np.zeros((0, 2))
         self._dart_nodes = (_EMPTY, _EMPTY)
+        self._rosette = None
 
     # ------------------------------------------------------------------ cached
     @property
@@ -168,9 +173,12 @@ class FrameMaker:
             stats["boundary_error_pct"] = 100 * abs(pattern.perimeter - self.L3) / self.L3
             stats["area_error_pct"] = 100 * abs(pattern.area - self.A3) / self.A3
         pos, neg = self._dart_nodes
+        if self._rosette is None:
+            self._rosette = reference_direction(self.surface, self.settings)
+        fibre = cell_fibres(xyz, uv, mesh, self._rosette).deviation_deg
         return Frame(topology, mesh, uv, xyz, self._xy, strain, shear, self._boundary, pos, neg,
                      self.dart_curves(), pattern, int(iteration), float(energy), float(seconds), stats,
-                     final, status)
+                     final, status, fibre)
 
     def from_snapshot(self, snap, pattern: Pattern | None = None) -> Frame:
         """A live frame from a :class:`core.solver.Snapshot`."""

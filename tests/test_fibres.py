@@ -224,3 +224,33 @@ def test_bad_material_angles_are_refused():
     for w, lock in ((30.0, 15.0), (0.0, 10.0), (10.0, 95.0), (float("nan"), 30.0)):
         with pytest.raises(SettingsError, match="shear angles"):
             FlattenSettings(0.1, material=replace(MATERIALS["woven"], warn_deg=w, lock_deg=lock))
+
+
+# ---------------------------------------------------------------- the window's map
+def test_the_windows_fibre_map_is_the_csvs_deviation(make_window, qtbot, tmp_path):
+    from app.colours import ramp
+    from app.viewbase import SCALE_TITLES, fibre_stops
+    from tests.test_app_run import run_to_end, small_project
+
+    win = make_window(small_project(0.1, angle_deg=30.0))
+    run_to_end(qtbot, win)
+    r = win.project.result
+    head, table = read_csv(export(r, tmp_path / "p.csv"))
+    dev = table[:, list(head).index("deviation_deg")]
+    assert np.nanmax(np.abs(dev)) > 1.0  # the octant's threads turn from the rosette
+    win.actions["mode_fibre"].trigger()
+    for view in (win.view, win.pattern_view):
+        layer = view.layer
+        assert layer.cell_actor.GetVisibility() and not any(a.GetVisibility() for a in layer.spring_actors)
+        shown = np.asarray(layer.cells.cell_data["value"])
+        np.testing.assert_allclose(shown, dev, atol=1e-9)
+        # the colours on screen are the scale's: green along the rosette, red and blue its two sides
+        stops = fibre_stops(layer.frame)
+        np.testing.assert_allclose(layer.fibre_scale.map(shown), 255 * ramp(shown, stops), atol=1.01)
+        assert stops[0][0] == pytest.approx(-np.nanmax(np.abs(dev)))
+    assert [t for t, _ in win.view.colour_bars] == [SCALE_TITLES["fibre"]]
+    cell = int(np.nanargmax(np.abs(dev)))
+    assert f"fibre angle {dev[cell]:+.2f} deg" in win.view.layer.describe(win.view.layer.cell_actor, cell)
+    # back to shear: the same cells show |shear| again
+    win.actions["mode_shear"].trigger()
+    np.testing.assert_allclose(win.view.layer.cells.cell_data["value"], np.abs(table[:, -1]), atol=1e-9)
