@@ -175,7 +175,7 @@ class FrameMaker:
         pos, neg = self._dart_nodes
         if self._rosette is None:
             self._rosette = reference_direction(self.surface, self.settings)
-        fibre = cell_fibres(xyz, uv, mesh, self._rosette).deviation_deg
+        fibre = cell_fibres(xyz, uv, mesh, self._rosette, shear_deg=shear).deviation_deg
         return Frame(topology, mesh, uv, xyz, self._xy, strain, shear, self._boundary, pos, neg,
                      self.dart_curves(), pattern, int(iteration), float(energy), float(seconds), stats,
                      final, status, fibre)

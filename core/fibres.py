@@ -60,9 +60,11 @@ def _signed_deg(ref: np.ndarray, d: np.ndarray, n: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(rowdot(np.cross(ref, d), n), rowdot(ref, d)))
 
 
-def cell_fibres(xyz: np.ndarray, uv: np.ndarray, mesh: SpringMesh, reference: np.ndarray) -> FibreAngles:
+def cell_fibres(xyz: np.ndarray, uv: np.ndarray, mesh: SpringMesh, reference: np.ndarray,
+                shear_deg: np.ndarray | None = None) -> FibreAngles:
     """The fibre angles of every cell of ``mesh`` with nodes at ``xyz`` (n, 3),
-    ``uv`` (n, 2), against the rosette direction ``reference`` (3,)."""
+    ``uv`` (n, 2), against the rosette direction ``reference`` (3,);
+    ``shear_deg``, when the caller has it, is :func:`cell_shear_deg`'s."""
     xyz, uv = np.asarray(xyz, dtype=float), np.asarray(uv, dtype=float)
     cells = np.asarray(mesh.cells, dtype=np.int64).reshape(-1, 4)
     p0, p1, p2, p3 = (xyz[cells[:, k]] for k in range(4))
@@ -85,7 +87,8 @@ def cell_fibres(xyz: np.ndarray, uv: np.ndarray, mesh: SpringMesh, reference: np
         centre=0.25 * (p0 + p1 + p2 + p3),
         uv=0.25 * sum(uv[cells[:, k]] for k in range(4)) if len(cells) else np.zeros((0, 2)),
         weft=weft, warp=warp, normal=normal, reference=proj,
-        deviation_deg=dev, warp_deviation_deg=wdev, shear_deg=cell_shear_deg(xyz, mesh))
+        deviation_deg=dev, warp_deviation_deg=wdev,
+        shear_deg=cell_shear_deg(xyz, mesh) if shear_deg is None else np.asarray(shear_deg, dtype=float))
 
 
 def reference_direction(surface, settings) -> np.ndarray:
