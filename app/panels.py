@@ -241,7 +241,8 @@ class SettingsPanel(QWidget):
         if key == "custom":
             current = self._project.settings.material if self._project else MATERIALS["woven"]
             self._settings("Material", material=Material(f"custom {current.ratio}", current.k_weft,
-                                                          current.k_warp, current.k_diag))
+                                                          current.k_warp, current.k_diag,
+                                                          current.warn_deg, current.lock_deg))
         else:
             self._settings("Material", material=MATERIALS[key])
 
@@ -260,8 +261,10 @@ class SettingsPanel(QWidget):
         if material.name in MATERIALS:  # a preset's name typed in
             self._settings("Material", material=material)
         else:
+            current = self._project.settings.material  # a new ratio keeps the cloth's shear angles
             self._settings("Material", material=Material(f"custom {material.ratio}", material.k_weft,
-                                                          material.k_warp, material.k_diag))
+                                                          material.k_warp, material.k_diag,
+                                                          current.warn_deg, current.lock_deg))
 
     # ------------------------------------------------------------------ showing a project
     def set_project(self, project: Project) -> None:
