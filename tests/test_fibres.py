@@ -232,7 +232,10 @@ def test_the_windows_fibre_map_is_the_csvs_deviation(make_window, qtbot, tmp_pat
     from app.viewbase import SCALE_TITLES, fibre_stops
     from tests.test_app_run import run_to_end, small_project
 
-    win = make_window(small_project(0.1, angle_deg=30.0))
+    from app.panels import metric_colour
+
+    tight = replace(MATERIALS["woven"], warn_deg=2.0, lock_deg=5.0)  # so that some cloth passes the lock
+    win = make_window(small_project(0.1, angle_deg=30.0, material=tight))
     run_to_end(qtbot, win)
     r = win.project.result
     head, table = read_csv(export(r, tmp_path / "p.csv"))
@@ -251,6 +254,12 @@ def test_the_windows_fibre_map_is_the_csvs_deviation(make_window, qtbot, tmp_pat
     assert [t for t, _ in win.view.colour_bars] == [SCALE_TITLES["fibre"]]
     cell = int(np.nanargmax(np.abs(dev)))
     assert f"fibre angle {dev[cell]:+.2f} deg" in win.view.layer.describe(win.view.layer.cell_actor, cell)
+    # the metrics panel reports the result's lock share, against the material's lock angle
+    pct = r.metrics["area_beyond_lock_pct"]
+    assert pct > 0.5
+    assert win.metrics.text("beyond_lock") == f"{pct:.2f} % of the area (lock 5 deg)"
+    colour = metric_colour(pct, metric_limits(tight)["area_beyond_lock_pct"])
+    assert colour in win.metrics.labels["beyond_lock"].styleSheet() and colour != "#207020"
     # back to shear: the same cells show |shear| again
     win.actions["mode_shear"].trigger()
     np.testing.assert_allclose(win.view.layer.cells.cell_data["value"], np.abs(table[:, -1]), atol=1e-9)
