@@ -11,7 +11,8 @@ A dart opens from the piece's edge inwards, where the cloth is most strained.
    middle of the piece), cut at a few fractions of the way there.
 3. **Re-solve.** Each candidate is added to the piece's darts and solved from
    the current nodes (a warm start, as after a dart drawn in the window), in
-   worker processes. The candidate with the lowest energy wins; a shorter one
+   worker processes. Of the candidates that lower both the boundary and the
+   area error (all of them if none does), the one with the lowest energy wins; a shorter one
    at the same site wins instead when it gives at least ``short_share`` of
    the longest's fall in energy (as short as does the job).
 4. Stop when the best lowers the energy by less than ``min_gain`` of it, or
@@ -110,16 +111,8 @@ def _solve(job):
         return str(exc)
 
 
-def _metrics(result, lock_deg: float) -> dict:
-    m = dict(result.metrics)
-    if "area_beyond_lock_pct" not in m:
-        from core.sweep import area_beyond_lock_pct
-        m["area_beyond_lock_pct"] = area_beyond_lock_pct(result, lock_deg)
-    return m
-
-
 def suggest_darts(result, count: int = 1, sites: int = 4, lengths=LENGTHS, min_gain: float = 0.03,
-                  short_share: float = 0.95, lock_deg: float = 30.0, workers: int | None = None,
+                  short_share: float = 0.95, workers: int | None = None,
                   progress=None) -> list[Proposal]:
     """Up to ``count`` darts, each the best of its round (module docstring),
     each :class:`Proposal` re-solved with the darts before it."""
@@ -152,6 +145,11 @@ def suggest_darts(result, count: int = 1, sites: int = 4, lengths=LENGTHS, min_g
             if not ok:
                 break
             e0 = float(current.metrics["energy"])
+            # a dart that makes the pattern's outline or area worse is no help to the cutter
+            m0 = current.metrics
+            better = [c for c in ok if c[2].metrics["boundary_error_pct"] <= m0["boundary_error_pct"]
+                      and c[2].metrics["area_error_pct"] <= m0["area_error_pct"]]
+            ok = better or ok
             best_s, best_d, best_r = min(ok, key=lambda x: x[2].metrics["energy"])
             # the shortest at the best site that does most of the job
             gain = e0 - best_r.metrics["energy"]
@@ -161,7 +159,7 @@ def suggest_darts(result, count: int = 1, sites: int = 4, lengths=LENGTHS, min_g
                     break
             if (e0 - best_r.metrics["energy"]) < min_gain * e0:
                 break
-            proposals.append(Proposal(best_d, _metrics(best_r, lock_deg), e0, best_r))
+            proposals.append(Proposal(best_d, dict(best_r.metrics), e0, best_r))
             current = best_r
     finally:
         runner.close()

@@ -109,7 +109,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="rest length of the weft springs (and of the warp springs unless --spacing-warp)")
     f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
     f.add_argument("--material", default="woven", metavar="NAME",
-                   help="woven (500:500:1), isotropic (100:100:100) or a ratio WEFT:WARP:DIAG (default woven)")
+                   help="woven (500:500:1), isotropic (100:100:50), paper-isotropic (the paper's 100:100:100) "
+                        "or a ratio WEFT:WARP:DIAG (default woven)")
+    f.add_argument("--shear-angles", default=None, metavar="WARN,LOCK",
+                   help="the material's shear warning and lock angles, degrees (default the preset's, 15,30)")
     f.add_argument("--seed", default=None, metavar="U,V",
                    help="seed point as fractions of the parameter domain (default 0.5,0.5; on a trimmed "
                         "piece the point farthest from its edge)")
@@ -181,8 +184,8 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--seeds", type=int, default=1, metavar="M",
                    help="seeds: the first, then points well inside the piece, far apart (default 1)")
     w.add_argument("--refine", action="store_true", help="narrow the best angle down to a quarter degree")
-    w.add_argument("--lock-angle", type=float, default=30.0, metavar="DEG",
-                   help="shear lock angle of the cloth (default 30)")
+    w.add_argument("--lock-angle", type=float, default=None, metavar="DEG",
+                   help="shear lock angle of the cloth (default the material's, 30 for the presets)")
     w.add_argument("--workers", type=int, default=None, metavar="N",
                    help="solves at once, in worker processes (default: the number of cores, at most 4)")
     w.add_argument("--paths", choices=("plane", "geodesic"), default="plane", help="as for flatten")
@@ -241,7 +244,6 @@ def _darts(args, surface) -> tuple:
 
 def _cmd_flatten(args) -> int:
     from core.fileio import write_json
-    from core.mesh import parse_material
     from core.pipeline import FlattenSettings, flatten, result_to_dict, state_from_dict
     from core.quadrature import region_area
 
@@ -278,7 +280,7 @@ def _cmd_flatten(args) -> int:
         _check_face_size(opened, args.spacing)
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
-        spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
+        spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args),
         seed=seed, angle_deg=0.0 if args.angle == "auto" else args.angle, paths=args.paths, solver=args.solver,
         tol=args.tol, max_iter=args.max_iter,
         max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"),
@@ -335,6 +337,8 @@ def _cmd_flatten(args) -> int:
         print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
               f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
+              f"{m['area_beyond_lock_pct']:.3g} % of the area beyond the lock angle "
+              f"({result.settings.material.lock_deg:g} deg), "
               f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
     _print_warnings(result.warnings)
@@ -359,6 +363,23 @@ def _check_face_size(opened, spacing: float) -> None:
                             f"or another face")
 
 
+def _material(args):
+    """The --material, with the --shear-angles given."""
+    from dataclasses import replace
+
+    from core.mesh import parse_material
+
+    material = parse_material(args.material)
+    if getattr(args, "shear_angles", None) is None:
+        return material
+    try:
+        warn, lock = (float(x) for x in args.shear_angles.split(","))
+    except ValueError:
+        raise SettingsError(f"--shear-angles must be two numbers WARN,LOCK in degrees, "
+                            f"got {args.shear_angles!r}") from None
+    return replace(material, warn_deg=warn, lock_deg=lock)
+
+
 def _print_warnings(warnings) -> None:
     """Each warning as ``flatweave: warning: ...`` on stderr, even with --quiet
     (warnings are about the result, not progress); the exit status stays 0."""
@@ -374,6 +395,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
 
     unused = [name for name, value, default in (
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
+        ("--shear-angles", args.shear_angles, None),
         ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
         ("--region", args.region, None), ("--face", args.face, None),
         ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None),
@@ -433,7 +455,6 @@ def _read_json(path: str, what: str = "result") -> dict:
 
 def _cmd_sweep(args) -> int:
     from core.fileio import write_json
-    from core.mesh import parse_material
     from core.pipeline import FlattenSettings
     from core.region import cover_for
     from core.sweep import sweep
@@ -448,10 +469,10 @@ def _cmd_sweep(args) -> int:
     cover = cover_for(surface, region)
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
-        spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material), seed=seed,
+        spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args), seed=seed,
         paths=args.paths, solver=args.solver, tol=args.tol, max_iter=args.max_iter,
         darts=_darts(args, surface), region=region)
-    if not (0 < args.lock_angle < 90):
+    if args.lock_angle is not None and not (0 < args.lock_angle < 90):
         raise SettingsError(f"--lock-angle must be between 0 and 90 degrees, got {args.lock_angle:g}")
     result = sweep(surface, settings, angles=args.angles, seeds=args.seeds, lock_deg=args.lock_angle,
                    refine=args.refine, workers=args.workers, area=cover.area if cover.trimmed else None)

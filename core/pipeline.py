@@ -108,6 +108,10 @@ def validate_settings(s: FlattenSettings) -> None:
         raise SettingsError(f"material must be a Material, got {type(s.material).__name__}")
     for name in ("k_weft", "k_warp", "k_diag"):
         positive(f"material {name}", getattr(s.material, name))
+    w, lock = s.material.warn_deg, s.material.lock_deg
+    if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in (w, lock)) \
+            or not 0 < w < lock <= 90:
+        raise SettingsError(f"material shear angles must be 0 < warning < lock <= 90 degrees, got {w!r} and {lock!r}")
     seed = tuple(s.seed)
     if len(seed) != 2 or not all(isinstance(x, (int, float)) and 0 <= x <= 1 for x in seed):
         raise SettingsError(f"seed must be two fractions of the domain between 0 and 1, got {s.seed!r}")
@@ -254,10 +258,11 @@ def coverage_metrics(surface: NurbsSurface, xyz: np.ndarray, r_weft: float, r_wa
             "max_gap_spacings": float(d.max(initial=0.0) / max(r_weft, r_warp))}
 
 
-def warnings_for(result: "FlattenResult", warn_deg: float = 15.0, lock_deg: float = 30.0) -> tuple[str, ...]:
+def warnings_for(result: "FlattenResult", warn_deg: float | None = None,
+                 lock_deg: float | None = None) -> tuple[str, ...]:
     """The result's warnings (:func:`core.metrics.result_warnings`) against
     :func:`core.metrics.metric_limits` of its material and the shear angles
-    (the project's display settings; 15 and 30 degrees by default)."""
+    (the material's unless given: the window gives the project's display angles)."""
     return result_warnings(result.metrics, result.settings,
                            metric_limits(result.settings.material, warn_deg, lock_deg),
                            shear=(cell_shear_deg(result.xyz, result.mesh), cell_areas(result.xyz, result.mesh)))

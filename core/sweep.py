@@ -29,24 +29,13 @@ from core.errors import SettingsError
 from core.nurbs import NurbsSurface
 from core.region import cover_for
 
-__all__ = ["RANK_KEYS", "SweepResult", "angle_period", "sweep_seeds", "rank_rows", "sweep", "area_beyond_lock_pct"]
+__all__ = ["RANK_KEYS", "SweepResult", "angle_period", "sweep_seeds", "rank_rows", "sweep"]
 
 RANK_KEYS = ("area_beyond_lock_pct", "max_shear_deg", "boundary_error_pct")
 """What a sweep ranks by, most important first; smaller is better."""
 
 ROW_KEYS = RANK_KEYS + ("area_error_pct", "energy", "p95_shear_deg", "max_thread_strain_pct", "nodes",
                         "iterations", "uncovered_pct")
-
-
-def area_beyond_lock_pct(result, lock_deg: float) -> float:
-    """Percent of the cloth's area (sum of cell areas on the surface) in cells
-    whose shear angle exceeds ``lock_deg``."""
-    from core.metrics import cell_areas, cell_shear_deg
-
-    shear = np.abs(cell_shear_deg(result.xyz, result.mesh))
-    area = cell_areas(result.xyz, result.mesh)
-    total = float(area.sum())
-    return 100.0 * float(area[shear > lock_deg].sum()) / total if total > 0 else 0.0
 
 
 def angle_period(settings) -> float:
@@ -134,7 +123,7 @@ class SweepResult:
 
 
 def _solve_row(job) -> dict:
-    surface, settings, area, lock_deg = job
+    surface, settings, area = job
     from core.errors import FlatweaveError
     from core.pipeline import flatten
 
@@ -144,9 +133,7 @@ def _solve_row(job) -> dict:
     except FlatweaveError as exc:
         row["error"] = str(exc)
         return row
-    m = dict(result.metrics)
-    if "area_beyond_lock_pct" not in m:
-        m["area_beyond_lock_pct"] = area_beyond_lock_pct(result, lock_deg)
+    m = result.metrics
     for k in ROW_KEYS:
         if k in m:
             row[k] = float(m[k]) if not isinstance(m[k], int) else int(m[k])
@@ -181,14 +168,15 @@ def _wrap(angle: float, period: float) -> float:
     return a + period if a < 0 else a
 
 
-def sweep(surface: NurbsSurface, settings, angles: int = 12, seeds: int = 1, lock_deg: float = 30.0,
+def sweep(surface: NurbsSurface, settings, angles: int = 12, seeds: int = 1, lock_deg: float | None = None,
           refine: bool = False, resolution: float = 0.25, workers: int | None = None,
           area: float | None = None, progress=None) -> SweepResult:
     """Solve ``settings`` at ``angles`` weft angles over one period (starting
     at ``settings.angle_deg``) times ``seeds`` seeds, rank the rows; with
     ``refine``, halve the angle step around the best row's angle (its seed
-    kept) while the step is at least ``resolution``. ``progress(done, total)``
-    is called after each batch."""
+    kept) while the step is at least ``resolution``. ``lock_deg`` replaces the
+    material's lock angle (None: the material's). ``progress(done, total)`` is
+    called after each batch."""
     import time
 
     if not (isinstance(angles, int) and angles >= 1):
@@ -198,6 +186,11 @@ def sweep(surface: NurbsSurface, settings, angles: int = 12, seeds: int = 1, loc
     if not (resolution > 0):
         raise SettingsError(f"sweep resolution must be positive, got {resolution!r}")
     t0 = time.perf_counter()
+    if lock_deg is not None:
+        m = settings.material  # the warning angle does not rank; it must stay below the lock
+        settings = replace(settings, material=replace(m, lock_deg=float(lock_deg),
+                                                      warn_deg=min(m.warn_deg, 0.5 * float(lock_deg))))
+    lock_deg = settings.material.lock_deg
     period = angle_period(settings)
     step = period / angles
     seed_list = sweep_seeds(surface, settings.region, seeds, settings.seed)
@@ -205,7 +198,7 @@ def sweep(surface: NurbsSurface, settings, angles: int = 12, seeds: int = 1, loc
         workers = max(1, min(os.cpu_count() or 1, 4))
 
     def jobs(pairs):
-        return [(surface, replace(settings, angle_deg=round(a, 9), seed=s), area, lock_deg) for a, s in pairs]
+        return [(surface, replace(settings, angle_deg=round(a, 9), seed=s), area) for a, s in pairs]
 
     pairs = [(_wrap(settings.angle_deg + k * step, period), s) for s in seed_list for k in range(angles)]
     runner = _Runner(min(workers, len(pairs)))

@@ -240,8 +240,8 @@ def test_menus_and_toolbar_come_from_the_actions_table(window):
 def test_actions_follow_the_state(make_window):
     win = make_window(example=None)
     enabled = {key for key, a in win.actions.items() if a.isEnabled()}
-    assert enabled == {"open", "quit", "mode_strain", "mode_shear", "show_weft", "show_warp", "show_diag",
-                       "show_surface", "show_nodes"}
+    assert enabled == {"open", "quit", "mode_strain", "mode_shear", "mode_fibre", "show_weft", "show_warp",
+                       "show_diag", "show_surface", "show_nodes"}
     assert not win.settings_panel.isEnabled() and not win.dart_panel.isEnabled()
     assert win.open_example("octant")
     enabled = {key for key, a in win.actions.items() if a.isEnabled()}

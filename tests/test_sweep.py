@@ -10,7 +10,7 @@ from core.examples import load_example
 from core.mesh import MATERIALS, parse_material
 from core.pipeline import FlattenSettings, flatten
 from core.region import Region, cover_for
-from core.sweep import angle_period, area_beyond_lock_pct, rank_rows, sweep, sweep_seeds
+from core.sweep import angle_period, rank_rows, sweep, sweep_seeds
 
 
 def _surface(name):
@@ -46,23 +46,20 @@ def test_rows_are_ranked_and_each_is_the_solve_it_names():
     direct = flatten(surface, FlattenSettings(spacing=0.2, angle_deg=row["angle_deg"]))
     for k in ("max_shear_deg", "boundary_error_pct", "energy"):
         assert row[k] == pytest.approx(direct.metrics[k], rel=1e-9)
-    assert row["area_beyond_lock_pct"] == pytest.approx(area_beyond_lock_pct(direct, 30.0))
+    assert row["area_beyond_lock_pct"] == pytest.approx(direct.metrics["area_beyond_lock_pct"])
     # serial and parallel runs agree
     one = sweep(surface, s, angles=4, workers=1)
     assert [r["angle_deg"] for r in one.rows] == [r["angle_deg"] for r in res.rows]
 
 
-def test_area_beyond_lock_counts_the_cells_past_it():
+def test_the_lock_angle_given_replaces_the_materials():
     surface = _surface("saddle")
-    r = flatten(surface, FlattenSettings(spacing=0.1))
-    from core.metrics import cell_areas, cell_shear_deg
-    shear = np.abs(cell_shear_deg(r.xyz, r.mesh))
-    assert area_beyond_lock_pct(r, 90.0) == 0.0
-    assert area_beyond_lock_pct(r, 0.0) == pytest.approx(100.0)
-    mid = float(np.median(shear))
-    a = cell_areas(r.xyz, r.mesh)
-    assert area_beyond_lock_pct(r, mid) == pytest.approx(100 * a[shear > mid].sum() / a.sum())
-    assert 20.0 < area_beyond_lock_pct(r, mid) < 80.0
+    s = FlattenSettings(spacing=0.2)
+    low = sweep(surface, s, angles=2, lock_deg=5.0, workers=1)
+    high = sweep(surface, s, angles=2, workers=1)
+    assert low.lock_deg == 5.0 and high.lock_deg == s.material.lock_deg == 30.0
+    assert all(r["area_beyond_lock_pct"] > 50.0 for r in low.rows)
+    assert all(r["area_beyond_lock_pct"] < 1.0 for r in high.rows)
 
 
 def test_seeds_lie_well_inside_and_apart():
