@@ -327,6 +327,21 @@ class MainWindow(QMainWindow):
             self._shown = True  # the views have their sizes only now: frame the surface again
             QTimer.singleShot(0, self.view.reset_camera)
 
+    def suggest_dialog(self):
+        """Tools > Suggest darts (:mod:`app.suggest`): one dialog at a time, non-modal."""
+        from app.suggest import SuggestDialog
+
+        if self.document is None:
+            return None
+        box = getattr(self, "suggest_box", None)
+        if box is not None and box.isVisible():
+            box.raise_()
+            return box
+        self.suggest_box = SuggestDialog(self)
+        self.suggest_box.show()
+        self.suggest_box.start()
+        return self.suggest_box
+
     def closeEvent(self, event) -> None:
         if self.confirm_close and self.document is not None and self.document.unsaved_work \
                 and not self.files.confirm_close():

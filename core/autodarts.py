@@ -141,7 +141,9 @@ def suggest_darts(result, count: int = 1, sites: int = 4, lengths=LENGTHS, min_g
             solved = runner.map(jobs, _solve)
             if progress is not None:
                 progress(k + 1, count)
-            ok = [(s, d, r) for (s, d), r in zip(cands, solved) if not isinstance(r, str)]
+            # a worker's result holds a copy of the surface: give it back the caller's own
+            ok = [(s, d, replace(r, surface=current.surface)) for (s, d), r in zip(cands, solved)
+                  if not isinstance(r, str)]
             if not ok:
                 break
             e0 = float(current.metrics["energy"])

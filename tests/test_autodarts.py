@@ -64,6 +64,7 @@ def test_two_suggested_darts_lower_them_further(suggested):
     assert two["energy"] < one["energy"]
     # the second was looked for with the first in place, and both are in its solve
     assert [d.name for d in suggested[1].result.settings.darts] == [p.dart.name for p in suggested]
+    assert all(p.result.surface is base.surface for p in suggested)  # not a worker's copy
 
 
 def test_a_suggested_dart_is_an_ordinary_dart(suggested, base):
