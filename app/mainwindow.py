@@ -342,6 +342,20 @@ class MainWindow(QMainWindow):
         self.suggest_box.start()
         return self.suggest_box
 
+    def sweep_dialog(self):
+        """Solve > Best orientation (:mod:`app.sweepdialog`): one dialog at a time, non-modal."""
+        from app.sweepdialog import SweepDialog
+
+        if self.document is None:
+            return None
+        box = getattr(self, "sweep_box", None)
+        if box is not None and box.isVisible():
+            box.raise_()
+            return box
+        self.sweep_box = SweepDialog(self)
+        self.sweep_box.show()
+        return self.sweep_box
+
     def closeEvent(self, event) -> None:
         if self.confirm_close and self.document is not None and self.document.unsaved_work \
                 and not self.files.confirm_close():

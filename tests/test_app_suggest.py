@@ -58,3 +58,36 @@ def test_suggest_needs_a_current_result(qtbot, make_window):
     box = win.suggest_dialog()
     assert "Solve first" in box.status.text() and box.list.count() == 0
     box.close()
+
+
+def test_best_orientation_table_plot_and_apply(qtbot, make_window):
+    from app.sweepdialog import COLUMNS
+    from core.pipeline import FlattenSettings
+
+    win = make_window(small_project(0.15))
+    win.settings_panel.auto_rerun.setChecked(False)
+    box = win.sweep_dialog()
+    box.angles.setValue(4)
+    box.go.click()
+    qtbot.waitUntil(lambda: not box.busy and box.table.rowCount() == 4, timeout=120000)
+    rows = box.result.rows
+    assert [box.table.item(i, 0).text() for i in range(4)] == [f"{r['angle_deg']:.2f}" for r in rows]
+    assert box.table.horizontalHeaderItem(3).text() == COLUMNS[3][1]
+    # the plot: one point per angle, higher shear drawn higher up (smaller y)
+    pts = box.plot.points()
+    assert len(pts) == 4
+    by_angle = sorted((r for r in rows), key=lambda r: r["angle_deg"])
+    s = [r["max_shear_deg"] for r in by_angle]
+    hi, lo = int(np.argmax(s)), int(np.argmin(s))
+    assert pts[hi][1] < pts[lo][1]
+    grab = box.plot.grab()
+    assert grab.width() > 0
+    # choose the second row and apply: one settings edit, undoable
+    box.table.selectRow(1)
+    before = win.document.project
+    box.apply()
+    after = win.document.project
+    assert after.settings.angle_deg == rows[1]["angle_deg"]
+    assert after.settings == FlattenSettings(**{**before.settings.__dict__, "angle_deg": rows[1]["angle_deg"],
+                                                 "seed": tuple(rows[1]["seed"])})
+    assert win.document.undo() and win.document.project is before
