@@ -482,7 +482,7 @@ def _floats_rows(value, width: int, what: str) -> tuple:
         raise SettingsError(f"{what} must be a list of {kind} points")
     if not np.isfinite(a).all():
         raise SettingsError(f"{what} has a non-finite coordinate")
-    if len(a) < 3:
+    if width == 3 and len(a) < 3:  # (u, v) loops: Region.from_loops says what is wrong
         raise SettingsError(f"{what} needs at least 3 points, got {len(a)}")
     return tuple(tuple(float(x) for x in r) for r in a)
 
@@ -779,7 +779,15 @@ def _offset_filled(surface: NurbsSurface, loop: np.ndarray, e: float, steps: int
     if len(faces) == 0:
         return shapely.Polygon()
     probe = np.array([[f.representative_point().x, f.representative_point().y] for f in faces])
-    return shapely.union_all(faces[_winding(probe, ring) >= 1])
+    keep = _winding(probe, ring) >= 1
+    if e < 0 and keep.any():
+        # an offset inwards past the loop's own width turns the ring inside out, and its fans can
+        # enclose faces of winding 1 again: those lie nearer the loop than |e| (chords are shorter
+        # than geodesics, so 0.9 |e| keeps every true face short of very strong curvature)
+        from scipy.spatial import cKDTree
+        near, _ = cKDTree(surface.points(P)).query(surface.points(probe[keep]))
+        keep[np.flatnonzero(keep)[near < 0.9 * abs(e)]] = False
+    return shapely.union_all(faces[keep])
 
 
 def offset_region(surface: NurbsSurface, region: Region | None, distance: float, base: float = 0.0) -> Region:
