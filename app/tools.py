@@ -704,15 +704,100 @@ class RegionTool(Tool):
         self.points: list[np.ndarray] = []   # xyz of the points placed (on the surface)
         self.pixels: list[tuple[float, float]] = []
         self.preview = None                  # core.region.Region of the loop so far
+        self.grabbed: tuple[int, int] | None = None  # (loop, point) of the drawn region being dragged
+        self.dragged: dict | None = None     # the drawing with the dragged point moved
 
     def activate(self) -> None:
         self.hint("Region: click points round the piece on the surface; Enter or a click on the first point "
-                  "closes it, Esc cancels, Backspace takes back a point. A loop inside the region is a hole.")
+                  "closes it, Esc cancels, Backspace takes back a point. A loop inside the region is a hole; "
+                  "drag a drawn point to move it.")
+        self._show_handles()
 
     def deactivate(self) -> None:
         self.cancel(quiet=True)
+        self.view.set_handles()
+
+    # -- the drawn region's points: drag one to move it
+    def _drawn_loops(self) -> list[np.ndarray]:
+        region = self.document.project.settings.region
+        drawn = region.drawn if region is not None else None
+        if drawn is None or drawn.form != "points":
+            return []
+        return [np.array(drawn.outer)] + [np.array(h) for h in drawn.holes]
+
+    def _show_handles(self) -> None:
+        loops = self._drawn_loops()
+        self.view.set_handles(np.vstack(loops) if loops else None)
+
+    def _grab(self, x, y) -> bool:
+        loops = self._drawn_loops()
+        if not loops:
+            return False
+        pts = np.vstack(loops)
+        disp = self.view.display_points(pts)
+        dist = np.hypot(disp[:, 0] - x, disp[:, 1] - y)
+        j = int(np.argmin(dist))
+        if dist[j] > HANDLE_PIXELS:
+            return False
+        ends = np.cumsum([len(p) for p in loops])
+        k = int(np.searchsorted(ends, j, side="right"))
+        self.grabbed, self.dragged = (k, j - (int(ends[k - 1]) if k else 0)), None
+        return True
+
+    def _drag_spec(self, xyz) -> dict:
+        drawn = self.document.project.settings.region.drawn
+        spec = drawn.to_dict()
+        k, i = self.grabbed
+        loop = spec["points"] if k == 0 else spec["holes"][k - 1]
+        loop[i] = [float(c) for c in xyz]
+        # the points are on the surface and seen in this view: project along it
+        spec["view_direction"] = [float(v) for v in self.view.view_direction()]
+        return spec
+
+    def move(self, x, y):
+        if self.grabbed is None:
+            return False
+        from core.region import region_from_spec
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            return True  # off the surface: the point stays where it was
+        self.dragged = self._drag_spec(hit[1])
+        pts = np.vstack([self.dragged["points"]] + self.dragged.get("holes", []))
+        curve = None
+        try:
+            region = region_from_spec(self.surface, self.dragged)
+            k = self.grabbed[0]
+            loop = np.asarray(region.loops[k])
+            curve = self.surface.points(np.vstack([loop, loop[:1]]))
+        except SettingsError as exc:
+            self.hint(str(exc))
+        self.view.set_handles(pts, render=False)
+        self.view.set_preview(curve, None)
+        return True
+
+    def release(self, x, y):
+        if self.grabbed is None:
+            return False
+        from core.region import check_region_size, cover_for, region_from_spec
+        spec, self.grabbed, self.dragged = self.dragged, None, None
+        self.view.set_preview()
+        if spec is None:
+            return True
+        s = self.document.project.settings
+        try:
+            region = region_from_spec(self.surface, spec)
+            check_region_size(self.surface, region, s.spacing, s.spacing_warp)
+            cover = cover_for(self.surface, region)
+            seed = s.seed if cover.contains(cover.seed_uv(s.seed)[None])[0] else cover.default_seed
+            self.document.edit_settings("Move region point", region=region, seed=seed)
+        except SettingsError as exc:
+            self.hint(f"Cannot move the point: {exc}")
+        self._show_handles()
+        return True
 
     def press(self, x, y, double):
+        if not self.points and self._grab(x, y):
+            return True
         if len(self.pixels) >= 3 and math.hypot(x - self.pixels[0][0], y - self.pixels[0][1]) <= HANDLE_PIXELS:
             self.finish()
             return True
@@ -796,6 +881,7 @@ class RegionTool(Tool):
             self.hint(f"Cannot make the region: {exc}")
             return False
         self.hint(f"{label}: {len(region.loops) - 1} hole(s).")
+        self._show_handles()
         return True
 
     def cancel(self, quiet: bool = False) -> None:

@@ -13,10 +13,11 @@ import math
 import numpy as np
 from PySide6.QtCore import Qt
 
+from app.tools import RegionTool
 from core.region import cover_for
 
 from tests.test_app_run import RUN_TIMEOUT_MS, run_to_end, small_project
-from tests.test_app_tools import CAMERA, click, pixel, ray_sphere, ready
+from tests.test_app_tools import CAMERA, click, drag, pixel, ray_sphere, ready
 
 
 def ring(centre, radius_deg, n):
@@ -63,10 +64,26 @@ def test_draw_a_region_and_a_hole_undo_and_reopen(make_window, qtbot, tmp_path):
     assert r is not None and win.project.result_is_current and cover.contains(r.uv).all()
     assert r.metrics["area_3d"] < 0.6 * before.result.metrics["area_3d"]
 
-    # a hole: a loop inside the region
+    # drag a point outwards: the piece re-solves larger; undo puts it back
+    assert len(view.handle_points) == 6  # the drawn points, to drag
+    area0 = r.metrics["area_3d"]
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        drag(qtbot, view, pixel(view, drawn.outer[0]), pixel(view, ring((1, 1, 1), 33, 6)[0]))
+    moved = win.project.settings.region
+    assert doc.undo_label == "Move region point" and moved.drawn.outer[1:] == drawn.outer[1:]
+    assert np.linalg.norm(np.subtract(moved.drawn.outer[0], drawn.outer[0])) > 0.05
+    assert win.project.result.metrics["area_3d"] > area0 * 1.02
+    assert win.project.result.pattern.area > r.pattern.area * 1.02
+    doc.undo()  # the edit's result comes back with it: no re-run
+    assert win.project.settings.region == region and win.project.result is r
+
+    # a hole: a loop inside the region (undo ended the tool, as it ends any tool)
+    if not isinstance(win.tool, RegionTool):
+        win.actions["tool_region"].trigger()
     hole_px = [pixel(view, t) for t in ring((1.05, 1, 0.95), 9, 5)]
     for x, y in hole_px:
         click(qtbot, view, x, y)
+    assert len(win.tool.points) == 5, win.last_hint
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
         qtbot.keyClick(view.widget, Qt.Key.Key_Return)
     holed = win.project.settings.region
