@@ -77,7 +77,7 @@ def test_draw_a_region_and_a_hole_undo_and_reopen(make_window, qtbot, tmp_path):
     doc.undo()  # the edit's result comes back with it: no re-run
     assert win.project.settings.region == region and win.project.result is r
 
-    # a hole: a loop inside the region (undo ended the tool, as it ends any tool)
+    # a hole: a loop inside the region (the undo may have ended the tool)
     if not isinstance(win.tool, RegionTool):
         win.actions["tool_region"].trigger()
     hole_px = [pixel(view, t) for t in ring((1.05, 1, 0.95), 9, 5)]
