@@ -708,13 +708,24 @@ def _geodesics(surface: NurbsSurface, uv: np.ndarray, vel: np.ndarray, length: f
 
     h = length / steps
     x, w = uv.copy(), vel.copy()
+    live = np.ones(len(x), dtype=bool)  # a geodesic that leaves the domain stops on its edge
     for _ in range(steps):
-        k1x, k1w = w, accel(x, w)
-        k2x, k2w = w + 0.5 * h * k1w, accel(x + 0.5 * h * k1x, w + 0.5 * h * k1w)
-        k3x, k3w = w + 0.5 * h * k2w, accel(x + 0.5 * h * k2x, w + 0.5 * h * k2w)
-        k4x, k4w = w + h * k3w, accel(x + h * k3x, w + h * k3w)
-        x = x + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x)
-        w = w + h / 6 * (k1w + 2 * k2w + 2 * k3w + k4w)
+        if not live.any():
+            break
+        xs, ws = x[live], w[live]
+        with np.errstate(all="ignore"):
+            k1x, k1w = ws, accel(xs, ws)
+            k2x, k2w = ws + 0.5 * h * k1w, accel(xs + 0.5 * h * k1x, ws + 0.5 * h * k1w)
+            k3x, k3w = ws + 0.5 * h * k2w, accel(xs + 0.5 * h * k2x, ws + 0.5 * h * k2w)
+            k4x, k4w = ws + h * k3w, accel(xs + h * k3x, ws + h * k3w)
+            xn = xs + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x)
+            wn = ws + h / 6 * (k1w + 2 * k2w + 2 * k3w + k4w)
+        ok = np.isfinite(xn).all(axis=1) & np.isfinite(wn).all(axis=1)
+        out = ~ok | np.any((xn < dom[:, 0]) | (xn > dom[:, 1]), axis=1)
+        xn = np.where(ok[:, None], np.clip(xn, dom[:, 0], dom[:, 1]), xs)
+        idx = np.flatnonzero(live)
+        x[idx], w[idx] = xn, np.where(ok[:, None], wn, ws)
+        live[idx[out]] = False
     return x
 
 
@@ -813,10 +824,13 @@ def offset_region(surface: NurbsSurface, region: Region | None, distance: float,
     if d == 0.0:
         return region
     steps = int(max(4, math.ceil(abs(d) / (_tessellation(surface).scale / 256.0))))
-    grown = _offset_filled(surface, loops[0], d, steps).intersection(box)
-    holes = [_offset_filled(surface, h[::-1], -d, steps) for h in loops[1:]]
-    if holes:
-        grown = grown.difference(shapely.union_all(holes))
+    try:
+        grown = _offset_filled(surface, loops[0], d, steps).intersection(box)
+        holes = [_offset_filled(surface, h[::-1], -d, steps) for h in loops[1:]]
+        if holes:
+            grown = grown.difference(shapely.union_all(holes))
+    except shapely.errors.GEOSException as exc:  # a degenerate ring: say so in one line
+        raise SettingsError(f"an offset of {d:g} cannot be formed on this region ({exc})") from None
     parts = [g for g in shapely.get_parts(grown) if g.geom_type == "Polygon" and g.area > 0]
     if not parts:
         raise SettingsError(f"an offset of {d:g} leaves nothing of the region")

@@ -160,6 +160,10 @@ def test_an_offset_clips_to_the_surface_and_refuses_to_vanish(cyl):
     assert np.min(near.arrays()[0]) == pytest.approx(0.0, abs=1e-12)  # clipped to the domain
     with pytest.raises(SettingsError, match="leaves nothing"):
         region_from_spec(cyl, {"uv": [[0.4, 0.4], [0.6, 0.4], [0.6, 0.6], [0.4, 0.6]]}, offset=-0.3)
+    with pytest.raises(SettingsError, match="leaves nothing"):  # geodesics far past the domain's edge
+        offset_region(cyl, None, -5.0)
+    grown = offset_region(cyl, None, 3.0)  # clipped: the whole domain
+    assert cover_for(cyl, grown).area == pytest.approx(w * 1.5, rel=1e-9)
 
 
 @pytest.mark.parametrize("spec, message", [
