@@ -183,7 +183,7 @@ class MainWindow(QMainWindow):
         sp.settings_edited.connect(self.edit_settings)
         sp.display_edited.connect(self.edit_display)
         sp.input_error.connect(self.show_error)
-        dp.set_actions(**{t.panel_button: self.actions[t.key] for t in TOOLS})
+        dp.set_actions(**{t.panel_button: self.actions[t.key] for t in TOOLS if t.panel_button})
         dp.dart_selected.connect(lambda row: tools.select_dart(row if row >= 0 else None))
         dp.dart_renamed.connect(lambda row, name: tools.dart_edit(self.document.rename_dart, row, name))
         dp.dart_visibility.connect(lambda row, on: tools.dart_edit(self.document.set_dart_visible, row, on))

@@ -59,19 +59,25 @@ def resolve_piece(args):
     from core.readers import open_path
 
     opened = open_path(args.surface, surface_only=True).choose_face(args.face)
+    offset = getattr(args, "region_offset", None)
     if args.region:
-        from core.region import Region
+        from core.region import region_from_spec
 
         if opened.region is not None:
             raise SettingsError(f"face {opened.face} of {Path(args.surface).name} is trimmed already; "
                                 f"--region is for untrimmed surfaces")
         data = _read_json(args.region, "region")
         try:
-            region = Region.from_dict(data)
+            region = region_from_spec(opened.surface, data, offset=offset)
         except SettingsError as exc:
             raise SettingsError(f"{args.region}: {exc}") from None
         import dataclasses
         opened = dataclasses.replace(opened, region=region)
+    elif offset:  # a trimmed face's region, or the whole domain, moved along the surface
+        import dataclasses
+
+        from core.region import offset_region
+        opened = dataclasses.replace(opened, region=offset_region(opened.surface, opened.region, offset))
     return opened
 
 
@@ -120,8 +126,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the face of a STEP or IGES file to flatten (needed when it has several; "
                         "'info FILE' lists them)")
     f.add_argument("--region", default=None, metavar="REGION.json",
-                   help='cover only a region of the (u, v) domain: {"outer": [[u, v], ...], '
-                        '"holes": [[[u, v], ...], ...]} (holes optional)')
+                   help='cover only a region of the surface: drawn, {"points": [[x, y, z], ...], '
+                        '"view_direction": [dx, dy, dz]} (projected as curve darts are), or {"uv": [[s, t], '
+                        '...]} (fractions of the domain), or {"outer": [[u, v], ...]} (domain coordinates); '
+                        'each with optional "holes": [loop, ...] in the same form')
+    f.add_argument("--region-offset", type=float, default=None, metavar="D",
+                   help="move the region's boundary (or the face's edge) by D along the surface, in model "
+                        "units: positive outwards, negative inwards; clipped to the surface")
     f.add_argument("--angle", type=_angle, default=0.0, metavar="DEG|auto",
                    help="weft direction at the seed, degrees from the u direction (default 0); auto: the "
                         "best of a sweep (see the sweep command, refined to a quarter degree), recorded in the result")
@@ -278,6 +289,9 @@ def _cmd_flatten(args) -> int:
     cover = cover_for(surface, region)
     if opened.cad is not None:
         _check_face_size(opened, args.spacing)
+    if region is not None:
+        from core.region import check_region_size
+        check_region_size(surface, region, args.spacing, args.spacing_warp)
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args),
@@ -397,7 +411,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
         ("--shear-angles", args.shear_angles, None),
         ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
-        ("--region", args.region, None), ("--face", args.face, None),
+        ("--region", args.region, None), ("--region-offset", args.region_offset, None), ("--face", args.face, None),
         ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None),
         ("--auto-darts", args.auto_darts, 0)) if value != default]
     if unused:

@@ -29,7 +29,7 @@ from core.metrics import (cell_areas, cell_shear_deg, deformation_summary, metri
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
-from core.region import Cover, Region, cover_for
+from core.region import Cover, Region, cover_for, region_record
 from core.solver import STOPPED, Problem, SolveResult, SolverOptions, State, iterate
 from core.solver import stopped_result as stopped_solve
 from core.solvers import solver_entry, solver_names
@@ -564,6 +564,9 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
             "pieces": [pc.to_dict() for pc in pattern.pieces],
         },
         "darts": _darts_dict(result),
+        # the piece's region: loops in (u, v) and on the surface, and how it was drawn (null: whole domain)
+        "region": region_record(result.surface, result.settings.region) if result.settings.region is not None
+        else None,
         "uncovered_regions": [g.to_dict() for g in uncovered_regions(
             result.surface, xyz, cell_diagonal(mesh.r_weft, mesh.r_warp),
             grid=cover_for(result.surface, result.settings.region).coverage_grid(
