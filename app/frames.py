@@ -19,7 +19,8 @@ from scipy.spatial import cKDTree
 
 from core.darts import DartSet
 from core.mesh import DIAG, SpringMesh
-from core.metrics import cell_shear_deg, spring_strain
+from core.fibres import cell_fibres, reference_direction
+from core.metrics import area_beyond_lock_pct, cell_areas, cell_shear_deg, spring_strain
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern
 from core.pipeline import FlattenResult, FlattenSettings
@@ -50,6 +51,8 @@ class Frame:
     final : this is a finished result (not a live snapshot)
     draping (property) : a frame of the drape (the mesh being laid; no energy yet)
     status : the solver's message (final frames)
+    fibre : (c,) the weft's signed deviation from the rosette per cell, degrees
+        (:mod:`core.fibres`; NaN where the rosette does not reach)
     """
 
     topology: int
@@ -70,6 +73,7 @@ class Frame:
     stats: dict = field(default_factory=dict)
     final: bool = False
     status: str = ""
+    fibre: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def draping(self) -> bool:
@@ -94,6 +98,7 @@ class FrameMaker:
         self._boundary = _EMPTY
         self._xy = np.zeros((0, 2))
         self._dart_nodes = (_EMPTY, _EMPTY)
+        self._rosette = None
 
     # ------------------------------------------------------------------ cached
     @property
@@ -162,14 +167,18 @@ class FrameMaker:
         thread = mesh.kind != DIAG
         stats = {"nodes": mesh.n_nodes, "springs": mesh.n_springs,
                  "max_thread_strain_pct": float(100 * np.abs(strain[thread]).max(initial=0.0)),
-                 "max_shear_deg": float(np.abs(shear).max(initial=0.0))}
+                 "max_shear_deg": float(np.abs(shear).max(initial=0.0)),
+                 "area_beyond_lock_pct": area_beyond_lock_pct(shear, cell_areas(xyz, mesh), mesh.material.lock_deg)}
         if pattern is not None:
             stats["boundary_error_pct"] = 100 * abs(pattern.perimeter - self.L3) / self.L3
             stats["area_error_pct"] = 100 * abs(pattern.area - self.A3) / self.A3
         pos, neg = self._dart_nodes
+        if self._rosette is None:
+            self._rosette = reference_direction(self.surface, self.settings)
+        fibre = cell_fibres(xyz, uv, mesh, self._rosette, shear_deg=shear).deviation_deg
         return Frame(topology, mesh, uv, xyz, self._xy, strain, shear, self._boundary, pos, neg,
                      self.dart_curves(), pattern, int(iteration), float(energy), float(seconds), stats,
-                     final, status)
+                     final, status, fibre)
 
     def from_snapshot(self, snap, pattern: Pattern | None = None) -> Frame:
         """A live frame from a :class:`core.solver.Snapshot`."""
@@ -184,7 +193,7 @@ class FrameMaker:
                            final=True, status=str(m.get("solver_status", "")))
         # the result's own metrics are the reference (computed once, by the pipeline)
         for key in ("boundary_error_pct", "area_error_pct", "max_thread_strain_pct", "max_shear_deg",
-                    "uncovered_pct"):
+                    "area_beyond_lock_pct", "uncovered_pct"):
             if key in m:
                 frame.stats[key] = float(m[key])
         return frame

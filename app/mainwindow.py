@@ -183,7 +183,7 @@ class MainWindow(QMainWindow):
         sp.settings_edited.connect(self.edit_settings)
         sp.display_edited.connect(self.edit_display)
         sp.input_error.connect(self.show_error)
-        dp.set_actions(**{t.panel_button: self.actions[t.key] for t in TOOLS})
+        dp.set_actions(**{t.panel_button: self.actions[t.key] for t in TOOLS if t.panel_button})
         dp.dart_selected.connect(lambda row: tools.select_dart(row if row >= 0 else None))
         dp.dart_renamed.connect(lambda row, name: tools.dart_edit(self.document.rename_dart, row, name))
         dp.dart_visibility.connect(lambda row, on: tools.dart_edit(self.document.set_dart_visible, row, on))
@@ -326,6 +326,35 @@ class MainWindow(QMainWindow):
         if not self._shown:
             self._shown = True  # the views have their sizes only now: frame the surface again
             QTimer.singleShot(0, self.view.reset_camera)
+
+    def suggest_dialog(self):
+        """Tools > Suggest darts (:mod:`app.suggest`): one dialog at a time, non-modal."""
+        from app.suggest import SuggestDialog
+
+        if self.document is None:
+            return None
+        box = getattr(self, "suggest_box", None)
+        if box is not None and box.isVisible():
+            box.raise_()
+            return box
+        self.suggest_box = SuggestDialog(self)
+        self.suggest_box.show()
+        self.suggest_box.start()
+        return self.suggest_box
+
+    def sweep_dialog(self):
+        """Solve > Best orientation (:mod:`app.sweepdialog`): one dialog at a time, non-modal."""
+        from app.sweepdialog import SweepDialog
+
+        if self.document is None:
+            return None
+        box = getattr(self, "sweep_box", None)
+        if box is not None and box.isVisible():
+            box.raise_()
+            return box
+        self.sweep_box = SweepDialog(self)
+        self.sweep_box.show()
+        return self.sweep_box
 
     def closeEvent(self, event) -> None:
         if self.confirm_close and self.document is not None and self.document.unsaved_work \

@@ -241,7 +241,8 @@ class SettingsPanel(QWidget):
         if key == "custom":
             current = self._project.settings.material if self._project else MATERIALS["woven"]
             self._settings("Material", material=Material(f"custom {current.ratio}", current.k_weft,
-                                                          current.k_warp, current.k_diag))
+                                                          current.k_warp, current.k_diag,
+                                                          current.warn_deg, current.lock_deg))
         else:
             self._settings("Material", material=MATERIALS[key])
 
@@ -260,8 +261,10 @@ class SettingsPanel(QWidget):
         if material.name in MATERIALS:  # a preset's name typed in
             self._settings("Material", material=material)
         else:
+            current = self._project.settings.material  # a new ratio keeps the cloth's shear angles
             self._settings("Material", material=Material(f"custom {material.ratio}", material.k_weft,
-                                                          material.k_warp, material.k_diag))
+                                                          material.k_warp, material.k_diag,
+                                                          current.warn_deg, current.lock_deg))
 
     # ------------------------------------------------------------------ showing a project
     def set_project(self, project: Project) -> None:
@@ -312,11 +315,13 @@ class MetricsPanel(QWidget):
     shear angles) is coloured against it."""
 
     ROWS = (("energy", "Energy EN"), ("boundary", "Boundary error"), ("area", "Area error"),
-            ("shear", "Max shear"), ("thread", "Max thread strain"), ("uncovered", "Uncovered"),
+            ("shear", "Max shear"), ("beyond_lock", "Beyond lock angle"), ("thread", "Max thread strain"),
+            ("uncovered", "Uncovered"),
             ("size", "Pattern size"), ("nodes", "Nodes / springs"), ("iterations", "Iterations"),
             ("status", "Status"), ("warnings", "Warnings"))
     LIMITED = (("boundary", "boundary_error_pct"), ("area", "area_error_pct"), ("shear", "max_shear_deg"),
-               ("thread", "max_thread_strain_pct"), ("uncovered", "uncovered_pct"))
+               ("beyond_lock", "area_beyond_lock_pct"), ("thread", "max_thread_strain_pct"),
+               ("uncovered", "uncovered_pct"))
 
     def __init__(self, parent=None):
         super().__init__(parent)
@@ -350,6 +355,9 @@ class MetricsPanel(QWidget):
             self.labels[key].setText(f"{st[name]:.3f} %" if name in st else "- (pattern pending)")
         self.labels["shear"].setText(f"{st.get('max_shear_deg', math.nan):.2f} deg")
         self.labels["thread"].setText(f"{st.get('max_thread_strain_pct', math.nan):.4f} %")
+        lock = project.settings.material.lock_deg  # the metric is the material's (the result's), not the view's
+        self.labels["beyond_lock"].setText(f"{st['area_beyond_lock_pct']:.2f} % of the area (lock {lock:g} deg)"
+                                           if "area_beyond_lock_pct" in st else "-")
         self.labels["uncovered"].setText(f"{st['uncovered_pct']:.2f} %" if "uncovered_pct" in st else "-")
         limits = metric_limits(project.settings.material, project.shear_warning_deg, project.shear_limit_deg)
         for key, name in self.LIMITED:

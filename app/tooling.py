@@ -17,7 +17,7 @@ from PySide6.QtWidgets import QAbstractSpinBox, QApplication, QLineEdit
 
 from core.errors import FlatweaveError
 
-from app.tools import CurveDartTool, HandleEditor, PlaneDartTool, Tool, YarnTool
+from app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, Tool, YarnTool
 from app.worker import one_line
 
 __all__ = ["ToolSpec", "TOOLS", "ToolControl", "ToolMouse", "WindowToolHost"]
@@ -27,7 +27,7 @@ __all__ = ["ToolSpec", "TOOLS", "ToolControl", "ToolMouse", "WindowToolHost"]
 class ToolSpec:
     """A tool the designer chooses: its checkable action and the tool class it makes.
 
-    panel_button : the darts panel's button that shows the action (see ``DartPanel.set_actions``)
+    panel_button : the darts panel's button that shows the action (see ``DartPanel.set_actions``; "": none)
     """
 
     key: str
@@ -47,6 +47,8 @@ TOOLS = (
              PlaneDartTool, "draw_plane"),
     ToolSpec("tool_yarn", "&Yarn", "Y", "Pick a yarn to hold to a plane: click a node of the mesh",
              YarnTool, "pick_yarn"),
+    ToolSpec("tool_region", "&Region", "B", "Draw the piece's boundary on the surface: click points, Enter or the "
+             "first point closes; a loop inside it is a hole", RegionTool, ""),
 )
 
 

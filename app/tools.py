@@ -39,7 +39,7 @@ from core.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn
 from core.errors import SettingsError
 
 __all__ = ["Tool", "ToolHost", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
-           "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS", "DEFAULT_YARN_K"]
+           "RegionTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS", "DEFAULT_YARN_K"]
 
 STROKE_PIXELS = 8      # a drag adds a point every this many pixels
 SNAP_PIXELS = 10       # a click this close to the surface's visible rim goes onto the rim
@@ -683,3 +683,221 @@ class YarnTool(Tool):
         else:
             self.host.drop_tool()
 
+
+
+# ---------------------------------------------------------------------- regions (issue 21)
+class RegionTool(Tool):
+    """Draw the piece's region (a ply boundary) on the surface: clicks add points
+    (each under the cursor; near the face's edge they snap onto it), the loop
+    between them follows the surface as a curve dart's curve does
+    (:func:`core.region.region_from_spec`, projected along the view); Enter or a
+    click on the first point closes it, Esc cancels, Backspace takes back a point.
+    A loop drawn inside a drawn region is a hole of it; elsewhere it is a new
+    region. The commit is one settings edit (the region and its farthest-from-the-
+    edge seed), so undo, redo, re-runs and saving work as for any other edit."""
+
+    name = "region"
+    takes_back = True
+
+    def __init__(self, host):
+        super().__init__(host)
+        self.points: list[np.ndarray] = []   # xyz of the points placed (on the surface)
+        self.pixels: list[tuple[float, float]] = []
+        self.preview = None                  # core.region.Region of the loop so far
+        self.grabbed: tuple[int, int] | None = None  # (loop, point) of the drawn region being dragged
+        self.dragged: dict | None = None     # the drawing with the dragged point moved
+
+    def activate(self) -> None:
+        self.hint("Region: click points round the piece on the surface; Enter or a click on the first point "
+                  "closes it, Esc cancels, Backspace takes back a point. A loop inside the region is a hole; "
+                  "drag a drawn point to move it.")
+        self._show_handles()
+
+    def deactivate(self) -> None:
+        self.cancel(quiet=True)
+        self.view.set_handles()
+
+    # -- the drawn region's points: drag one to move it
+    def _drawn_loops(self) -> list[np.ndarray]:
+        region = self.document.project.settings.region
+        drawn = region.drawn if region is not None else None
+        if drawn is None or drawn.form != "points":
+            return []
+        return [np.array(drawn.outer)] + [np.array(h) for h in drawn.holes]
+
+    def _show_handles(self) -> None:
+        loops = self._drawn_loops()
+        self.view.set_handles(np.vstack(loops) if loops else None)
+
+    def _grab(self, x, y) -> bool:
+        loops = self._drawn_loops()
+        if not loops:
+            return False
+        pts = np.vstack(loops)
+        disp = self.view.display_points(pts)
+        dist = np.hypot(disp[:, 0] - x, disp[:, 1] - y)
+        j = int(np.argmin(dist))
+        if dist[j] > HANDLE_PIXELS:
+            return False
+        ends = np.cumsum([len(p) for p in loops])
+        k = int(np.searchsorted(ends, j, side="right"))
+        self.grabbed, self.dragged = (k, j - (int(ends[k - 1]) if k else 0)), None
+        return True
+
+    def _drag_spec(self, xyz) -> dict:
+        drawn = self.document.project.settings.region.drawn
+        spec = drawn.to_dict()
+        k, i = self.grabbed
+        loop = spec["points"] if k == 0 else spec["holes"][k - 1]
+        loop[i] = [float(c) for c in xyz]
+        # the points are on the surface and seen in this view: project along it
+        spec["view_direction"] = [float(v) for v in self.view.view_direction()]
+        return spec
+
+    def move(self, x, y):
+        if self.grabbed is None:
+            return False
+        from core.region import region_from_spec
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            return True  # off the surface: the point stays where it was
+        self.dragged = self._drag_spec(hit[1])
+        pts = np.vstack([self.dragged["points"]] + self.dragged.get("holes", []))
+        curve = None
+        try:
+            region = region_from_spec(self.surface, self.dragged)
+            k = self.grabbed[0]
+            loop = np.asarray(region.loops[k])
+            curve = self.surface.points(np.vstack([loop, loop[:1]]))
+        except SettingsError as exc:
+            self.hint(str(exc))
+        self.view.set_handles(pts, render=False)
+        self.view.set_preview(curve, None)
+        return True
+
+    def release(self, x, y):
+        if self.grabbed is None:
+            return False
+        from core.region import check_region_size, cover_for, region_from_spec
+        spec, self.grabbed, self.dragged = self.dragged, None, None
+        self.view.set_preview()
+        if spec is None:
+            return True
+        s = self.document.project.settings
+        try:
+            region = region_from_spec(self.surface, spec)
+            check_region_size(self.surface, region, s.spacing, s.spacing_warp)
+            cover = cover_for(self.surface, region)
+            seed = s.seed if cover.contains(cover.seed_uv(s.seed)[None])[0] else cover.default_seed
+            self.document.edit_settings("Move region point", region=region, seed=seed)
+        except SettingsError as exc:
+            self.hint(f"Cannot move the point: {exc}")
+        self._show_handles()
+        return True
+
+    def press(self, x, y, double):
+        if not self.points and self._grab(x, y):
+            return True
+        if len(self.pixels) >= 3 and math.hypot(x - self.pixels[0][0], y - self.pixels[0][1]) <= HANDLE_PIXELS:
+            self.finish()
+            return True
+        if self.pixels and math.hypot(x - self.pixels[-1][0], y - self.pixels[-1][1]) < SAME_PIXELS:
+            if double and len(self.points) >= 3:
+                self.finish()
+            return True
+        hit = pick_surface(self.surface, self.view, x, y)
+        snapped = False
+        if hit is None:
+            hit = self._rim_point(x, y)
+            snapped = hit is not None
+        if hit is None:
+            self.hint("That click missed the surface: no point added. Click on the surface (Esc cancels).")
+            return False
+        self.points.append(np.asarray(hit[1], dtype=float))
+        self.pixels.append((float(x), float(y)))
+        self._update_preview()
+        n = len(self.points)
+        where = "on the edge" if snapped else "on the surface"
+        self.hint(f"Point {n} {where}. " + ("Click the next point." if n < 3 else
+                                            "Click more points; Enter or the first point closes the loop."))
+        if double and n >= 3:
+            self.finish()
+        return True
+
+    def _spec(self) -> dict:
+        """The region the points make: a hole of the drawn region when they lie inside it."""
+        from core.region import cover_for
+
+        view = [float(v) for v in self.view.view_direction()]
+        loop = [p.tolist() for p in self.points]
+        region = self.document.project.settings.region
+        drawn = region.drawn if region is not None else None
+        if drawn is not None and drawn.form == "points":
+            uv = project_points(self.surface, np.array(self.points), np.array(drawn.view_direction)).uv
+            if np.isfinite(uv).all() and cover_for(self.surface, region).contains(uv).all():
+                spec = drawn.to_dict()
+                spec["holes"] = spec.get("holes", []) + [loop]
+                return spec
+        return {"points": loop, "view_direction": view}
+
+    def _update_preview(self) -> None:
+        from core.region import region_from_spec
+
+        pts = np.array(self.points) if self.points else None
+        self.preview = None
+        curve = pts
+        if len(self.points) >= 3:
+            try:
+                spec = self._spec()
+                self.preview = region_from_spec(self.surface, spec)
+                k = len(self.preview.loops) - 1 if "holes" in spec else 0
+                loop = np.asarray(self.preview.loops[k])
+                curve = self.surface.points(np.vstack([loop, loop[:1]]))
+            except SettingsError as exc:
+                self.hint(str(exc))
+        self.view.set_preview(curve, pts)
+
+    def finish(self) -> bool:
+        from core.region import check_region_size, cover_for, region_from_spec
+
+        if len(self.points) < 3:
+            self.hint("A region needs at least three points on the surface.")
+            return False
+        doc = self.document
+        s = doc.project.settings
+        try:
+            spec = self._spec()
+            region = region_from_spec(self.surface, spec)
+            check_region_size(self.surface, region, s.spacing, s.spacing_warp)
+        except SettingsError as exc:
+            self.hint(f"Cannot make the region: {exc}")
+            return False
+        label = "Draw hole" if "holes" in spec and len(region.loops) > 1 and s.region is not None \
+            and len(region.loops) > len(s.region.loops) else "Draw region"
+        self._clear()
+        try:
+            doc.edit_settings(label, region=region, seed=cover_for(self.surface, region).default_seed)
+        except SettingsError as exc:
+            self.hint(f"Cannot make the region: {exc}")
+            return False
+        self.hint(f"{label}: {len(region.loops) - 1} hole(s).")
+        self._show_handles()
+        return True
+
+    def cancel(self, quiet: bool = False) -> None:
+        had = bool(self.points)
+        self._clear()
+        if had and not quiet:
+            self.hint("Region cancelled.")
+
+    def back(self) -> None:
+        if self.points:
+            self.points.pop()
+            self.pixels.pop()
+            self._update_preview()
+
+    def _clear(self) -> None:
+        self.points.clear()
+        self.pixels.clear()
+        self.preview = None
+        self.view.set_preview()

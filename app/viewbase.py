@@ -47,7 +47,8 @@ DENSE_PIXELS = 7.0  # threads closer than this on screen: draw coloured cells, n
 class ViewOptions:
     """How the views draw a frame (view state, not part of the document).
 
-    mode : "strain" (springs coloured by strain) or "shear" (cells by shear angle)
+    mode : "strain" (springs coloured by strain), "shear" (cells by shear angle)
+        or "fibre" (cells by the weft's deviation from the rosette, :mod:`core.fibres`)
     weft, warp, diag : which spring kinds are drawn (strain mode)
     surface : draw the surface under the mesh (3D view)
     nodes : draw boundary nodes (yellow) and dart nodes (red +, blue -)
@@ -71,7 +72,26 @@ class ViewOptions:
 
 
 THREAD, DIAGONAL = "thread", "diagonal"
-SCALE_TITLES = {THREAD: "thread\nstrain (%)", DIAGONAL: "diagonal\nstrain (%)", "shear": "shear (deg)"}
+SCALE_TITLES = {THREAD: "thread\nstrain (%)", DIAGONAL: "diagonal\nstrain (%)", "shear": "shear (deg)",
+                "fibre": "fibre angle\n(deg)"}
+CELL_MODES = ("shear", "fibre")  # the modes that colour the cells, not the springs
+
+
+def fibre_stops(frame) -> list:
+    """The fibre-angle scale: symmetric about 0 over the frame's deviations
+    (blue turned one way, green along the rosette, red the other)."""
+    dev = np.asarray(getattr(frame, "fibre", ()), dtype=float)
+    dev = np.abs(dev[np.isfinite(dev)])
+    top = max(float(dev.max()) if dev.size else 0.0, 1e-12)
+    return strain_stops(-top, top)
+
+
+def cell_values(frame, mode: str) -> np.ndarray:
+    """What the cells show in a cell mode: |shear|, or the signed fibre deviation."""
+    if mode == "fibre":
+        fibre = np.asarray(frame.fibre, dtype=float)
+        return fibre if len(fibre) == len(frame.shear) else np.full(len(frame.shear), np.nan)
+    return np.abs(frame.shear)
 KIND_GROUP = (THREAD, THREAD, DIAGONAL)  # each spring kind's colour scale
 
 
@@ -98,6 +118,8 @@ def scale_stops(frame, options: ViewOptions) -> list:
     thread kind is shown)."""
     if options.mode == "shear":
         return shear_stops(options.shear_warning_deg, options.shear_limit_deg)
+    if options.mode == "fibre":
+        return fibre_stops(frame)
     return group_stops(frame, options, THREAD if (options.weft or options.warp) else DIAGONAL)
 
 
@@ -251,6 +273,7 @@ class MeshLayer:
         self.thread_scale = ColourScale()
         self.diag_scale = ColourScale()
         self.shear_scale = ColourScale()
+        self.fibre_scale = ColourScale()
         self.springs = [pv.PolyData() for _ in KINDS]
         self.spring_index = [np.zeros(0, dtype=np.int64) for _ in KINDS]
         self.cells = pv.PolyData()
@@ -304,11 +327,11 @@ class MeshLayer:
     @property
     def cells_show_strain(self) -> bool:
         """Strain is drawn as coloured cells now (a dense mesh with cells, strain mode)."""
-        return bool(self.dense and self.options.mode != "shear" and self.cells.n_cells)
+        return bool(self.dense and self.options.mode not in CELL_MODES and self.cells.n_cells)
 
     def set_visible(self, on: bool) -> None:
         opt = self.options
-        strain = opt.mode != "shear"
+        strain = opt.mode not in CELL_MODES
         as_cells = self.cells_show_strain
         for actor, kind_on in zip(self.spring_actors, opt.kinds):
             actor.SetVisibility(bool(on and strain and kind_on and not as_cells))
@@ -343,6 +366,9 @@ class MeshLayer:
         self.thread_scale.set_stops(group_stops(frame, strain, THREAD))
         self.diag_scale.set_stops(group_stops(frame, strain, DIAGONAL))
         self.shear_scale.set_stops(scale_stops(frame, replace_mode(options, "shear")))
+        self.fibre_scale.set_stops(fibre_stops(frame))
+        self.cell_actor.GetMapper().SetLookupTable(self.fibre_scale.ctf if options.mode == "fibre"
+                                                   else self.shear_scale.ctf)
 
     def show(self, frame, points: np.ndarray, options: ViewOptions) -> None:
         """Draw ``frame`` with node positions ``points`` (n, 3)."""
@@ -350,7 +376,7 @@ class MeshLayer:
         self.frame = frame
         mesh = frame.mesh
         strain_pct = 100.0 * frame.strain
-        shear = np.abs(frame.shear)
+        shear = cell_values(frame, options.mode)
         self._set_scales(options)
         if frame.topology != self.topology:
             self.topology = frame.topology
@@ -403,9 +429,12 @@ class MeshLayer:
 
     def restyle(self, options: ViewOptions) -> None:
         """New options for the frame already shown (mode, kinds, thresholds)."""
+        old = self.options.mode
         self.options = options
         if self.frame is not None:
             self._set_scales(options)
+            if options.mode != old and self.cells.n_cells:  # shear and fibre angle share the cells
+                self.cells.cell_data["value"][:] = cell_values(self.frame, options.mode)
             if self.cells_show_strain:
                 self._update_strain_cells()
             self.set_visible(True)
@@ -415,6 +444,8 @@ class MeshLayer:
         """The scale of the first colour bar (see :func:`scale_stops`)."""
         if self.options.mode == "shear":
             return self.shear_scale
+        if self.options.mode == "fibre":
+            return self.fibre_scale
         return self.thread_scale if (self.options.weft or self.options.warp) else self.diag_scale
 
     def shown_scales(self) -> list[tuple[str, ColourScale]]:
@@ -423,6 +454,8 @@ class MeshLayer:
         opt = self.options
         if opt.mode == "shear":
             return [("shear", self.shear_scale)]
+        if opt.mode == "fibre":
+            return [("fibre", self.fibre_scale)]
         out = []
         if opt.weft or opt.warp:
             out.append((THREAD, self.thread_scale))
@@ -467,6 +500,9 @@ class MeshLayer:
             group = THREAD if scale is self.thread_scale else DIAGONAL
             lo, hi = scale.range
             return (f"cell {cell}: largest {group} strain {value:+.4f} % ({group} scale {lo:+.3g} to {hi:+.3g} %), "
+                    f"shear {f.shear[cell]:+.2f} deg")
+        if actor is self.cell_actor and cell < len(f.shear) and self.options.mode == "fibre":
+            return (f"cell {cell}: fibre angle {cell_values(f, 'fibre')[cell]:+.2f} deg from the rosette, "
                     f"shear {f.shear[cell]:+.2f} deg")
         if actor is self.cell_actor and cell < len(f.shear):
             opt = self.options

@@ -3,6 +3,8 @@
 Subcommands:
 
 * ``flatten SURFACE --spacing R ... --out RESULT.json``: drape, minimise, write the result
+* ``sweep SURFACE --spacing R [--angles K] [--seeds M] [--out SWEEP.json]``: solve at
+  several weft angles (and seeds), print the ranked table (:mod:`core.sweep`)
 * ``info SURFACE``: domain, area and boundary length of a surface
 * ``examples``: the bundled example surfaces
 
@@ -66,8 +68,9 @@ def resolve_piece(args):
         piece = opened.mesh.cut(data["loop3d"], args.face)
         return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=args.face)
     opened = opened.choose_face(args.face)
+    offset = getattr(args, "region_offset", None)
     if args.region:
-        from core.region import Region
+        from core.region import region_from_spec
 
         if opened.region is not None and getattr(opened.surface, "fit", None) is not None:
             raise SettingsError(f"{Path(args.surface).name} is a mesh: its region is the mesh's boundary; "
@@ -77,11 +80,16 @@ def resolve_piece(args):
                                 f"--region is for untrimmed surfaces")
         data = _read_json(args.region, "region")
         try:
-            region = Region.from_dict(data)
+            region = region_from_spec(opened.surface, data, offset=offset)
         except SettingsError as exc:
             raise SettingsError(f"{args.region}: {exc}") from None
         import dataclasses
         opened = dataclasses.replace(opened, region=region)
+    elif offset:  # a trimmed face's region, or the whole domain, moved along the surface
+        import dataclasses
+
+        from core.region import offset_region
+        opened = dataclasses.replace(opened, region=offset_region(opened.surface, opened.region, offset))
     return opened
 
 
@@ -119,7 +127,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="rest length of the weft springs (and of the warp springs unless --spacing-warp)")
     f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
     f.add_argument("--material", default="woven", metavar="NAME",
-                   help="woven (500:500:1), isotropic (100:100:100) or a ratio WEFT:WARP:DIAG (default woven)")
+                   help="woven (500:500:1), isotropic (100:100:50), paper-isotropic (the paper's 100:100:100) "
+                        "or a ratio WEFT:WARP:DIAG (default woven)")
+    f.add_argument("--shear-angles", default=None, metavar="WARN,LOCK",
+                   help="the material's shear warning and lock angles, degrees (default the preset's, 15,30)")
     f.add_argument("--seed", default=None, metavar="U,V",
                    help="seed point as fractions of the parameter domain (default 0.5,0.5; on a trimmed "
                         "piece the point farthest from its edge)")
@@ -127,10 +138,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the face of a STEP or IGES file to flatten (needed when it has several; "
                         "'info FILE' lists them)")
     f.add_argument("--region", default=None, metavar="REGION.json",
-                   help='cover only a region of the (u, v) domain: {"outer": [[u, v], ...], '
-                        '"holes": [[[u, v], ...], ...]} (holes optional)')
-    f.add_argument("--angle", type=float, default=0.0, metavar="DEG",
-                   help="weft direction at the seed, degrees from the u direction (default 0)")
+                   help='cover only a region of the surface: drawn, {"points": [[x, y, z], ...], '
+                        '"view_direction": [dx, dy, dz]} (projected as curve darts are), or {"uv": [[s, t], '
+                        '...]} (fractions of the domain), or {"outer": [[u, v], ...]} (domain coordinates); '
+                        'each with optional "holes": [loop, ...] in the same form')
+    f.add_argument("--region-offset", type=float, default=None, metavar="D",
+                   help="move the region's boundary (or the face's edge) by D along the surface, in model "
+                        "units: positive outwards, negative inwards; clipped to the surface")
+    f.add_argument("--angle", type=_angle, default=0.0, metavar="DEG|auto",
+                   help="weft direction at the seed, degrees from the u direction (default 0); auto: the "
+                        "best of a sweep (see the sweep command, refined to a quarter degree), recorded in the result")
     f.add_argument("--paths", choices=("plane", "geodesic"), default="plane",
                    help="constrained paths: the paper's normal-section planes or geodesics (default plane)")
     f.add_argument("--solver", choices=solver_names("spring"), default=DEFAULT_SOLVER, help=solver_help("spring"))
@@ -153,6 +170,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cut a plane dart: the plane A x + B y + C z + D = 0 inside the box (repeatable)")
     f.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json",
                    help="cut a curve dart: a 3D polyline and a view direction (see README; repeatable)")
+    f.add_argument("--auto-darts", type=int, default=0, metavar="N",
+                   help="after the solve, add up to N suggested darts (each the one that lowers the energy most, "
+                        "from the edge inwards; stops when none lowers it by 3 %% more), listed in the result's "
+                        "darts with \"auto\": true")
     f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
                    help="refuse meshes estimated larger than N nodes, or than the available memory holds "
                         "(default 2,000,000)")
@@ -171,6 +192,34 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--name", default=None, metavar="TEXT",
                    help="piece name in exported labels (default: the surface's name)")
 
+    w = sub.add_parser("sweep", help="solve at several weft angles (and seeds) and rank them: area beyond the "
+                                     "lock angle, then max shear, then boundary error")
+    w.add_argument("surface", metavar="SURFACE", help=_surface_help())
+    w.add_argument("--spacing", type=float, required=True, metavar="R", help="rest length of the weft springs")
+    w.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
+    w.add_argument("--material", default="woven", metavar="NAME", help="as for flatten (default woven)")
+    w.add_argument("--seed", default=None, metavar="U,V", help="the first seed (default as for flatten)")
+    w.add_argument("--face", type=int, default=None, metavar="N", help="as for flatten")
+    w.add_argument("--region", default=None, metavar="REGION.json", help="as for flatten")
+    w.add_argument("--angles", type=int, default=12, metavar="K",
+                   help="weft angles, evenly over a period (90 degrees when weft and warp are alike, else 180; "
+                        "default 12)")
+    w.add_argument("--seeds", type=int, default=1, metavar="M",
+                   help="seeds: the first, then points well inside the piece, far apart (default 1)")
+    w.add_argument("--refine", action="store_true", help="narrow the best angle down to a quarter degree")
+    w.add_argument("--lock-angle", type=float, default=None, metavar="DEG",
+                   help="shear lock angle of the cloth (default the material's, 30 for the presets)")
+    w.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="solves at once, in worker processes (default: the number of cores, at most 4)")
+    w.add_argument("--paths", choices=("plane", "geodesic"), default="plane", help="as for flatten")
+    w.add_argument("--solver", choices=solver_names("spring"), default=DEFAULT_SOLVER, help=solver_help("spring"))
+    w.add_argument("--tol", type=float, default=1e-9, metavar="T", help="as for flatten")
+    w.add_argument("--max-iter", type=int, default=1000, metavar="N", help="as for flatten")
+    w.add_argument("--plane-dart", action="append", default=[], metavar="A,B,C,D[:BOX]", help="as for flatten")
+    w.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json", help="as for flatten")
+    w.add_argument("--out", metavar="SWEEP.json", help="write the ranked rows as JSON")
+    w.add_argument("--quiet", action="store_true", help="no table on stdout")
+
     i = sub.add_parser("info", help="domain, area and boundary length of a surface; the faces of a CAD file")
     i.add_argument("surface", metavar="SURFACE", help=_surface_help())
     i.add_argument("--json", action="store_true",
@@ -178,6 +227,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("examples", help="list the bundled example surfaces")
     return p
+
+
+def _angle(text: str):
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is neither a number of degrees nor 'auto'") from None
+    return value
 
 
 def _yarns(args) -> tuple:
@@ -208,7 +267,6 @@ def _darts(args, surface) -> tuple:
 
 def _cmd_flatten(args) -> int:
     from core.fileio import write_json
-    from core.mesh import parse_material
     from core.pipeline import FlattenSettings, flatten, result_to_dict, state_from_dict
     from core.quadrature import region_area
 
@@ -243,20 +301,58 @@ def _cmd_flatten(args) -> int:
     cover = cover_for(surface, region)
     if opened.cad is not None:
         _check_face_size(opened, args.spacing)
+    if region is not None:
+        from core.region import check_region_size
+        check_region_size(surface, region, args.spacing, args.spacing_warp)
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
-        spacing=args.spacing, spacing_warp=args.spacing_warp, material=parse_material(args.material),
-        seed=seed, angle_deg=args.angle, paths=args.paths, solver=args.solver,
+        spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args),
+        seed=seed, angle_deg=0.0 if args.angle == "auto" else args.angle, paths=args.paths, solver=args.solver,
         tol=args.tol, max_iter=args.max_iter,
         max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"),
         yarns=_yarns(args), darts=_darts(args, surface), max_nodes=args.max_nodes, region=region)
     initial = None
     if args.warm_start:
+        if args.angle == "auto":
+            raise SettingsError("--angle auto drapes anew at each angle; it cannot warm-start (drop --warm-start)")
         initial = state_from_dict(_read_json(args.warm_start), surface, settings)
+    swept = None
+    if args.angle == "auto":
+        import dataclasses
+
+        from core.sweep import sweep
+
+        swept = sweep(surface, settings, refine=True, area=cover.area if cover.trimmed else None,
+                      seeds=1)
+        settings = dataclasses.replace(settings, angle_deg=swept.best["angle_deg"])
+        if not args.quiet:
+            print(f"angle auto: {swept.best['angle_deg']:.4g} deg, the best of {len(swept.rows)} solves "
+                  f"({swept.seconds:.1f} s)", file=sys.stderr)
+    if args.auto_darts < 0:
+        raise SettingsError(f"--auto-darts must be 0 or more, got {args.auto_darts}")
     result = flatten(surface, settings, initial=initial, area=cover.area if cover.trimmed else region_area(surface),
                      callback=None if args.quiet else _Progress())
+    suggested = []
+    if args.auto_darts:
+        from core.autodarts import suggest_darts
+
+        suggested = suggest_darts(result, count=args.auto_darts)
+        if suggested:
+            result = suggested[-1].result
+        if not args.quiet:
+            for p in suggested:
+                print(f"suggested {p.dart.name}: energy -{100 * p.gain:.1f} %, boundary error "
+                      f"{p.metrics['boundary_error_pct']:.3f} %, area error {p.metrics['area_error_pct']:.3f} %",
+                      file=sys.stderr)
+            if len(suggested) < args.auto_darts:
+                print(f"{len(suggested)} of {args.auto_darts} suggested darts: no further dart lowers the energy "
+                      f"by 3 % or more", file=sys.stderr)
     if out is not None:
         doc = result_to_dict(result, source)
+        if swept is not None:
+            doc["sweep"] = swept.to_dict()
+        if args.auto_darts:
+            doc["suggested_darts"] = [p.to_dict() for p in suggested]
         if opened.cad is not None:  # which face of which file, in which units
             doc["settings"]["face"] = opened.face
             doc["settings"]["units"] = opened.cad.units
@@ -267,6 +363,8 @@ def _cmd_flatten(args) -> int:
         print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
               f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
+              f"{m['area_beyond_lock_pct']:.3g} % of the area beyond the lock angle "
+              f"({result.settings.material.lock_deg:g} deg), "
               f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
     _print_warnings(result.warnings)
@@ -291,6 +389,23 @@ def _check_face_size(opened, spacing: float) -> None:
                             f"or another face")
 
 
+def _material(args):
+    """The --material, with the --shear-angles given."""
+    from dataclasses import replace
+
+    from core.mesh import parse_material
+
+    material = parse_material(args.material)
+    if getattr(args, "shear_angles", None) is None:
+        return material
+    try:
+        warn, lock = (float(x) for x in args.shear_angles.split(","))
+    except ValueError:
+        raise SettingsError(f"--shear-angles must be two numbers WARN,LOCK in degrees, "
+                            f"got {args.shear_angles!r}") from None
+    return replace(material, warn_deg=warn, lock_deg=lock)
+
+
 def _print_warnings(warnings) -> None:
     """Each warning as ``flatweave: warning: ...`` on stderr, even with --quiet
     (warnings are about the result, not progress); the exit status stays 0."""
@@ -306,9 +421,11 @@ def _cmd_flatten_planar(args, out: Path) -> int:
 
     unused = [name for name, value, default in (
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
+        ("--shear-angles", args.shear_angles, None),
         ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
-        ("--region", args.region, None), ("--face", args.face, None),
-        ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None)) if value != default]
+        ("--region", args.region, None), ("--region-offset", args.region_offset, None), ("--face", args.face, None),
+        ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None),
+        ("--auto-darts", args.auto_darts, 0)) if value != default]
     if unused:
         raise SettingsError(f"--method planar does not use {', '.join(unused)}")
     solvers = solver_entry("planar").solver_map  # --solver name -> the planar method's minimiser
@@ -360,6 +477,48 @@ def _read_json(path: str, what: str = "result") -> dict:
         raise SettingsError(f"cannot read {path}: {exc.strerror or exc}") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise SettingsError(f"{path} is not a JSON {what} file: {exc}") from None
+
+
+def _cmd_sweep(args) -> int:
+    from core.fileio import write_json
+    from core.pipeline import FlattenSettings
+    from core.region import cover_for
+    from core.sweep import sweep
+
+    out = Path(args.out) if args.out else None
+    if out is not None and out.parent and not out.parent.exists():
+        raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    if args.workers is not None and args.workers < 1:
+        raise SettingsError(f"--workers must be 1 or more, got {args.workers}")
+    opened = resolve_piece(args)
+    surface, region = opened.surface, opened.region
+    cover = cover_for(surface, region)
+    seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
+    settings = FlattenSettings(
+        spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args), seed=seed,
+        paths=args.paths, solver=args.solver, tol=args.tol, max_iter=args.max_iter,
+        darts=_darts(args, surface), region=region)
+    if args.lock_angle is not None and not (0 < args.lock_angle < 90):
+        raise SettingsError(f"--lock-angle must be between 0 and 90 degrees, got {args.lock_angle:g}")
+    result = sweep(surface, settings, angles=args.angles, seeds=args.seeds, lock_deg=args.lock_angle,
+                   refine=args.refine, workers=args.workers, area=cover.area if cover.trimmed else None)
+    if out is not None:
+        write_json(out, result.to_dict())
+    if not args.quiet:
+        print(f"{'rank':>4} {'angle':>7} {'seed':>13} {'beyond lock %':>13} {'max shear':>9} "
+              f"{'boundary %':>10} {'area %':>7} {'nodes':>6}")
+        for k, r in enumerate(result.rows, 1):
+            seed_text = f"{r['seed'][0]:.3f},{r['seed'][1]:.3f}"
+            if r.get("error"):
+                print(f"{k:>4} {r['angle_deg']:>7.2f} {seed_text:>13}  failed: {r['error']}")
+                continue
+            print(f"{k:>4} {r['angle_deg']:>7.2f} {seed_text:>13} {r['area_beyond_lock_pct']:>13.3f} "
+                  f"{r['max_shear_deg']:>9.3f} {r['boundary_error_pct']:>10.3f} {r['area_error_pct']:>7.3f} "
+                  f"{r['nodes']:>6}")
+    print(f"best: weft angle {result.best['angle_deg']:.4g} deg, seed {result.best['seed'][0]:.4g},"
+          f"{result.best['seed'][1]:.4g} ({len(result.rows)} solves, {result.seconds:.1f} s)"
+          + (f" -> {out}" if out else ""), file=sys.stderr)
+    return 0
 
 
 def _cmd_info(args) -> int:
@@ -436,7 +595,7 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    handler = {"flatten": _cmd_flatten, "info": _cmd_info, "examples": _cmd_examples}[args.command]
+    handler = {"flatten": _cmd_flatten, "sweep": _cmd_sweep, "info": _cmd_info, "examples": _cmd_examples}[args.command]
     try:
         return handler(args)
     except FlatweaveError as exc:

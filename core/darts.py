@@ -134,7 +134,7 @@ class Dart:
         return out if keys is None else {k: v for k, v in out.items() if k in keys}
 
 
-RESULT_DART_KEYS = ("kind", "name", "plane", "box", "uv")
+RESULT_DART_KEYS = ("kind", "name", "plane", "box", "uv", "auto")
 """A dart's entries in a result file's settings (no labels beyond its name)."""
 CUT_DART_KEYS = ("kind", "plane", "box", "uv")
 """What a dart's cut depends on."""
@@ -312,6 +312,7 @@ class CurveDart(Dart):
 
     uv : (k, 2) points of the curve in the parameter domain (k >= 2)
     name, visible : labels (see the module docstring)
+    auto : a label: the dart was suggested (:mod:`core.autodarts`), not drawn
     handles : (h, 2) (u, v) of the points the designer placed, in drawing
         order, or None (a dart from a file); h >= 2
     view_dir : (3,) the direction the drawing was projected along, or None
@@ -323,6 +324,7 @@ class CurveDart(Dart):
     handles: np.ndarray | None = None
     view_dir: tuple[float, float, float] | None = None
     visible: bool = True
+    auto: bool = False
     editable_points = True
 
     def __post_init__(self):
@@ -349,6 +351,8 @@ class CurveDart(Dart):
             out["handles"] = np.asarray(self.handles, dtype=float).tolist()
         if self.view_dir is not None:
             out["view_dir"] = [float(x) for x in self.view_dir]
+        if self.auto:
+            out["auto"] = True
         return out
 
     @classmethod
@@ -358,7 +362,8 @@ class CurveDart(Dart):
         view = item.get("view_dir")
         return cls(pts, name=name, visible=visible,
                    handles=None if handles is None else read.points(handles, f"{what}.handles"),
-                   view_dir=None if view is None else read.numbers(view, 3, f"{what}.view_dir"))
+                   view_dir=None if view is None else read.numbers(view, 3, f"{what}.view_dir"),
+                   auto=item.get("auto", False) is True)
 
     def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
         return segments_cross(uva, uvb, self.uv[:-1], self.uv[1:])

@@ -23,6 +23,7 @@ import numpy as np
 from core.mesh import DIAG, Material, SpringMesh
 
 __all__ = ["spring_lengths", "spring_strain", "cell_shear_deg", "cell_areas", "deformation_summary",
+           "area_beyond_lock_pct",
            "is_woven", "metric_limits", "result_warnings", "LIMIT_KEYS", "WOVEN_STRAIN_PCT",
            "SHEET_STRAIN_PCT", "MANY_DELETED_PCT"]
 
@@ -51,13 +52,25 @@ def cell_shear_deg(xyz: np.ndarray, mesh: SpringMesh) -> np.ndarray:
     return total / 4.0
 
 
+def area_beyond_lock_pct(shear_deg: np.ndarray, areas: np.ndarray, lock_deg: float) -> float:
+    """100 x the share of the covered area (the cells' areas summed) whose
+    cell shear passes ``lock_deg`` in magnitude; 0 for no cells."""
+    a = np.asarray(areas, dtype=float)
+    total = float(a.sum())
+    if not total > 0:
+        return 0.0
+    return float(100.0 * a[np.abs(np.asarray(shear_deg, dtype=float)) > lock_deg].sum() / total)
+
+
 def deformation_summary(xyz: np.ndarray, mesh: SpringMesh) -> dict:
-    """Thread strain and cell shear statistics (percent and degrees)."""
+    """Thread strain and cell shear statistics (percent and degrees); the
+    share of the area beyond the material's lock angle."""
     strain = spring_strain(xyz, mesh)
     thread = mesh.kind != DIAG
     ts = np.abs(strain[thread])
     shear = np.abs(cell_shear_deg(xyz, mesh))
     return {
+        "area_beyond_lock_pct": area_beyond_lock_pct(shear, cell_areas(xyz, mesh), mesh.material.lock_deg),
         "max_thread_strain_pct": float(100 * ts.max(initial=0.0)),
         "mean_thread_strain_pct": float(100 * ts.mean()) if ts.size else 0.0,
         "max_diag_strain_pct": float(100 * np.abs(strain[~thread]).max(initial=0.0)),
@@ -89,11 +102,14 @@ UNCOVERED_PCT = (0.5, 2.0)
 MANY_DELETED_PCT = (10.0, 30.0)
 """(warning, bad) nodes deleted during a solve, percent of the drape's nodes."""
 
+BEYOND_LOCK_PCT = (0.5, 5.0)
+"""(warning, bad) share of the area sheared past the lock angle, percent (as much as a few corner cells is fine)."""
+
 BOUNDARY_ERROR_PCT = (5.0, 10.0)
 AREA_ERROR_PCT = (2.0, 5.0)
 
-LIMIT_KEYS = ("uncovered_pct", "max_thread_strain_pct", "max_shear_deg", "boundary_error_pct",
-              "area_error_pct", "nodes_deleted_pct")
+LIMIT_KEYS = ("uncovered_pct", "max_thread_strain_pct", "max_shear_deg", "area_beyond_lock_pct",
+              "boundary_error_pct", "area_error_pct", "nodes_deleted_pct")
 """The metric keys :func:`metric_limits` gives thresholds for, in this order."""
 
 _WOVEN_RATIO = 0.1
@@ -105,18 +121,23 @@ def is_woven(material: Material) -> bool:
     return material.k_diag <= _WOVEN_RATIO * min(material.k_weft, material.k_warp)
 
 
-def metric_limits(material: Material, warn_deg: float = 15.0, lock_deg: float = 30.0) -> dict[str, tuple[float, float]]:
+def metric_limits(material: Material, warn_deg: float | None = None,
+                  lock_deg: float | None = None) -> dict[str, tuple[float, float]]:
     """Per metric key (:data:`LIMIT_KEYS`) the (warning, bad) thresholds:
     a value at or below the first is fine, above it a warning, above the
-    second bad. The shear thresholds are the project's shear warning and
-    lock angles (``Project.shear_warning_deg``, ``shear_limit_deg``); the
-    thread strain's depend on the material (:func:`is_woven`)."""
+    second bad. The shear thresholds are the material's warning and lock
+    angles unless given (the window passes the project's display angles,
+    ``Project.shear_warning_deg``, ``shear_limit_deg``); the thread strain's
+    depend on the material (:func:`is_woven`)."""
+    warn_deg = material.warn_deg if warn_deg is None else warn_deg
+    lock_deg = material.lock_deg if lock_deg is None else lock_deg
     if not (np.isfinite(warn_deg) and np.isfinite(lock_deg) and 0 < warn_deg < lock_deg):
         raise ValueError(f"shear angles must be 0 < warning < lock, got {warn_deg!r} and {lock_deg!r}")
     return {
         "uncovered_pct": UNCOVERED_PCT,
         "max_thread_strain_pct": WOVEN_STRAIN_PCT if is_woven(material) else SHEET_STRAIN_PCT,
         "max_shear_deg": (float(warn_deg), float(lock_deg)),
+        "area_beyond_lock_pct": BEYOND_LOCK_PCT,
         "boundary_error_pct": BOUNDARY_ERROR_PCT,
         "area_error_pct": AREA_ERROR_PCT,
         "nodes_deleted_pct": MANY_DELETED_PCT,

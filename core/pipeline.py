@@ -29,7 +29,7 @@ from core.metrics import (cell_areas, cell_shear_deg, deformation_summary, metri
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
-from core.region import Cover, Region, cover_for
+from core.region import Cover, Region, cover_for, region_record
 from core.solver import STOPPED, Problem, SolveResult, SolverOptions, State, iterate
 from core.solver import stopped_result as stopped_solve
 from core.solvers import solver_entry, solver_names
@@ -108,6 +108,10 @@ def validate_settings(s: FlattenSettings) -> None:
         raise SettingsError(f"material must be a Material, got {type(s.material).__name__}")
     for name in ("k_weft", "k_warp", "k_diag"):
         positive(f"material {name}", getattr(s.material, name))
+    w, lock = s.material.warn_deg, s.material.lock_deg
+    if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in (w, lock)) \
+            or not 0 < w < lock <= 90:
+        raise SettingsError(f"material shear angles must be 0 < warning < lock <= 90 degrees, got {w!r} and {lock!r}")
     seed = tuple(s.seed)
     if len(seed) != 2 or not all(isinstance(x, (int, float)) and 0 <= x <= 1 for x in seed):
         raise SettingsError(f"seed must be two fractions of the domain between 0 and 1, got {s.seed!r}")
@@ -254,10 +258,11 @@ def coverage_metrics(surface: NurbsSurface, xyz: np.ndarray, r_weft: float, r_wa
             "max_gap_spacings": float(d.max(initial=0.0) / max(r_weft, r_warp))}
 
 
-def warnings_for(result: "FlattenResult", warn_deg: float = 15.0, lock_deg: float = 30.0) -> tuple[str, ...]:
+def warnings_for(result: "FlattenResult", warn_deg: float | None = None,
+                 lock_deg: float | None = None) -> tuple[str, ...]:
     """The result's warnings (:func:`core.metrics.result_warnings`) against
     :func:`core.metrics.metric_limits` of its material and the shear angles
-    (the project's display settings; 15 and 30 degrees by default)."""
+    (the material's unless given: the window gives the project's display angles)."""
     return result_warnings(result.metrics, result.settings,
                            metric_limits(result.settings.material, warn_deg, lock_deg),
                            shear=(cell_shear_deg(result.xyz, result.mesh), cell_areas(result.xyz, result.mesh)))
@@ -561,6 +566,9 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
             "pieces": [pc.to_dict() for pc in pattern.pieces],
         },
         "darts": _darts_dict(result),
+        # the piece's region: loops in (u, v) and on the surface, and how it was drawn (null: whole domain)
+        "region": region_record(result.surface, result.settings.region) if result.settings.region is not None
+        else None,
         "uncovered_regions": [g.to_dict() for g in uncovered_regions(
             result.surface, xyz, cell_diagonal(mesh.r_weft, mesh.r_warp),
             grid=cover_for(result.surface, result.settings.region).coverage_grid(
@@ -570,7 +578,7 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
     }
 
 
-_OPENING_DART_KEYS = ("kind", "name", "plane", "box")  # a result's dart openings: no curve points
+_OPENING_DART_KEYS = ("kind", "name", "plane", "box", "auto")  # a result's dart openings: no curve points
 
 
 def _darts_dict(result: FlattenResult) -> list[dict]:

@@ -249,10 +249,19 @@ def _material_from(f: _Fields, value: Any) -> Material:
     m = f.obj(value, "settings.material")
     name = f.string(f.get(m, "name", "settings.material"), "settings.material.name")
     ks = [f.number(f.get(m, k, "settings.material"), f"settings.material.{k}") for k in ("k_weft", "k_warp", "k_diag")]
+    # the angles came with version 3's materials of issue 23; older files judged by 15 and 30 degrees
+    angles = [f.number(m.get(k, d), f"settings.material.{k}") for k, d in (("warn_deg", 15.0), ("lock_deg", 30.0))]
+    material = Material(name, *ks, *angles)
     preset = MATERIALS.get(name)
-    if preset is not None and [preset.k_weft, preset.k_warp, preset.k_diag] == ks:
+    if preset is not None and preset == material:
         return preset
-    return Material(name, *ks)
+    if preset is not None:
+        # a preset's name whose constants are another preset's: the file was written when the name meant
+        # those constants ("isotropic" was 100:100:100 until issue 23), so it opens as what it was
+        for p in MATERIALS.values():
+            if p.same_constants(material) and (p.warn_deg, p.lock_deg) == tuple(angles):
+                return p
+    return material
 
 
 def settings_from_dict(d: Any, darts: Any = (), yarns: Any = (), where: str = "project") -> FlattenSettings:

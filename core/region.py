@@ -45,7 +45,9 @@ import numpy as np
 from core.errors import SettingsError
 from core.nurbs import NurbsSurface
 
-__all__ = ["Region", "Cover", "cover_for", "circle_loop", "region_from_cad_face", "CORNER_DEG"]
+__all__ = ["Region", "RegionDrawing", "Cover", "cover_for", "circle_loop", "region_from_cad_face", "region_from_spec",
+           "region_from_drawing", "offset_region", "check_region", "check_region_size", "region_record",
+           "CORNER_DEG", "MIN_CELLS"]
 
 CORNER_DEG = 30.0
 """A loop vertex whose polyline turns by more than this (in (u, v)) is a
@@ -84,10 +86,14 @@ class Region:
         implicitly
     corners : per loop, a tuple of point indices that are corners (0 is
         always one); empty: found by the turning angle (:data:`CORNER_DEG`)
+    drawn : how the region was drawn (:class:`RegionDrawing`: the points and
+        view direction, or the (u, v) fractions, and the offset), or None;
+        a label for editing, the loops are what every stage uses
     """
 
     loops: tuple
     corners: tuple = ()
+    drawn: "RegionDrawing | None" = None
 
     @classmethod
     def from_loops(cls, outer, holes=(), corners=None) -> "Region":
@@ -131,8 +137,11 @@ class Region:
 
     def to_dict(self) -> dict:
         """The region in project and result files."""
-        return {"loops": [[list(q) for q in p] for p in self.loops],
-                "corners": [list(c) for c in self.corners] if self.corners else None}
+        out = {"loops": [[list(q) for q in p] for p in self.loops],
+               "corners": [list(c) for c in self.corners] if self.corners else None}
+        if self.drawn is not None:
+            out["drawn"] = self.drawn.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, d) -> "Region":
@@ -160,6 +169,12 @@ class Region:
                             for c, p in zip(corners, region.loops))):
                 raise SettingsError("a region's corners must be, per loop, a list of point indices")
             region = cls(region.loops, tuple(tuple(sorted(set([0] + c))) for c in corners))
+        if d.get("drawn") is not None:
+            from dataclasses import replace
+            try:
+                region = replace(region, drawn=RegionDrawing.from_dict(d["drawn"]))
+            except SettingsError as exc:
+                raise SettingsError(f"the region's drawn form: {exc}") from None
         return region
 
 
@@ -446,3 +461,392 @@ def cover_for(surface: NurbsSurface, region: Region | None = None) -> Cover:
             per.clear()
         hit = per[region] = Cover(surface, region)
     return hit
+
+
+# ---------------------------------------------------------------------- drawn regions
+MIN_CELLS = 6
+"""A region must hold at least this many mesh cells (spacing_weft x spacing_warp) of area."""
+
+_FAN_DEG = 2.0      # angle between the geodesics of an offset's rounded corner
+_OFFSET_PIECE = 1.0 / 512.0  # longest loop segment an offset starts from, as a fraction of the domain
+_FORMS = ("points", "uv", "outer")
+
+
+def _floats_rows(value, width: int, what: str) -> tuple:
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.ndim != 2 or a.shape[1] != width:
+        kind = "[x, y, z]" if width == 3 else "[s, t]" if width == 2 else "values"
+        raise SettingsError(f"{what} must be a list of {kind} points")
+    if not np.isfinite(a).all():
+        raise SettingsError(f"{what} has a non-finite coordinate")
+    if width == 3 and len(a) < 3:  # (u, v) loops: Region.from_loops says what is wrong
+        raise SettingsError(f"{what} needs at least 3 points, got {len(a)}")
+    return tuple(tuple(float(x) for x in r) for r in a)
+
+
+@dataclass(frozen=True)
+class RegionDrawing:
+    """How a region was drawn, kept so a project can show and edit it.
+
+    form : "points" (points in space projected along ``view_direction``, the
+        loop between them following the surface as a curve dart's does),
+        "uv" (polygons in fractions of the domain) or "outer" (polygons in
+        domain coordinates)
+    outer, holes : the outer loop's points and each hole's (tuples of tuples)
+    view_direction : (3,) unit direction the points were projected along
+        (form "points"), else None
+    offset : distance the boundary was moved on the surface (positive
+        outwards), model units
+    tolerance : biarc tolerance in parameter units (form "points"), or None
+        (1e-5 of the domain)
+    """
+
+    form: str
+    outer: tuple
+    holes: tuple = ()
+    view_direction: tuple | None = None
+    offset: float = 0.0
+    tolerance: float | None = None
+
+    def to_dict(self) -> dict:
+        """The drawing in the ``--region`` file's form (a valid spec for :func:`region_from_spec`)."""
+        key = {"points": "points", "uv": "uv", "outer": "outer"}[self.form]
+        out: dict = {key: [list(p) for p in self.outer]}
+        if self.view_direction is not None:
+            out["view_direction"] = list(self.view_direction)
+        if self.holes:
+            out["holes"] = [[list(p) for p in h] for h in self.holes]
+        if self.offset:
+            out["offset"] = self.offset
+        if self.tolerance is not None:
+            out["tolerance"] = self.tolerance
+        return out
+
+    @classmethod
+    def from_dict(cls, d) -> "RegionDrawing":
+        """A drawing from a ``--region`` spec: ``{"points": [[x, y, z], ...], "view_direction":
+        [dx, dy, dz]}``, ``{"uv": [[s, t], ...]}`` (fractions of the domain) or ``{"outer": [[u, v],
+        ...]}``, each with optional ``"holes"`` (a list of loops in the same form) and ``"offset"``."""
+        if not isinstance(d, dict):
+            raise SettingsError(f"a region must be a JSON object, got {type(d).__name__}")
+        forms = [f for f in _FORMS if f in d]
+        if len(forms) != 1:
+            raise SettingsError("a region needs exactly one of 'points' (with 'view_direction'), "
+                                "'uv' (fractions of the domain) or 'outer' (domain coordinates)")
+        form = forms[0]
+        width = 3 if form == "points" else 2
+        outer = _floats_rows(d[form], width, "the region's outer loop")
+        holes = d.get("holes", [])
+        if not isinstance(holes, list):
+            raise SettingsError("a region's holes must be a list of loops")
+        holes = tuple(_floats_rows(h, width, f"hole {k + 1} of the region") for k, h in enumerate(holes))
+        view = None
+        if form == "points":
+            v = d.get("view_direction")
+            try:
+                v = np.asarray(v, dtype=float).reshape(-1) if v is not None else None
+            except (TypeError, ValueError):
+                v = None
+            if v is None or v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
+                raise SettingsError("a drawn region needs 'view_direction': a non-zero [dx, dy, dz]")
+            view = tuple(float(x) for x in v / np.linalg.norm(v))
+        elif "view_direction" in d:
+            raise SettingsError(f"'view_direction' is for a region of 'points', not of '{form}'")
+        offset = d.get("offset", 0.0)
+        if isinstance(offset, bool) or not isinstance(offset, (int, float)) or not math.isfinite(offset):
+            raise SettingsError(f"a region's offset must be a number, got {offset!r:.40}")
+        tol = d.get("tolerance")
+        if tol is not None and (isinstance(tol, bool) or not isinstance(tol, (int, float)) or not tol > 0
+                                or not math.isfinite(tol)):
+            raise SettingsError(f"a region's tolerance must be a positive number, got {tol!r:.40}")
+        return cls(form, outer, holes, view, float(offset), None if tol is None else float(tol))
+
+
+def _loop_name(k: int) -> str:
+    return "outer loop" if k == 0 else f"hole {k}"
+
+
+def _drawn_loop(surface: NurbsSurface, pts: np.ndarray, view: np.ndarray, tol: float, what: str):
+    """(uv (n, 2), corner indices) of a loop through points projected along ``view``: per side the
+    projection of the straight segment between two drawn points, fitted by biarcs in (u, v) within
+    ``tol`` (as a curve dart's curve), the drawn points' projections its corners."""
+    from core.curves import fit_biarcs, project_points, project_polyline
+
+    pr = project_points(surface, pts, view)
+    if not pr.hit.all():
+        k = int(np.flatnonzero(~pr.hit)[0]) + 1
+        raise SettingsError(f"point {k} of the region's {what} misses the surface along the view direction")
+    closed = np.vstack([pts, pts[:1]])
+    curve = project_polyline(surface, closed, view)
+    if curve.clipped or not curve.complete:
+        raise SettingsError(f"the region's {what} leaves the surface between its points "
+                            "(seen along the view direction)")
+    dom = surface.domain
+    size = float(np.max(dom[:, 1] - dom[:, 0]))
+    parts, corners, n = [], [], 0
+    k = len(pts)
+    for i in range(k):
+        inner = (curve.source_param > i) & (curve.source_param < i + 1)
+        side = np.vstack([pr.uv[i], curve.uv[inner], pr.uv[(i + 1) % k]])
+        if np.max(np.abs(side[-1] - side[0])) <= 1e-12 * size and len(side) <= 2:
+            raise SettingsError(f"points {i + 1} and {(i + 1) % k + 1} of the region's {what} "
+                                "land on one place of the surface")
+        uv = fit_biarcs(side, tol).sample(size / 1000)
+        uv[0], uv[-1] = side[0], side[-1]
+        corners.append(n)
+        parts.append(uv[:-1])
+        n += len(uv) - 1
+    return np.clip(np.vstack(parts), dom[:, 0], dom[:, 1]), corners
+
+
+def check_region(surface: NurbsSurface, region: Region) -> None:
+    """SettingsError (one line) unless every loop is simple and inside the domain, and every hole
+    lies inside the outer loop without touching it or another hole."""
+    import shapely
+
+    dom = surface.domain
+    size = dom[:, 1] - dom[:, 0]
+    loops = region.arrays()
+    for k, p in enumerate(loops):
+        if np.any(p < dom[:, 0] - 1e-9 * size) or np.any(p > dom[:, 1] + 1e-9 * size):
+            raise SettingsError(f"the region's {_loop_name(k)} leaves the surface's domain")
+        if not shapely.LinearRing(p).is_simple:
+            raise SettingsError(f"the region's {_loop_name(k)} crosses itself")
+    polys = [shapely.Polygon(p) for p in loops]
+    for k in range(1, len(polys)):
+        if not polys[0].contains(polys[k]):
+            where = "crosses or touches" if polys[0].intersects(polys[k]) else "lies outside"
+            raise SettingsError(f"hole {k} of the region {where} the outer loop")
+        for j in range(1, k):
+            if polys[j].intersects(polys[k]):
+                raise SettingsError(f"holes {j} and {k} of the region overlap")
+
+
+def check_region_size(surface: NurbsSurface, region: Region | None, spacing: float,
+                      spacing_warp: float | None = None) -> None:
+    """SettingsError unless the region holds :data:`MIN_CELLS` cells of the mesh at the spacing."""
+    if region is None:
+        return
+    cell = float(spacing) * float(spacing_warp if spacing_warp is not None else spacing)
+    area = cover_for(surface, region).area
+    if not area >= MIN_CELLS * cell:
+        raise SettingsError(f"the region's area {area:.4g} is under {MIN_CELLS} cells at spacing {spacing:g} "
+                            f"({MIN_CELLS * cell:.4g}); draw it larger or choose a smaller spacing")
+
+
+def region_from_drawing(surface: NurbsSurface, drawing: RegionDrawing) -> Region:
+    """The :class:`Region` of a drawing (remembering it): its loops on the surface, checked
+    (:func:`check_region`), then offset by ``drawing.offset`` (:func:`offset_region`)."""
+    dom = surface.domain
+    size = dom[:, 1] - dom[:, 0]
+    raw = [drawing.outer, *drawing.holes]
+    loops, corners = [], []
+    for k, pts in enumerate(raw):
+        p = np.asarray(pts, dtype=float)
+        what = _loop_name(k)
+        if drawing.form == "points":
+            tol = drawing.tolerance if drawing.tolerance is not None else 1e-5 * float(np.max(size))
+            uv, c = _drawn_loop(surface, p, np.asarray(drawing.view_direction), tol, what)
+        else:
+            if drawing.form == "uv":
+                bad = np.flatnonzero(np.any((p < -1e-12) | (p > 1 + 1e-12), axis=1))
+                if len(bad):
+                    raise SettingsError(f"point {int(bad[0]) + 1} of the region's {what} lies outside the surface "
+                                        f"(fractions of the domain run from 0 to 1)")
+                p = dom[:, 0] + np.clip(p, 0.0, 1.0) * size
+            uv, c = p, None
+        loops.append(uv)
+        corners.append(c)
+    # the loops' senses are fixed by from_loops; corners given for the drawn points only
+    region = Region.from_loops(loops[0], loops[1:], corners=corners if drawing.form == "points" else None)
+    check_region(surface, region)
+    from dataclasses import replace
+    if drawing.offset:
+        region = offset_region(surface, region, drawing.offset)
+    return replace(region, drawn=drawing)
+
+
+def region_from_spec(surface: NurbsSurface, spec, offset: float | None = None) -> Region:
+    """The region of a ``--region`` file's JSON (:meth:`RegionDrawing.from_dict`'s forms, or
+    :meth:`Region.to_dict`'s ``loops``), its boundary moved by ``offset`` on the surface (model
+    units, positive outwards; added to the spec's own ``offset``). The one entry point of the
+    CLI and the app's region tool."""
+    if isinstance(spec, dict) and "loops" in spec:
+        region = Region.from_dict(spec)
+        check_region(surface, region)
+        if region.drawn is not None and offset is None:
+            return region
+        base = region.drawn.offset if region.drawn is not None else 0.0
+        return region if not offset else offset_region(surface, region, float(offset), base)
+    drawing = RegionDrawing.from_dict(spec)
+    if offset:
+        from dataclasses import replace
+        drawing = replace(drawing, offset=drawing.offset + float(offset))
+    return region_from_drawing(surface, drawing)
+
+
+# -- offsets along the surface
+def _geodesics(surface: NurbsSurface, uv: np.ndarray, vel: np.ndarray, length: float, steps: int) -> np.ndarray:
+    """(n, 2) end points of the geodesics from ``uv`` with unit (in the surface's metric) (u, v)
+    velocities ``vel``, after arc length ``length``: RK4 on u''^k = -g^{kl} S_l . S_ij u'^i u'^j."""
+    dom = surface.domain
+
+    def accel(x, w):
+        x = np.clip(x, dom[:, 0], dom[:, 1])
+        ev = surface.evaluate(x, second=True, normals=False)
+        su, sv = ev.su, ev.sv
+        E, F, G = np.einsum("ij,ij->i", su, su), np.einsum("ij,ij->i", su, sv), np.einsum("ij,ij->i", sv, sv)
+        a = (ev.suu * (w[:, :1] ** 2) + 2 * ev.suv * (w[:, :1] * w[:, 1:]) + ev.svv * (w[:, 1:] ** 2))
+        b0, b1 = np.einsum("ij,ij->i", su, a), np.einsum("ij,ij->i", sv, a)
+        det = E * G - F * F
+        ok = det > 1e-300
+        det = np.where(ok, det, 1.0)
+        return np.where(ok[:, None], -np.column_stack([(G * b0 - F * b1) / det, (E * b1 - F * b0) / det]), 0.0)
+
+    h = length / steps
+    x, w = uv.copy(), vel.copy()
+    live = np.ones(len(x), dtype=bool)  # a geodesic that leaves the domain stops on its edge
+    for _ in range(steps):
+        if not live.any():
+            break
+        xs, ws = x[live], w[live]
+        with np.errstate(all="ignore"):
+            k1x, k1w = ws, accel(xs, ws)
+            k2x, k2w = ws + 0.5 * h * k1w, accel(xs + 0.5 * h * k1x, ws + 0.5 * h * k1w)
+            k3x, k3w = ws + 0.5 * h * k2w, accel(xs + 0.5 * h * k2x, ws + 0.5 * h * k2w)
+            k4x, k4w = ws + h * k3w, accel(xs + h * k3x, ws + h * k3w)
+            xn = xs + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x)
+            wn = ws + h / 6 * (k1w + 2 * k2w + 2 * k3w + k4w)
+        ok = np.isfinite(xn).all(axis=1) & np.isfinite(wn).all(axis=1)
+        out = ~ok | np.any((xn < dom[:, 0]) | (xn > dom[:, 1]), axis=1)
+        xn = np.where(ok[:, None], np.clip(xn, dom[:, 0], dom[:, 1]), xs)
+        idx = np.flatnonzero(live)
+        x[idx], w[idx] = xn, np.where(ok[:, None], wn, ws)
+        live[idx[out]] = False
+    return x
+
+
+def _winding(points: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """(m,) winding number of the closed polyline ``ring`` around each point."""
+    out = np.zeros(len(points))
+    for k in range(0, len(points), 64):
+        p = points[k:k + 64, None, :]
+        a = ring[None] - p
+        b = np.roll(ring, -1, axis=0)[None] - p
+        cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+        dot = np.einsum("mnk,mnk->mn", a, b)
+        out[k:k + 64] = np.arctan2(cross, dot).sum(axis=1) / (2 * np.pi)
+    return np.rint(out)
+
+
+def _offset_filled(surface: NurbsSurface, loop: np.ndarray, e: float, steps: int):
+    """The region of the counter-clockwise ``loop`` grown by ``e`` (shrunk if negative) on the
+    surface: every segment's points moved along the surface normal to it by geodesics of length
+    |e|, fans of geodesics round the vertices; the raw ring's part of winding number >= 1 (the
+    true offset: swallowtails and loops of a crossing ring cancel)."""
+    import shapely
+
+    dom = surface.domain
+    size = dom[:, 1] - dom[:, 0]
+    q = np.roll(loop, -1, axis=0)
+    m = np.maximum(1, np.ceil(np.max(np.abs(q - loop) / size, axis=1) / _OFFSET_PIECE).astype(int))
+    seg = np.repeat(np.arange(len(loop)), m)
+    t = (np.arange(len(seg)) - np.repeat(np.cumsum(m) - m, m)) / m[seg]
+    P = loop[seg] + t[:, None] * (q[seg] - loop[seg])
+    d_out = np.roll(P, -1, axis=0) - P
+    d_in = P - np.roll(P, 1, axis=0)
+    ev = surface.evaluate(P, normals=False)
+    su, sv = ev.su, ev.sv
+    N = np.cross(su, sv)
+    N /= np.maximum(np.linalg.norm(N, axis=1), 1e-300)[:, None]
+
+    def unit(v):
+        return v / np.maximum(np.linalg.norm(v, axis=1), 1e-300)[:, None]
+
+    T_in = unit(su * d_in[:, :1] + sv * d_in[:, 1:])
+    T_out = unit(su * d_out[:, :1] + sv * d_out[:, 1:])
+    n_in = unit(np.cross(T_in, N))
+    turn = np.arctan2(np.einsum("ij,ij->i", N, np.cross(T_in, T_out)), np.einsum("ij,ij->i", T_in, T_out))
+    nf = np.maximum(1, np.ceil(np.abs(turn) / math.radians(_FAN_DEG)).astype(int))
+    idx = np.repeat(np.arange(len(P)), nf + 1)
+    j = np.arange(len(idx)) - np.repeat(np.cumsum(nf + 1) - (nf + 1), nf + 1)
+    phi = turn[idx] * j / nf[idx]
+    n3 = np.cos(phi)[:, None] * n_in[idx] + np.sin(phi)[:, None] * np.cross(N[idx], n_in[idx])
+    # the (u, v) velocity of the 3D tangent direction n3: g^{-1} [S_u . n, S_v . n]
+    a, b = np.einsum("ij,ij->i", su[idx], n3), np.einsum("ij,ij->i", sv[idx], n3)
+    E = np.einsum("ij,ij->i", su, su)[idx]
+    F = np.einsum("ij,ij->i", su, sv)[idx]
+    G = np.einsum("ij,ij->i", sv, sv)[idx]
+    det = np.maximum(E * G - F * F, 1e-300)
+    vel = np.column_stack([(G * a - F * b) / det, (E * b - F * a) / det]) * math.copysign(1.0, e)
+    ring = np.clip(_geodesics(surface, P[idx], vel, abs(e), steps), dom[:, 0], dom[:, 1])
+    keep = np.r_[True, np.any(np.abs(np.diff(ring, axis=0)) > 1e-14 * size, axis=1)]
+    ring = ring[keep]
+    lines = shapely.union_all(shapely.LineString(np.vstack([ring, ring[:1]])))  # noded at every crossing
+    faces = np.asarray(shapely.get_parts(shapely.polygonize(shapely.get_parts(lines))))
+    if len(faces) == 0:
+        return shapely.Polygon()
+    probe = np.array([[f.representative_point().x, f.representative_point().y] for f in faces])
+    keep = _winding(probe, ring) >= 1
+    if e < 0 and keep.any():
+        # an offset inwards past the loop's own width turns the ring inside out, and its fans can
+        # enclose faces of winding 1 again: those lie nearer the loop than |e| (chords are shorter
+        # than geodesics, so 0.9 |e| keeps every true face short of very strong curvature)
+        from scipy.spatial import cKDTree
+        near, _ = cKDTree(surface.points(P)).query(surface.points(probe[keep]))
+        keep[np.flatnonzero(keep)[near < 0.9 * abs(e)]] = False
+    return shapely.union_all(faces[keep])
+
+
+def offset_region(surface: NurbsSurface, region: Region | None, distance: float, base: float = 0.0) -> Region:
+    """``region`` (None: the whole domain) with its boundary moved by ``distance`` along the surface
+    (model units; positive outwards, negative inwards), clipped to the domain: the outer loop grown
+    and the holes shrunk by ``distance`` (:func:`_offset_filled`). The result remembers the drawing
+    with its offset (``base`` + ``distance``). One-line SettingsError when the offset leaves nothing
+    or splits the region."""
+    import shapely
+
+    from core.curves import _tessellation  # the surface's own size
+
+    d = float(distance)
+    if not math.isfinite(d):
+        raise SettingsError(f"the region offset must be a finite distance, got {distance!r}")
+    dom = surface.domain
+    box = shapely.box(dom[0, 0], dom[1, 0], dom[0, 1], dom[1, 1])
+    if region is None:
+        loops = [np.array([[dom[0, 0], dom[1, 0]], [dom[0, 1], dom[1, 0]], [dom[0, 1], dom[1, 1]],
+                           [dom[0, 0], dom[1, 1]]], dtype=float)]
+    else:
+        loops = region.arrays()
+    if d == 0.0:
+        return region
+    steps = int(max(4, math.ceil(abs(d) / (_tessellation(surface).scale / 256.0))))
+    try:
+        grown = _offset_filled(surface, loops[0], d, steps).intersection(box)
+        holes = [_offset_filled(surface, h[::-1], -d, steps) for h in loops[1:]]
+        if holes:
+            grown = grown.difference(shapely.union_all(holes))
+    except shapely.errors.GEOSException as exc:  # a degenerate ring: say so in one line
+        raise SettingsError(f"an offset of {d:g} cannot be formed on this region ({exc})") from None
+    parts = [g for g in shapely.get_parts(grown) if g.geom_type == "Polygon" and g.area > 0]
+    if not parts:
+        raise SettingsError(f"an offset of {d:g} leaves nothing of the region")
+    if len(parts) > 1:
+        raise SettingsError(f"an offset of {d:g} splits the region into {len(parts)} pieces")
+    poly = shapely.geometry.polygon.orient(parts[0], 1.0)
+    out = Region.from_loops(np.asarray(poly.exterior.coords), [np.asarray(r.coords) for r in poly.interiors])
+    drawn = region.drawn if region is not None else None
+    from dataclasses import replace
+    if drawn is not None:
+        out = replace(out, drawn=replace(drawn, offset=base + d) if base + d != drawn.offset else drawn)
+    return out
+
+
+def region_record(surface: NurbsSurface, region: Region) -> dict:
+    """The region in a result file: loops in (u, v) and on the surface, and its drawn form."""
+    return {"loops_uv": [p.tolist() for p in region.arrays()],
+            "loops_xyz": [surface.points(p).tolist() for p in region.arrays()],
+            "drawn": region.drawn.to_dict() if region.drawn is not None else None}

@@ -386,7 +386,9 @@ def test_vtp_reads_back_with_strain_and_shear(tmp_path, octant_dart):
     for mesh in (surface, springs):
         np.testing.assert_allclose(mesh.points, r.xyz, atol=1e-12)
         np.testing.assert_allclose(mesh.point_data["pattern_xy"], r.pattern.xy, atol=1e-12)
-    assert set(surface.cell_data) == {"shear_deg"} and set(springs.cell_data) == {"strain_pct", "spring_kind"}
+    assert set(surface.cell_data) == {"shear_deg", "fibre_deviation_deg", "warp_deviation_deg", "weft_dir",
+                                      "warp_dir"}
+    assert set(springs.cell_data) == {"strain_pct", "spring_kind"}
     np.testing.assert_allclose(springs.cell_data["strain_pct"], 100 * spring_strain(r.xyz, r.mesh), atol=1e-12)
     np.testing.assert_allclose(surface.cell_data["shear_deg"], cell_shear_deg(r.xyz, r.mesh), atol=1e-12)
     np.testing.assert_array_equal(springs.cell_data["spring_kind"], r.mesh.kind)
@@ -409,7 +411,7 @@ def test_unknown_suffix_and_bad_folder_are_refused(tmp_path):
     (tmp_path / "file").write_text("x")
     with pytest.raises(SettingsError, match="is not a folder"):
         check_target(tmp_path / "file" / "p.dxf")
-    assert set(FORMATS) == {".dxf", ".svg", ".pdf", ".vtp", ".obj"}
+    assert set(FORMATS) == {".dxf", ".svg", ".pdf", ".vtp", ".obj", ".csv"}
 
 
 def test_a_failed_write_leaves_no_partial_file_and_the_old_one_intact(tmp_path, octant_dart, monkeypatch):

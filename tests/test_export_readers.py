@@ -194,7 +194,7 @@ def test_labels_lie_in_free_space_inside_the_piece(tmp_path, fixture, request):
                   if e.dxftype() == "LINE" and e.dxf.layer in ("4", "7")]
         marks += [Point(tuple(e.dxf.location)[:2]).buffer(1.0) for e in doc.blocks[b] if e.dxftype() == "POINT"]
         boxes, texts = dxf_label_boxes(doc, b)
-        assert len(texts) == 10
+        assert len(texts) == 11  # the material's shear angles and the share beyond lock: issue 23
         h = texts[0].dxf.height
         assert h >= 1.5
         ys = [t.dxf.insert[1] for t in texts]
@@ -321,7 +321,12 @@ def test_vtk_reads_surface_springs_and_multiblock(tmp_path, octant_dart):
     strain = vtk_to_numpy(springs.GetCellData().GetArray("strain_pct"))
     kind = vtk_to_numpy(springs.GetCellData().GetArray("spring_kind"))
     assert np.isfinite(strain).all() and set(np.unique(kind)) <= {0, 1, 2}
-    assert surface.GetCellData().GetNumberOfArrays() == 1 and springs.GetCellData().GetNumberOfArrays() == 2
+    assert surface.GetCellData().GetNumberOfArrays() == 5 and springs.GetCellData().GetNumberOfArrays() == 2
+    # the fibre angles (core.fibres) as VTK reads them: unit 3-vectors and degrees
+    for name, comps in (("fibre_deviation_deg", 1), ("warp_deviation_deg", 1), ("weft_dir", 3), ("warp_dir", 3)):
+        arr = surface.GetCellData().GetArray(name)
+        assert arr.GetNumberOfComponents() == comps and arr.GetNumberOfTuples() == len(octant_dart.mesh.cells)
+    np.testing.assert_allclose(np.linalg.norm(vtk_to_numpy(surface.GetCellData().GetArray("weft_dir")), axis=1), 1.0)
     mb = vtkXMLMultiBlockDataReader()
     mb.SetFileName(str(tmp_path / "p.vtm"))
     mb.Update()

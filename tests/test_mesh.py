@@ -54,7 +54,8 @@ def test_keep_removes_springs_and_cells():
     assert not np.any(m.kind == WEFT) and len(m.cells) == 0
 
 
-@pytest.mark.parametrize("text, ratio", [("woven", "500:500:1"), ("Isotropic", "100:100:100"),
+@pytest.mark.parametrize("text, ratio", [("woven", "500:500:1"), ("Isotropic", "100:100:50"),
+                                         ("paper-isotropic", "100:100:100"),
                                          ("10:20:3", "10:20:3")])
 def test_parse_material(text, ratio):
     assert parse_material(text).ratio == ratio

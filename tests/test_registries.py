@@ -184,11 +184,11 @@ def test_a_reader_must_return_a_surface_or_opened(tmp_path):
 
 # ---------------------------------------------------------------------- the exporter registry
 def test_formats_is_a_read_only_view_of_the_registry():
-    assert list(FORMATS) == [".dxf", ".svg", ".pdf", ".vtp", ".obj"]
+    assert list(FORMATS) == [".dxf", ".svg", ".pdf", ".vtp", ".obj", ".csv"]
     assert FORMATS[".dxf"] == exporter_for(".DXF").description
     with pytest.raises(TypeError):
         FORMATS[".x"] = "y"  # type: ignore[index]
-    assert [e.needs_sheet for e in map(exporter_for, FORMATS)] == [True, True, True, False, False]
+    assert [e.needs_sheet for e in map(exporter_for, FORMATS)] == [True, True, True, False, False, False]
     assert dialog_filter().split(";;")[0] == "DXF, ASTM D6673 / AAMA (R12) or layered R2000, mm (*.dxf)"
     with pytest.raises(SettingsError, match="unknown export format '.xyz'; use one of .dxf, .svg"):
         export_bytes(None, ".xyz", ExportOptions())

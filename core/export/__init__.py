@@ -1,5 +1,6 @@
 """Export a flattened result: the pattern for cutters, printers and pattern
-makers (DXF, SVG, tiled 1:1 PDF) and the 3D result for other tools (VTP, OBJ).
+makers (DXF, SVG, tiled 1:1 PDF) and the 3D result for other tools (VTP, OBJ,
+the fibre angles as CSV).
 
     from core.export import ExportOptions, export
     export(result, "octant.dxf", ExportOptions(seam_allowance_mm=10, units="m"))
@@ -260,6 +261,12 @@ def _vtp_files(result, options: ExportOptions, sheet: None, path: Path) -> list:
     return vtp_files(result, path)
 
 
+def _csv(result, options: ExportOptions, sheet: None) -> bytes:
+    from core.fibres import fibres_csv
+
+    return fibres_csv(result).encode("ascii")
+
+
 def _obj(result, options: ExportOptions, sheet: None) -> bytes:
     from core.export.mesh3d import obj_files
 
@@ -279,3 +286,5 @@ register_exporter(".vtp", _vtp, "VTK PolyData: draped mesh and cell shear, sprin
                   needs_sheet=False, companions=_vtp_files)
 register_exporter(".obj", _obj, "Wavefront OBJ: surface mesh, pattern as texture coordinates",
                   needs_sheet=False, companions=_obj_files)
+register_exporter(".csv", _csv, "CSV of fibre angles per cell: centre, (u, v), weft and warp directions, "
+                  "deviation from the rosette, shear", needs_sheet=False)

@@ -40,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from core.metrics import cell_shear_deg, spring_strain
+from core.fibres import result_fibres
+from core.metrics import spring_strain
 
 __all__ = ["OBJ_TEXTURES", "vtp_surface_text", "vtp_springs_text", "vtm_text", "vtp_files", "obj_files",
            "obj_text", "used_nodes", "checker_frame"]
@@ -82,9 +83,14 @@ def _polydata(result, n_lines: int, n_polys: int, cell_data: list, scalars: str,
 
 def vtp_surface_text(result) -> str:
     """The draped surface: nodes and lattice quads with their shear, as VTK XML PolyData."""
-    mesh, xyz = result.mesh, np.asarray(result.xyz, dtype=float)
+    mesh = result.mesh
     c = len(mesh.cells)
-    return _polydata(result, 0, c, [_array("shear_deg", cell_shear_deg(xyz, mesh), "Float64")], "shear_deg",
+    f = result_fibres(result)
+    data = [_array("shear_deg", f.shear_deg, "Float64"),
+            _array("fibre_deviation_deg", f.deviation_deg, "Float64"),
+            _array("warp_deviation_deg", f.warp_deviation_deg, "Float64"),
+            _array("weft_dir", f.weft, "Float64", 3), _array("warp_dir", f.warp, "Float64", 3)]
+    return _polydata(result, 0, c, data, "shear_deg",
                      ["<Polys>", _array("connectivity", np.asarray(mesh.cells).ravel(), "Int64"),
                       _array("offsets", 4 * np.arange(1, c + 1), "Int64"), "</Polys>"])
 

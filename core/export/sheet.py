@@ -314,6 +314,9 @@ def _label_text(name: str, style: str, result, units: str, seam_mm: float, metri
         f"area error {metrics.get('area_error_pct', float('nan')):.2f} %",
         f"max shear {metrics.get('max_shear_deg', float('nan')):.1f} deg, "
         f"max thread strain {metrics.get('max_thread_strain_pct', float('nan')):.2f} %",
+        f"shear warning {mat.warn_deg:g} deg, lock {mat.lock_deg:g} deg"
+        + (f", {metrics['area_beyond_lock_pct']:.1f} % of the area beyond lock"
+           if "area_beyond_lock_pct" in metrics else ""),
         f"flatweave {_dt.date.today().isoformat()}",
     )
     return tuple((k, _ascii(v)) for k, v in system), tuple(map(_ascii, annotation))

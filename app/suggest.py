@@ -1,0 +1,171 @@
+"""Tools > Suggest darts: :func:`core.autodarts.suggest_darts` on the document's
+result, in a thread of its own, then a list to preview and accept them.
+
+Selecting a row previews that proposal: its dart in orange on the surface and
+its re-solved piece (strain, pattern, metrics) in both views. Apply adds the
+ticked proposals as one undoable edit; when they are the first k (the ones
+each re-solve was made with) the k-th re-solve is the edit's result, so
+nothing solves again. Close, or a document that moves on, puts the views back.
+"""
+
+from __future__ import annotations
+
+import threading
+
+from PySide6.QtCore import QObject, Qt, Signal
+from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QHBoxLayout, QLabel, QListWidget, QListWidgetItem,
+                               QPushButton, QSpinBox, QVBoxLayout)
+
+from app.frames import FrameMaker
+
+__all__ = ["SuggestDialog", "proposal_text"]
+
+
+def proposal_text(p) -> str:
+    m = p.metrics
+    return (f"{p.dart.name}: energy -{100 * p.gain:.1f} %, boundary {m['boundary_error_pct']:.2f} %, "
+            f"area {m['area_error_pct']:.2f} %, max shear {m['max_shear_deg']:.1f} deg, "
+            f"beyond lock {m.get('area_beyond_lock_pct', 0.0):.2f} %")
+
+
+class _Relay(QObject):
+    done = Signal(object, object)  # proposals, error text
+
+
+class SuggestDialog(QDialog):
+    """The suggestions of one result (the document's when opened)."""
+
+    def __init__(self, window):
+        super().__init__(window)
+        self.setWindowTitle("Suggested darts")
+        self.window_ = window
+        self.project = window.document.project
+        self.proposals: list = []
+        self.relay = _Relay()
+        self.relay.done.connect(self._done, Qt.ConnectionType.QueuedConnection)
+        self.thread: threading.Thread | None = None
+        lay = QVBoxLayout(self)
+        row = QHBoxLayout()
+        row.addWidget(QLabel("Up to"))
+        self.count = QSpinBox(minimum=1, maximum=6, value=2)
+        row.addWidget(self.count)
+        row.addWidget(QLabel("darts"))
+        self.suggest_button = QPushButton("Suggest")
+        self.suggest_button.clicked.connect(self.start)
+        row.addWidget(self.suggest_button)
+        row.addStretch(1)
+        lay.addLayout(row)
+        self.status = QLabel("")
+        lay.addWidget(self.status)
+        self.list = QListWidget()
+        self.list.currentRowChanged.connect(self.preview)
+        lay.addWidget(self.list)
+        self.buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Apply | QDialogButtonBox.StandardButton.Close)
+        self.buttons.button(QDialogButtonBox.StandardButton.Apply).clicked.connect(self.apply)
+        self.buttons.button(QDialogButtonBox.StandardButton.Apply).setEnabled(False)
+        self.buttons.rejected.connect(self.close)
+        lay.addWidget(self.buttons)
+        self.resize(560, 300)
+
+    # ------------------------------------------------------------------ suggesting
+    @property
+    def busy(self) -> bool:
+        return self.thread is not None and self.thread.is_alive()
+
+    def start(self) -> None:
+        if self.busy:
+            return
+        result = self.project.result
+        if result is None or not self.project.result_is_current:
+            self.status.setText("Solve first: darts are suggested for a converged piece.")
+            return
+        count = self.count.value()
+        self.list.clear()
+        self.proposals = []
+        self.suggest_button.setEnabled(False)
+        self.status.setText(f"Trying darts on the piece (up to {count})...")
+
+        def work():
+            from core.autodarts import suggest_darts
+            from core.errors import FlatweaveError
+            try:
+                found = suggest_darts(result, count=count)
+            except FlatweaveError as exc:
+                self.relay.done.emit(None, str(exc))
+            except Exception as exc:  # a bug must not take the window down with it
+                self.relay.done.emit(None, f"internal error: {type(exc).__name__}: {exc}")
+            else:
+                self.relay.done.emit(found, None)
+
+        self.thread = threading.Thread(target=work, name="suggest-darts", daemon=True)
+        self.thread.start()
+
+    def _done(self, proposals, error) -> None:
+        self.suggest_button.setEnabled(True)
+        if error is not None:
+            self.status.setText(f"No suggestion: {error}")
+            return
+        if self.window_.document is None or self.window_.document.project is not self.project:
+            self.status.setText("The document changed meanwhile: suggest again.")
+            return
+        self.proposals = list(proposals)
+        if not self.proposals:
+            self.status.setText("No dart lowers the energy by 3 % or more.")
+            return
+        self.status.setText(f"{len(self.proposals)} suggested; tick the darts to add and Apply "
+                            "(each was tried with the ones above it).")
+        for p in self.proposals:
+            item = QListWidgetItem(proposal_text(p))
+            item.setFlags(item.flags() | Qt.ItemFlag.ItemIsUserCheckable)
+            item.setCheckState(Qt.CheckState.Checked)
+            self.list.addItem(item)
+        self.buttons.button(QDialogButtonBox.StandardButton.Apply).setEnabled(True)
+        self.list.setCurrentRow(0)
+
+    # ------------------------------------------------------------------ preview, apply
+    def preview(self, row: int) -> None:
+        if not (0 <= row < len(self.proposals)):
+            return
+        p = self.proposals[row]
+        w = self.window_
+        r = p.result
+        frame = FrameMaker(r.surface, r.settings, r.metrics.get("boundary_length_3d"),
+                           r.metrics.get("area_3d")).from_result(r)
+        w.presenter.draw_frame(frame)
+        w.view.set_preview(curve=r.surface.points(p.dart.uv))
+
+    def checked(self) -> list[int]:
+        return [k for k in range(self.list.count())
+                if self.list.item(k).checkState() == Qt.CheckState.Checked]
+
+    def apply(self) -> None:
+        doc = self.window_.document
+        rows = self.checked()
+        if doc is None or not rows or doc.project is not self.project:
+            return
+        darts = self.project.settings.darts + tuple(self.proposals[k].dart for k in rows)
+        label = "Add suggested dart" + ("s" if len(rows) > 1 else "")
+        new = self.project.with_settings(darts=darts)
+        prefix = rows == list(range(len(rows)))
+        if prefix:  # the re-solve was made with exactly these darts: it is the edit's result
+            new = new.with_result(self.proposals[rows[-1]].result)
+        doc.apply(label, new, answers_solve=not prefix)
+        if prefix:
+            self.window_.runs.rerun_timer.stop()
+        self.project = doc.project
+        self._restore()
+        self.accept()
+
+    def _restore(self) -> None:
+        w = self.window_
+        w.view.set_preview()
+        if w.document is not None:
+            w.presenter.show_result(w.document.project)
+
+    def closeEvent(self, event) -> None:
+        self._restore()
+        super().closeEvent(event)
+
+    def reject(self) -> None:
+        self._restore()
+        super().reject()
