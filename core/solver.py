@@ -866,6 +866,10 @@ def _iterate_fast(run: _Run):
             yield run.snapshot(E, ev.xyz[rnd.alive], False)
             return
         chord = False
+        # chord steps and the lambda jump only once the population has settled: before, they change which
+        # nodes leave and the solve can end on another population (on curve darts up to 1.3 points of
+        # boundary error, docs/decisions.md "Speed, session 7")
+        quick = opts.reuse and rnd.settled
         if not converged:
             energy, normal = rnd.energy, rnd.normal
             pinned = _node_at(rnd.mesh, run.pin.ij) if run.pin is not None else None
@@ -955,7 +959,7 @@ def _iterate_fast(run: _Run):
                         raise _not_finite("the energy", E, run.nit, _cause(surface, rnd.uv[rnd.alive]))
                     yield run.snapshot(E, ev.xyz[rnd.alive], True)
                     continue
-                if opts.reuse and not chord:
+                if quick and not chord:
                     stale = (lu, A, damp)
                 elif chord and decrease > 0.1 * last_decrease:
                     stale = None  # the chord steps converge slowly: a new factorisation will do better
@@ -966,7 +970,7 @@ def _iterate_fast(run: _Run):
                 converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
             else:
                 stale = None
-                lam = max(lam * nu, _LAM_JUMP) if opts.reuse else lam * nu
+                lam = max(lam * nu, _LAM_JUMP) if quick else lam * nu
                 nu *= 2
                 yield run.snapshot(E, ev.xyz[rnd.alive], False)
                 converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
