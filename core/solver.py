@@ -12,9 +12,9 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
   tenfold after every step the quadratic model predicts well (rho > 0.75),
   which took fewer iterations than Nielsen's rule (docs/decisions.md). The
   500:1 stiffness of woven cloth, which makes gradient methods crawl, costs it
-  nothing. While no node is switched off, the last factorisation is tried
-  first (a chord step) and a new one made only when its step is not accepted
-  (``SolverOptions.reuse``; docs/decisions.md).
+  nothing. Once the population has settled and while no node is switched off,
+  the last factorisation is tried first (a chord step) and a new one made only
+  when its step is not accepted (``SolverOptions.reuse``; docs/decisions.md).
 
 Both are generators (:func:`iterate`) that yield a :class:`Snapshot` after every
 iteration, so a GUI can draw and a caller can stop within one iteration by no
@@ -77,13 +77,16 @@ class SolverOptions:
     refill : refill uncovered regions after convergence
     delete : delete nodes that leave the domain (off: a fixed population, for
         comparing minimisers; nodes outside sit on the surface's extension)
-    reuse : fast solver: while no node is switched off, try the last
+    reuse : fast solver: once the population has settled (a refill found
+        nothing) and while no node is switched off, try the last
         factorisation's step first (a chord step, one triangular solve) and
-        factorise again only when it is not accepted; raise lambda to at least
-        1e-7 on a rejected step; skip a refill while nothing changed since one
-        found nothing. Off: the reference path (a factorisation every
-        iteration, lambda doubled from wherever it was), which the tests
-        compare against.
+        factorise again only when it is not accepted, starting from the last
+        factorisation of the rounds before; raise lambda to at least 1e-7 on a
+        rejected step there; skip a refill while nothing changed since one
+        found nothing. Before the population settles the path is the
+        reference's (quicker steps there end on other populations). Off: the
+        reference path (a factorisation every iteration, lambda doubled from
+        wherever it was), which the tests compare against.
     """
 
     method: str = "fast"
@@ -846,6 +849,10 @@ def _iterate_fast(run: _Run):
     # the last factorisation, while it may serve again: (lu, A, damp) of this round, made after
     # its last switch-off, its step accepted (a chord step's model is that matrix, undamped)
     stale = None
+    # the last factorisation made since the last change of population, its step accepted (or its Newton
+    # decrement small): once the population settles it serves the first chord step, which saves the
+    # factorisation the settled round would start with
+    held = None
     last_decrease = math.inf
     quiet = False  # a refill found nothing and no node was switched off since
 
@@ -920,6 +927,8 @@ def _iterate_fast(run: _Run):
             tol_now = opts.tol if rnd.settled else loose
             if 0 <= pred <= 0.1 * tol_now * E and lam <= 1e-2:
                 converged = True  # the Newton decrement says we are there
+                if opts.reuse and not chord:
+                    held = (lu, A, damp)
         if not converged:
             uv_try = rnd.uv + normal.scatter(step, energy.n)
             if pinned is not None:
@@ -951,7 +960,7 @@ def _iterate_fast(run: _Run):
                 run.uv = uv_try[rnd.alive]
                 ev = ev2
                 if bad.any():
-                    stale, quiet = None, False
+                    stale, held, quiet = None, None, False
                     rnd.switch_off(bad, ev.xyz)
                     rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
                     E = 0.5 * (rs @ rs + rd @ rd)
@@ -959,8 +968,10 @@ def _iterate_fast(run: _Run):
                         raise _not_finite("the energy", E, run.nit, _cause(surface, rnd.uv[rnd.alive]))
                     yield run.snapshot(E, ev.xyz[rnd.alive], True)
                     continue
+                if opts.reuse and not chord:
+                    held = (lu, A, damp)
                 if quick and not chord:
-                    stale = (lu, A, damp)
+                    stale = held
                 elif chord and decrease > 0.1 * last_decrease:
                     stale = None  # the chord steps converge slowly: a new factorisation will do better
                 last_decrease = decrease
@@ -969,7 +980,7 @@ def _iterate_fast(run: _Run):
                 # until the population has settled, a loose tolerance will do
                 converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
             else:
-                stale = None
+                stale = held = None
                 lam = max(lam * nu, _LAM_JUMP) if quick else lam * nu
                 nu *= 2
                 yield run.snapshot(E, ev.xyz[rnd.alive], False)
@@ -977,13 +988,14 @@ def _iterate_fast(run: _Run):
         if converged:
             # a refill that found nothing finds nothing again while no node has left since
             if not (opts.reuse and quiet) and run.try_refill():
-                stale, quiet = None, False
+                stale, held, quiet = None, None, False
                 rnd, ev, (rs, Q, rd, Jd), E = start()
                 yield run.snapshot(E, ev.xyz, True)
                 continue
             quiet = True
             if not rnd.settled and E > rnd.floor:
                 rnd.settled = True  # nothing to refill: now converge tightly
+                stale = held if opts.reuse else None
                 continue
             run.status, run.message = 0, "converged"
             return
