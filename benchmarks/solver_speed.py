@@ -52,13 +52,13 @@ def child(case: str) -> dict:
     from core.quadrature import region_area
 
     count = [0]
-    splu = solver.splu
+    factorise = solver._Round.factorise
 
-    def counted(*a, **k):
+    def counted(*a, **k):  # SuperLU's or QDLDL's factorisations
         count[0] += 1
-        return splu(*a, **k)
+        return factorise(*a, **k)
 
-    solver.splu = counted
+    solver._Round.factorise = counted
     s = load_example("octant")
     material = "isotropic" if case.startswith("iso") else "woven"
     nodes = 2500 if case == "dart" else int(case.lstrip("wovenis"))
@@ -126,13 +126,13 @@ def same_child(case: str, nodes: int, reuse_values: list[bool]) -> dict:
         settings = dataclasses.replace(settings, yarns=(
             YarnConstraint("weft", 0, yarn_plane(dr.xyz[[row[0], row[-1]]], normal), 1000.0),))
     count = [0]
-    splu = solver.splu
+    factorise = solver._Round.factorise
 
     def counted(*a, **k):
         count[0] += 1
-        return splu(*a, **k)
+        return factorise(*a, **k)
 
-    solver.splu = counted
+    solver._Round.factorise = counted
     made = FlattenSettings.solver_options
     out = {}
     for reuse in reuse_values:

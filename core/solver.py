@@ -52,6 +52,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+try:  # LDL^T with a reusable symbolic analysis (the quick path); SuperLU without it
+    import qdldl as _qdldl
+except ImportError:  # pragma: no cover - a listed dependency
+    _qdldl = None
+
 from core.energy import Energy
 from core.errors import SettingsError, SolverError
 from core.mesh import DIAG, SpringMesh, lattice_index
@@ -752,6 +757,7 @@ class _Round:
         self.settled = False  # True once a refill found nothing to add
         self.spring_on = np.ones(self.mesh.n_springs, dtype=bool)
         self._corners, self._cell_edges = _round_topology(self.mesh)
+        self._ldl = None  # the round's QDLDL factorisation (quick path)
 
     def switch_off(self, bad: np.ndarray, xyz: np.ndarray) -> None:
         """Delete nodes ``bad`` (and nodes left without springs); xyz : (n, 3)
@@ -800,10 +806,28 @@ class _Round:
                                        rest=mesh.rest[on], k=mesh.k[on], cells=num[cells])
         run.uv = self.uv[idx]
 
-    def factorise(self, A):
-        """Sparse LU factorisation of A in the pattern's own order (nested
-        dissection): no iterative solver or other ordering measured was
-        faster (docs/decisions.md)."""
+    def factorise(self, A, quick: bool = False):
+        """Factorisation of A: SuperLU in the pattern's own order (nested
+        dissection; no iterative solver or other ordering measured was
+        faster, docs/decisions.md), or with ``quick`` QDLDL's LDL^T, whose
+        symbolic analysis is made once per round (the round's pattern is
+        fixed) and then only refactorised: 1.7x faster at 2,500 nodes
+        (docs/decisions.md "Speed, session 7"). Both factorise without
+        pivoting; where QDLDL fails (a zero pivot) SuperLU decides, so a
+        singular matrix is treated as on the reference path.
+
+        The QDLDL object is refactorised in place: a factorisation returned
+        earlier in the round is no longer valid after the next one (the
+        solver keeps at most the last one)."""
+        if quick and _qdldl is not None:
+            try:
+                if self._ldl is None:
+                    self._ldl = _qdldl.Solver(A)
+                else:
+                    self._ldl.update(A)
+                return self._ldl
+            except Exception:  # QDLDL raises plain errors on a zero pivot
+                self._ldl = None
         return splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
 
     def solve(self, A, g: np.ndarray) -> np.ndarray:
@@ -914,7 +938,7 @@ def _iterate_fast(run: _Run):
                 if not np.isfinite(g).all():
                     raise _not_finite("the energy's gradient", g, run.nit + 1, _cause(surface, rnd.uv, ev))
                 try:
-                    lu = rnd.factorise(A)
+                    lu = rnd.factorise(A, quick=opts.reuse)
                     step = lu.solve(-g)
                     if not np.isfinite(step).all():
                         raise RuntimeError("non-finite step")

@@ -50,15 +50,15 @@ def _seed_row_yarn(surface, settings: FlattenSettings) -> YarnConstraint:
 def _flatten(surface, settings, reuse: bool, monkeypatch, initial=None):
     made = FlattenSettings.solver_options
     count = [0]
-    splu = solver.splu
+    factorise = solver._Round.factorise
 
-    def counted(*a, **k):
+    def counted(*a, **k):  # SuperLU's or QDLDL's
         count[0] += 1
-        return splu(*a, **k)
+        return factorise(*a, **k)
 
     with monkeypatch.context() as m:
         m.setattr(FlattenSettings, "solver_options", lambda self: dataclasses.replace(made(self), reuse=reuse))
-        m.setattr(solver, "splu", counted)
+        m.setattr(solver._Round, "factorise", counted)
         r = flatten(surface, settings, initial=initial)
     return r, count[0]
 
