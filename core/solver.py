@@ -8,7 +8,8 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
 * ``fast`` (default): Levenberg-Marquardt with the exact Hessian of EN (the
   springs' 4x4 blocks with their geometric stiffness, plus the surface's
   curvature per node), assembled straight into a fixed block pattern, damped
-  by lambda diag(A) and factorised by SuperLU. lambda starts at 1e-4 and falls
+  by lambda diag(A) and factorised by SuperLU (on the quick path by QDLDL's
+  LDL^T, refactorised on the round's fixed pattern). lambda starts at 1e-4 and falls
   tenfold after every step the quadratic model predicts well (rho > 0.75),
   which took fewer iterations than Nielsen's rule (docs/decisions.md). The
   500:1 stiffness of woven cloth, which makes gradient methods crawl, costs it
