@@ -69,7 +69,7 @@ def instrument(surface) -> None:
     """Wrap the stages with timers (idempotent per surface object)."""
     if not getattr(solver, "_bench_instrumented", False):
         solver._bench_instrumented = True
-        solver.splu = _timed("factorise (splu)", solver.splu)
+        solver._Round.factorise = _timed("factorise (SuperLU or QDLDL)", solver._Round.factorise)
         solver._hessian_blocks = _timed("hessian blocks", solver._hessian_blocks)
         solver._residuals = _timed("residuals", solver._residuals)
         solver._Normal.assemble = _timed("assemble", solver._Normal.assemble)
@@ -109,7 +109,7 @@ def timed_flatten(surface, settings, initial=None) -> tuple[object, float, dict,
     return r, total, dict(TIMES), dict(COUNTS)
 
 
-STAGES = ["total", "solver", "factorise (splu)", "hessian blocks", "assemble",
+STAGES = ["total", "solver", "factorise (SuperLU or QDLDL)", "hessian blocks", "assemble",
           "hessian + assembly (assemble_exact)", "residuals", "surface evaluate", "switch_off", "try_refill",
           "pattern (_Normal)",
           "invalid (dart crossing)", "snapshot", "make_pattern", "compute_metrics"]

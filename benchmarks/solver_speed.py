@@ -16,6 +16,11 @@ area errors and the node count. Cases:
   example (drape, solve, pattern, metrics), woven or isotropic.
 
 One process per run, so no tree sees the other's caches.
+
+``--same [--nodes 700] [--old TREE]`` prints instead the same-results table: every case of
+``tests/test_solver_speed.py`` solved on the reference path (``reuse=False``) and on the quick path
+of this tree (and of the old tree's, with ``--old``), with EN, errors, nodes and factorisations, and
+whether the quick path is within the issue's tolerances.
 """
 
 from __future__ import annotations
@@ -47,13 +52,13 @@ def child(case: str) -> dict:
     from core.quadrature import region_area
 
     count = [0]
-    splu = solver.splu
+    factorise = solver._Round.factorise
 
-    def counted(*a, **k):
+    def counted(*a, **k):  # SuperLU's or QDLDL's factorisations
         count[0] += 1
-        return splu(*a, **k)
+        return factorise(*a, **k)
 
-    solver.splu = counted
+    solver._Round.factorise = counted
     s = load_example("octant")
     material = "isotropic" if case.startswith("iso") else "woven"
     nodes = 2500 if case == "dart" else int(case.lstrip("wovenis"))
@@ -73,6 +78,106 @@ def child(case: str) -> dict:
             "nodes": m["nodes"]}
 
 
+SAME_CURVE = [[1.0, 0.5], [0.75, 0.52], [0.45, 0.5]]  # tests/test_solver_speed.py's curve dart
+
+
+def same_cases() -> list[str]:
+    """The cases of tests/test_solver_speed.py: surface:material:dart:yarn[:warm]."""
+    from core.examples import example_names
+
+    cases = ["octant:woven:-:-", "octant:isotropic:-:-", "octant:woven:plane:-", "garment:woven:-:-",
+             "saddle:woven:-:yarn", "saddle:isotropic:-:-", "cone:woven:-:-", "half_cylinder:woven:-:-",
+             "half_cylinder:isotropic:plane:-"]
+    cases += [f"{n}:{m}:curve:{y}" for n in example_names() for m, y in (("woven", "-"), ("woven", "yarn"),
+                                                                         ("isotropic", "-"))]
+    cases += [f"{n}:woven:curve:-:warm" for n in example_names() if n != "octant"]
+    return cases
+
+
+def same_child(case: str, nodes: int, reuse_values: list[bool]) -> dict:
+    """One case of the same-results table in this tree: the quick and/or the reference path."""
+    import dataclasses
+
+    import numpy as np
+
+    import core.solver as solver
+    from core.darts import CurveDart, PlaneDart
+    from core.drape import drape
+    from core.energy import YarnConstraint, yarn_plane
+    from core.examples import load_example
+    from core.mesh import MATERIALS
+    from core.pipeline import FlattenSettings, flatten
+    from core.quadrature import region_area
+
+    name, material, dart, yarn, *warm = case.split(":")
+    s = load_example(name)
+    settings = FlattenSettings(float(np.sqrt(region_area(s) / nodes)), material=MATERIALS[material])
+    initial = flatten(s, settings).state() if warm else None
+    if dart != "-":
+        d = (CurveDart(np.array(SAME_CURVE), name="curve dart") if dart == "curve"
+             else PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart"))
+        settings = dataclasses.replace(settings, darts=(d,))
+    if yarn != "-":  # a weft yarn along the seed's row (as the tests)
+        dr = drape(s, settings.drape_settings(), settings.material)
+        row = np.flatnonzero(dr.mesh.ij[:, 0] == 0)
+        row = row[np.argsort(dr.mesh.ij[row, 1])]
+        seed = int(np.flatnonzero((dr.mesh.ij[:, 0] == 0) & (dr.mesh.ij[:, 1] == 0))[0])
+        normal = s.evaluate(dr.uv[[seed]]).normal[0]
+        settings = dataclasses.replace(settings, yarns=(
+            YarnConstraint("weft", 0, yarn_plane(dr.xyz[[row[0], row[-1]]], normal), 1000.0),))
+    count = [0]
+    factorise = solver._Round.factorise
+
+    def counted(*a, **k):
+        count[0] += 1
+        return factorise(*a, **k)
+
+    solver._Round.factorise = counted
+    made = FlattenSettings.solver_options
+    out = {}
+    for reuse in reuse_values:
+        FlattenSettings.solver_options = lambda self, reuse=reuse: dataclasses.replace(made(self), reuse=reuse)
+        count[0] = 0
+        m = flatten(s, settings, initial=initial).metrics
+        out["quick" if reuse else "ref"] = {"EN": m["energy"], "boundary": m["boundary_error_pct"],
+                                            "area": m["area_error_pct"], "nodes": m["nodes"], "F": count[0],
+                                            "status": m["solver_status"]}
+    return out
+
+
+def same_table(old: Path | None, new: Path, nodes: int) -> str:
+    """Reference path, this tree's quick path and (with --old) the old tree's quick path, every case."""
+    head = ("| case | EN ref | quick / ref - 1 | boundary % ref / quick | area % ref / quick | nodes ref / quick "
+            "| F ref / quick | within |")
+    lines = [head, "|" + "---|" * 8]
+    if old is not None:
+        lines[0] += " old quick / ref - 1 | old boundary % | old within |"
+        lines[1] += "---|---|---|"
+
+    def within(q, r):
+        return (q["status"] == r["status"] == "converged" and q["EN"] <= r["EN"] * (1 + 1e-3)
+                and abs(q["boundary"] - r["boundary"]) <= 0.02 and abs(q["area"] - r["area"]) <= 0.02
+                and abs(q["nodes"] - r["nodes"]) <= 0.01 * r["nodes"])
+
+    for case in same_cases():
+        args = ["--same-child", case, "--nodes", str(nodes)]
+        got = json.loads(subprocess.run([sys.executable, __file__, *args, "--tree", str(new), "--paths", "both"],
+                                        capture_output=True, text=True, check=True, cwd=str(new)).stdout
+                         .strip().splitlines()[-1])
+        r, q = got["ref"], got["quick"]
+        line = (f"| {case} | {r['EN']:.10g} | {q['EN'] / r['EN'] - 1:+.2e} | {r['boundary']:.4f} / "
+                f"{q['boundary']:.4f} | {r['area']:.4f} / {q['area']:.4f} | {r['nodes']} / {q['nodes']} | "
+                f"{r['F']} / {q['F']} | {'yes' if within(q, r) else '**no**'} |")
+        if old is not None:
+            o = json.loads(subprocess.run([sys.executable, __file__, *args, "--tree", str(old), "--paths", "quick"],
+                                          capture_output=True, text=True, check=True, cwd=str(old)).stdout
+                           .strip().splitlines()[-1])["quick"]
+            line += f" {o['EN'] / r['EN'] - 1:+.2e} | {o['boundary']:.4f} | {'yes' if within(o, r) else '**no**'} |"
+        lines.append(line)
+        print(line, flush=True)
+    return "\n".join(lines) + "\n"
+
+
 def run(tree: Path, case: str) -> dict:
     out = subprocess.run([sys.executable, __file__, "--child", case, "--tree", str(tree)], capture_output=True,
                          text=True, check=True, cwd=str(tree))
@@ -86,9 +191,24 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--same", action="store_true",
+                    help="print the same-results table (reference / quick path, tests/test_solver_speed.py's cases)")
+    ap.add_argument("--nodes", type=int, default=700, help="nodes of the --same cases")
+    ap.add_argument("--same-child", help=argparse.SUPPRESS)
+    ap.add_argument("--paths", default="both", help=argparse.SUPPRESS)
     ap.add_argument("--child", help=argparse.SUPPRESS)
     ap.add_argument("--tree", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.same_child:
+        sys.path.insert(0, str(args.tree))
+        paths = {"both": [True, False], "quick": [True]}[args.paths]
+        print(json.dumps(same_child(args.same_child, args.nodes, paths)))
+        return 0
+    if args.same:
+        text = same_table(args.old, args.new, args.nodes)
+        if args.out:
+            args.out.write_text(text)
+        return 0
     if args.child:  # one run, in the tree given
         sys.path.insert(0, str(args.tree))
         print(json.dumps(child(args.child)))

@@ -61,6 +61,8 @@ QUICK_SIZES = (500, 2_500)
 TARGETS = {
     "fast_2500_s": 0.5, "fast_10000_s": 2.0, "exponent": 1.3, "ratio": 20.0, "eval_factor": 3.0,
     "dart_resolve_s": 0.3, "gui_fps": 20.0,
+    # issue 20: file to pattern (drape, solve, pattern, metrics), woven octant; isotropic at most 1.5x woven
+    "pattern_s": {2_500: 0.5, 10_000: 1.5, 40_000: 8.0}, "iso_over_woven": 1.5,
 }
 README_START, README_END = "<!-- benchmarks:start -->", "<!-- benchmarks:end -->"
 
@@ -253,6 +255,16 @@ def report(results: list[dict], dart: dict, budget: float, gui: str | None,
         row("woven octant, ~10,000 nodes: fast solve (with population control)", f"{w10['full']['solve_s']:.2f} s "
             f"({w10['full']['iterations']} it; drape {w10['full']['drape_s']:.2f} s more)", "< 2 s",
             w10["full"]["solve_s"] < TARGETS["fast_10000_s"])
+    for size, limit in TARGETS["pattern_s"].items():
+        w = by.get(("octant, woven", size))
+        if w:
+            row(f"woven octant, ~{size:,} nodes: file to pattern (drape, solve, pattern, metrics)",
+                f"{w['full']['seconds']:.2f} s", f"< {limit:g} s", w["full"]["seconds"] < limit)
+        i = by.get(("octant, isotropic", size))
+        if w and i:
+            q = i["full"]["seconds"] / w["full"]["seconds"]
+            row(f"isotropic / woven octant, ~{size:,} nodes: file to pattern", f"{q:.2f}x "
+                f"({i['full']['seconds']:.2f} s)", f"<= {TARGETS['iso_over_woven']:g}x", q <= TARGETS["iso_over_woven"])
     oct_w = [r for r in results if r["case"] == "octant, woven"]
     b = _fit([r["nodes"] for r in oct_w], [r["fast"]["seconds"] for r in oct_w])
     if b is not None:

@@ -315,6 +315,7 @@ class _Builder:
         self.ij = np.zeros((0, 2), dtype=np.int64)
         self.normal = np.zeros((0, 3))
         self.how = np.zeros(0, dtype=np.int8)  # 0 seed, 1 path, 2 two-neighbour, 3 filling
+        self._cap, self._buf = 0, {}
         self.tree, self.tree_n = None, 0
         self.separated = None  # callable(uv_a, uv_b) -> bool: a dart lies between
         self.on_add = None  # callable() after every batch of new nodes (progress reports)
@@ -333,12 +334,22 @@ class _Builder:
             raise SolverError(f"the surface evaluation returned a non-finite point or normal at {n:,} "
                               f"node{'s' if n != 1 else ''} while draping; the solve stopped and nothing was changed")
         n0 = self.uv.shape[0]
-        self.uv = np.concatenate([self.uv, uv])
-        self.xyz = np.concatenate([self.xyz, ev.xyz])
-        self.normal = np.concatenate([self.normal, ev.normal])
-        self.ij = np.concatenate([self.ij, ij])
-        self.how = np.concatenate([self.how, np.full(len(uv), how, dtype=np.int8)])
-        self.lat.set(ij, np.arange(n0, n0 + len(uv)))
+        n1 = n0 + len(uv)
+        # the node arrays are views of buffers that grow geometrically: a front appends in O(front), not
+        # O(nodes) (the drape adds hundreds of fronts)
+        names = ("uv", "xyz", "normal", "ij", "how")
+        if n1 > self._cap:
+            self._cap = max(2 * self._cap, n1, 64)
+            for name in names:
+                old = getattr(self, name)
+                buf = np.empty((self._cap,) + old.shape[1:], dtype=old.dtype)
+                buf[:n0] = old
+                self._buf[name] = buf
+        for name, new in zip(names, (uv, ev.xyz, ev.normal, ij, how)):
+            buf = self._buf[name]
+            buf[n0:n1] = new
+            setattr(self, name, buf[:n1])
+        self.lat.set(ij, np.arange(n0, n1))
         if self.on_add is not None:
             self.on_add()
 
@@ -358,7 +369,7 @@ class _Builder:
         outnumber half of it; the recent ones are searched in a small tree.
         """
         n = len(self.xyz)
-        if self.tree is None or n - self.tree_n > max(256, self.tree_n // 2):
+        if self.tree is None or n - self.tree_n > max(256, self.tree_n // 8):
             self.tree, self.tree_n = cKDTree(self.xyz), n
         ok = np.ones(len(P), dtype=bool)
         if len(P) == 0:

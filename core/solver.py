@@ -8,13 +8,14 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
 * ``fast`` (default): Levenberg-Marquardt with the exact Hessian of EN (the
   springs' 4x4 blocks with their geometric stiffness, plus the surface's
   curvature per node), assembled straight into a fixed block pattern, damped
-  by lambda diag(A) and factorised by SuperLU. lambda starts at 1e-4 and falls
+  by lambda diag(A) and factorised by SuperLU (on the quick path by QDLDL's
+  LDL^T, refactorised on the round's fixed pattern). lambda starts at 1e-4 and falls
   tenfold after every step the quadratic model predicts well (rho > 0.75),
   which took fewer iterations than Nielsen's rule (docs/decisions.md). The
   500:1 stiffness of woven cloth, which makes gradient methods crawl, costs it
-  nothing. While no node is switched off, the last factorisation is tried
-  first (a chord step) and a new one made only when its step is not accepted
-  (``SolverOptions.reuse``; docs/decisions.md).
+  nothing. Once the population has settled and while no node is switched off,
+  the last factorisation is tried first (a chord step) and a new one made only
+  when its step is not accepted (``SolverOptions.reuse``; docs/decisions.md).
 
 Both are generators (:func:`iterate`) that yield a :class:`Snapshot` after every
 iteration, so a GUI can draw and a caller can stop within one iteration by no
@@ -52,6 +53,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+try:  # LDL^T with a reusable symbolic analysis (the quick path); SuperLU without it
+    import qdldl as _qdldl
+except ImportError:  # pragma: no cover - a listed dependency
+    _qdldl = None
+
 from core.energy import Energy
 from core.errors import SettingsError, SolverError
 from core.mesh import DIAG, SpringMesh, lattice_index
@@ -77,13 +83,16 @@ class SolverOptions:
     refill : refill uncovered regions after convergence
     delete : delete nodes that leave the domain (off: a fixed population, for
         comparing minimisers; nodes outside sit on the surface's extension)
-    reuse : fast solver: while no node is switched off, try the last
+    reuse : fast solver: once the population has settled (a refill found
+        nothing) and while no node is switched off, try the last
         factorisation's step first (a chord step, one triangular solve) and
-        factorise again only when it is not accepted; raise lambda to at least
-        1e-7 on a rejected step; skip a refill while nothing changed since one
-        found nothing. Off: the reference path (a factorisation every
-        iteration, lambda doubled from wherever it was), which the tests
-        compare against.
+        factorise again only when it is not accepted, starting from the last
+        factorisation of the rounds before; raise lambda to at least 1e-7 on a
+        rejected step there; skip a refill while nothing changed since one
+        found nothing. Before the population settles the path is the
+        reference's (quicker steps there end on other populations). Off: the
+        reference path (a factorisation every iteration, lambda doubled from
+        wherever it was), which the tests compare against.
     """
 
     method: str = "fast"
@@ -727,6 +736,12 @@ def _pin_block(pin: _PlanePin, uv_node: np.ndarray, G_node: np.ndarray, su_node:
     return 1e8 * big * np.outer(off, off) - mu * ch_
 
 
+_QDLDL_MAX = 8_000
+"""Largest system (unknowns, about 4,000 nodes) factorised by QDLDL: its binding holds the GIL
+while it factorises (SuperLU's releases it), so a GUI's event loop waits for every factorisation
+(about 20 ms at 2,500 nodes, 200 ms at 10,000, where it is only 1.15x faster than SuperLU)."""
+
+
 class _Round:
     """One population of the fast solver: a fixed node set and sparse pattern.
 
@@ -749,6 +764,7 @@ class _Round:
         self.settled = False  # True once a refill found nothing to add
         self.spring_on = np.ones(self.mesh.n_springs, dtype=bool)
         self._corners, self._cell_edges = _round_topology(self.mesh)
+        self._ldl = None  # the round's QDLDL factorisation (quick path)
 
     def switch_off(self, bad: np.ndarray, xyz: np.ndarray) -> None:
         """Delete nodes ``bad`` (and nodes left without springs); xyz : (n, 3)
@@ -797,10 +813,28 @@ class _Round:
                                        rest=mesh.rest[on], k=mesh.k[on], cells=num[cells])
         run.uv = self.uv[idx]
 
-    def factorise(self, A):
-        """Sparse LU factorisation of A in the pattern's own order (nested
-        dissection): no iterative solver or other ordering measured was
-        faster (docs/decisions.md)."""
+    def factorise(self, A, quick: bool = False):
+        """Factorisation of A: SuperLU in the pattern's own order (nested
+        dissection; no iterative solver or other ordering measured was
+        faster, docs/decisions.md), or with ``quick`` QDLDL's LDL^T, whose
+        symbolic analysis is made once per round (the round's pattern is
+        fixed) and then only refactorised: 1.7x faster at 2,500 nodes
+        (docs/decisions.md "Speed, session 7"). Both factorise without
+        pivoting; where QDLDL fails (a zero pivot) SuperLU decides, so a
+        singular matrix is treated as on the reference path.
+
+        The QDLDL object is refactorised in place: a factorisation returned
+        earlier in the round is no longer valid after the next one (the
+        solver keeps at most the last one)."""
+        if quick and _qdldl is not None and A.shape[0] <= _QDLDL_MAX:
+            try:
+                if self._ldl is None:
+                    self._ldl = _qdldl.Solver(A)
+                else:
+                    self._ldl.update(A)
+                return self._ldl
+            except Exception:  # QDLDL raises plain errors on a zero pivot
+                self._ldl = None
         return splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
 
     def solve(self, A, g: np.ndarray) -> np.ndarray:
@@ -846,6 +880,10 @@ def _iterate_fast(run: _Run):
     # the last factorisation, while it may serve again: (lu, A, damp) of this round, made after
     # its last switch-off, its step accepted (a chord step's model is that matrix, undamped)
     stale = None
+    # the last factorisation made since the last change of population, its step accepted (or its Newton
+    # decrement small): once the population settles it serves the first chord step, which saves the
+    # factorisation the settled round would start with
+    held = None
     last_decrease = math.inf
     quiet = False  # a refill found nothing and no node was switched off since
 
@@ -866,6 +904,10 @@ def _iterate_fast(run: _Run):
             yield run.snapshot(E, ev.xyz[rnd.alive], False)
             return
         chord = False
+        # chord steps and the lambda jump only once the population has settled: before, they change which
+        # nodes leave and the solve can end on another population (on curve darts up to 1.3 points of
+        # boundary error, docs/decisions.md "Speed, session 7")
+        quick = opts.reuse and rnd.settled
         if not converged:
             energy, normal = rnd.energy, rnd.normal
             pinned = _node_at(rnd.mesh, run.pin.ij) if run.pin is not None else None
@@ -903,7 +945,7 @@ def _iterate_fast(run: _Run):
                 if not np.isfinite(g).all():
                     raise _not_finite("the energy's gradient", g, run.nit + 1, _cause(surface, rnd.uv, ev))
                 try:
-                    lu = rnd.factorise(A)
+                    lu = rnd.factorise(A, quick=opts.reuse)
                     step = lu.solve(-g)
                     if not np.isfinite(step).all():
                         raise RuntimeError("non-finite step")
@@ -916,6 +958,8 @@ def _iterate_fast(run: _Run):
             tol_now = opts.tol if rnd.settled else loose
             if 0 <= pred <= 0.1 * tol_now * E and lam <= 1e-2:
                 converged = True  # the Newton decrement says we are there
+                if opts.reuse and not chord:
+                    held = (lu, A, damp)
         if not converged:
             uv_try = rnd.uv + normal.scatter(step, energy.n)
             if pinned is not None:
@@ -947,7 +991,7 @@ def _iterate_fast(run: _Run):
                 run.uv = uv_try[rnd.alive]
                 ev = ev2
                 if bad.any():
-                    stale, quiet = None, False
+                    stale, held, quiet = None, None, False
                     rnd.switch_off(bad, ev.xyz)
                     rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
                     E = 0.5 * (rs @ rs + rd @ rd)
@@ -956,7 +1000,9 @@ def _iterate_fast(run: _Run):
                     yield run.snapshot(E, ev.xyz[rnd.alive], True)
                     continue
                 if opts.reuse and not chord:
-                    stale = (lu, A, damp)
+                    held = (lu, A, damp)
+                if quick and not chord:
+                    stale = held
                 elif chord and decrease > 0.1 * last_decrease:
                     stale = None  # the chord steps converge slowly: a new factorisation will do better
                 last_decrease = decrease
@@ -965,21 +1011,22 @@ def _iterate_fast(run: _Run):
                 # until the population has settled, a loose tolerance will do
                 converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
             else:
-                stale = None
-                lam = max(lam * nu, _LAM_JUMP) if opts.reuse else lam * nu
+                stale = held = None
+                lam = max(lam * nu, _LAM_JUMP) if quick else lam * nu
                 nu *= 2
                 yield run.snapshot(E, ev.xyz[rnd.alive], False)
                 converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
         if converged:
             # a refill that found nothing finds nothing again while no node has left since
             if not (opts.reuse and quiet) and run.try_refill():
-                stale, quiet = None, False
+                stale, held, quiet = None, None, False
                 rnd, ev, (rs, Q, rd, Jd), E = start()
                 yield run.snapshot(E, ev.xyz, True)
                 continue
             quiet = True
             if not rnd.settled and E > rnd.floor:
                 rnd.settled = True  # nothing to refill: now converge tightly
+                stale = held if opts.reuse else None
                 continue
             run.status, run.message = 0, "converged"
             return
