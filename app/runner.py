@@ -65,6 +65,13 @@ class Runner(QObject):
         return self.thread is not None and not self.thread.abandoned
 
     @property
+    def solving(self) -> Project | None:
+        """The project the run in flight (or the one queued to follow it) solves; None when idle or abandoned."""
+        if self._pending is not None:
+            return self._pending[0]
+        return self.last_start[0] if self.active else None
+
+    @property
     def paused(self) -> bool:
         """Paused, or asked to pause (the solve waits after its current iteration)."""
         return self.thread is not None and self.thread.pause_requested
