@@ -52,6 +52,7 @@ class Runner(QObject):
         self.frame_seconds: list[float] = []  # GUI time spent on each delivered frame (for the benchmark)
         self.runs_started = 0
         self.last_history: list = []  # the history of the last run that ended
+        self.last_pattern_seconds = 0.0  # its solve thread's time in live patterns (for the benchmark)
         self.last_start: tuple[Project, State | None] | None = None  # what the last run started from
 
     # ------------------------------------------------------------------ state
@@ -193,6 +194,7 @@ class Runner(QObject):
             self.pump()  # the final frame (or the last live one)
         outcome, error = self._outcome, self._error
         self.last_history = list(t.history)
+        self.last_pattern_seconds = t.pattern_seconds
         self._cleanup()
         if error is not None:
             self.failed.emit(error)
