@@ -68,12 +68,30 @@ TARGETS = np.array([[0.93, 0.3, 0.2], [0.62, 0.58, 0.53], [0.3, 0.85, 0.45]])
 TARGETS /= np.linalg.norm(TARGETS, axis=1, keepdims=True)
 
 
+POLL = False  # --poll: session 6's polling wait (to measure what it cost)
+
+
 def wait(app, condition, timeout=600.0):
+    """Run the event loop until ``condition()``. It sleeps between events as the window's
+    own loop does (a 10 ms timer wakes it to check): a loop that polls instead keeps the
+    GUI thread busy, and its Python holds the GIL the solve thread needs (session 6's
+    version did, and its times were up to twice the window's)."""
     t0 = time.perf_counter()
-    while not condition():
-        app.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 10)
-        if time.perf_counter() - t0 > timeout:
-            raise TimeoutError("gave up waiting")
+    if POLL:
+        while not condition():
+            app.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 10)
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError("gave up waiting")
+        return
+    waker = QTimer(interval=10)
+    waker.start()
+    try:
+        while not condition():
+            app.processEvents(QEventLoop.ProcessEventsFlag.WaitForMoreEvents)
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError("gave up waiting")
+    finally:
+        waker.stop()
 
 
 VARIANTS = {
@@ -105,7 +123,11 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--variants", default=",".join(VARIANTS))
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--poll", action="store_true", help="wait by polling the event loop (session 6's benchmark)")
+    ap.add_argument("--no-drag", action="store_true")
     args = ap.parse_args()
+    global POLL
+    POLL = args.poll
     variants = [v for v in args.variants.split(",") if v]
 
     app = QApplication.instance() or QApplication([])
@@ -170,13 +192,14 @@ def main() -> int:
             win.actions["tool_curve_dart"].setChecked(False)
             win.document.undo()
             assert win.project.result is base.result
-    drags = drag_rows(app, win, done, seen, lower_priority, args.repeat)
+    drags = None if args.no_drag else drag_rows(app, win, done, seen, lower_priority, args.repeat)
     win.close()
 
     lines = [
         "# Drawing a curve dart in the app: time to the re-solved pattern",
         "",
-        f"`benchmarks/dart_tool.py --spacing {args.spacing:g} --repeat {args.repeat}`, "
+        f"`benchmarks/dart_tool.py --spacing {args.spacing:g} --repeat {args.repeat}"
+        f"{' --poll' if args.poll else ''}`, "
         f"{_dt.date.today().isoformat()}, "
         f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
         "Xvfb with Mesa software OpenGL, window 1600x1000. The woven octant, solved, then a "
