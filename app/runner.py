@@ -22,6 +22,12 @@ __all__ = ["Runner"]
 
 FRAME_INTERVAL_MS = 30
 """The frame pump's period: at most about 33 frames a second reach the views."""
+FRAME_SHARE = 0.06
+"""At most about this share of a run goes into drawing its live frames: after a
+frame that took the GUI c seconds (its slots and the repaint they asked for),
+the next waits c (1 / FRAME_SHARE - 1). With software OpenGL on a loaded
+2-core machine a frame can take 0.1 s, and drawing every one made the run 40 %
+longer (docs/decisions.md, "Window latency, session 7"). None: every pump period."""
 
 
 class Runner(QObject):
@@ -49,7 +55,9 @@ class Runner(QObject):
         self._timer.setInterval(FRAME_INTERVAL_MS)
         self._timer.timeout.connect(self.pump)
         self.frames_shown = 0
-        self.frame_seconds: list[float] = []  # GUI time spent on each delivered frame (for the benchmark)
+        self.frame_seconds: list[float] = []  # GUI time on each delivered frame, its repaint included
+        self._next_frame = 0.0  # no live frame before this (perf_counter seconds)
+        self._drawing = False  # a frame was handed out and its repaint has not been done yet
         self.runs_started = 0
         self.last_history: list = []  # the history of the last run that ended
         self.last_pattern_seconds = 0.0  # its solve thread's time in live patterns (for the benchmark)
@@ -157,6 +165,7 @@ class Runner(QObject):
         t.finished.connect(self._on_thread_finished)
         self.thread = t
         self._seen = 0
+        self._next_frame = 0.0  # a new run's first frame goes out at once
         self._outcome = None
         self._error = None
         self.runs_started += 1
@@ -165,19 +174,31 @@ class Runner(QObject):
         self.started.emit(project)
         self.state_changed.emit(self.state)
 
-    def pump(self) -> None:
-        """Hand the newest frame (if there is a new one) to ``frame``'s slots."""
+    def pump(self, final: bool = False) -> None:
+        """Hand the newest frame (if there is a new one) to ``frame``'s slots
+        (within the frames' share of the run, see FRAME_SHARE, unless ``final``)."""
         t = self.thread
         if t is None or t.abandoned:  # an abandoned run's frames belong to nobody
             return
+        t0 = time.perf_counter()
+        if not final and (t0 < self._next_frame or self._drawing):
+            return  # the frames' share of the run is spent for now (the newest frame waits in its slot)
         seq, frame = t.take_frame(self._seen)
         if frame is None:
             return
         self._seen = seq
-        t0 = time.perf_counter()
         self.frame.emit(frame)
-        self.frame_seconds.append(time.perf_counter() - t0)
         self.frames_shown += 1
+        self._drawing = True
+        # the views repaint when the event loop next runs: a zero timer fires after that repaint
+        QTimer.singleShot(0, lambda: self._drawn(t0))
+
+    def _drawn(self, t0: float) -> None:
+        now = time.perf_counter()
+        cost = now - t0
+        self.frame_seconds.append(cost)
+        self._drawing = False
+        self._next_frame = now + (0.0 if FRAME_SHARE is None else cost * (1 / FRAME_SHARE - 1))
 
     def _on_succeeded(self, outcome: RunOutcome) -> None:
         self._outcome = outcome
@@ -191,7 +212,7 @@ class Runner(QObject):
             return
         abandoned = t.abandoned
         if not abandoned:
-            self.pump()  # the final frame (or the last live one)
+            self.pump(final=True)  # the final frame (or the last live one)
         outcome, error = self._outcome, self._error
         self.last_history = list(t.history)
         self.last_pattern_seconds = t.pattern_seconds

@@ -54,9 +54,10 @@ geometry). The most frequent interval that did not lengthen the run
 (docs/decisions.md, "Engine threads and frames")."""
 PATTERN_INTERVAL = 0.25
 """Seconds between live patterns at least (more when a pattern is slow, see PATTERN_SHARE)."""
-PATTERN_SHARE = 0.1
-"""At most this share of a run goes into its live patterns (a pattern's cost
-sets the wait for the next one). The issue's budget for live frames."""
+PATTERN_SHARE = 0.04
+"""At most about this share of a run goes into its live patterns (a pattern's
+cost sets the wait for the next one); with ``app.runner.FRAME_SHARE`` for
+drawing them, live frames stay within a tenth of the run."""
 FIRST_PATTERN_AT_ONCE = True
 """The solve's first snapshot gets a pattern (after its frame without one is
 published): the opening of a new dart shows as soon as the solve moves."""

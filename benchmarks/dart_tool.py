@@ -23,15 +23,16 @@ Each repeat undoes the dart first (undo restores the earlier result without a
 solve), so every row answers the same edit. The window's behaviour is set per
 row (variants, run alternately, medians at the end): "before" is session 6's
 window (edits re-run after a 250 ms delay, the first live pattern 0.25 s into
-the run, live patterns up to a seventh of it), "after" is this one's (an edit
-with no run in flight re-runs at once, the first snapshot gets a pattern,
-patterns up to a tenth), each with the solve thread at the app's lower OS
-priority (``app.worker.SOLVE_NICENESS``) or at normal priority; "no live frames"
-draws only the result (what the frames cost). Then a drag of the dart's
-middle point across four positions: from each move to the first frame of that
-position's preview, and from the release to the result in the document. Not a
-test: numbers depend on the machine (software OpenGL under Xvfb here) and its
-load (reported).
+the run, live patterns up to a seventh of it, every frame drawn), "after" is
+this one's (an edit with no run in flight re-runs at once, the first snapshot
+gets a pattern, live patterns up to 4 % and drawing up to 6 % of the run),
+each with the solve thread at the app's lower OS priority
+(``app.worker.SOLVE_NICENESS``) or at normal priority; "no live frames" draws
+only the result (what the frames cost). Then a drag of the dart's middle point
+across four positions: from each move to the first frame of that position's
+preview, and from the release to the result in the document. Not a test:
+numbers depend on the machine (software OpenGL under Xvfb here) and its load
+(reported).
 """
 
 from __future__ import annotations
@@ -58,7 +59,7 @@ from PySide6.QtCore import QEventLoop, QPoint, Qt, QTimer  # noqa: E402
 from PySide6.QtTest import QTest  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app import runcontrol, worker as solve_worker  # noqa: E402
+from app import runcontrol, runner, worker as solve_worker  # noqa: E402
 from app.mainwindow import MainWindow  # noqa: E402
 from core.examples import example_path, load_example  # noqa: E402
 from core.project import new_project  # noqa: E402
@@ -95,17 +96,18 @@ def wait(app, condition, timeout=600.0):
 
 
 VARIANTS = {
-    # name: (re-run at once, first pattern at once, pattern share, nice, live frames)
-    "before (nice 5)": (False, False, 1 / 7, True, True),
-    "after (nice 5)": (True, True, 0.1, True, True),
-    "after (normal priority)": (True, True, 0.1, False, True),
-    "after (no live frames)": (True, True, 0.1, True, False),
+    # name: (re-run at once, first pattern at once, pattern share, drawing share, nice, live frames)
+    "before (nice 5)": (False, False, 1 / 7, None, True, True),
+    "after (nice 5)": (True, True, 0.04, 0.06, True, True),
+    "after (normal priority)": (True, True, 0.04, 0.06, False, True),
+    "after (no live frames)": (True, True, 0.04, 0.06, True, False),
 }
 
 
 def set_variant(win, name, lower_priority):
-    at_once, first, share, nice, live = VARIANTS[name]
+    at_once, first, share, drawing, nice, live = VARIANTS[name]
     runcontrol.RERUN_AT_ONCE = at_once
+    runner.FRAME_SHARE = drawing
     solve_worker.FIRST_PATTERN_AT_ONCE = first
     solve_worker.PATTERN_SHARE = share
     solve_worker.PATTERN_INTERVAL = 0.25 if live else 1e9
