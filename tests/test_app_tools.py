@@ -425,7 +425,7 @@ def test_a_dragged_dart_point_re_solves_as_it_moves(solved, qtbot):
     assert blocker.args[0].result is after.result and after.result_is_current
     np.testing.assert_allclose(s.points(final.handles[1:2])[0], ray_sphere(view, *last), atol=1e-7)
     np.testing.assert_array_equal(final.handles[[0, 2]], dart.handles[[0, 2]])
-    assert crossing_springs(after.result, final) == 0 and crossing_springs(after.result, seen[1][0]) > 0
+    assert crossing_springs(after.result, final) == 0 and crossing_springs(after.result, dart) > 0
     # the previews ran (at least one per position) and the last one answered the edit: no run after the release
     assert win.runs.previews_started - previews >= len(targets) and win.runs.previews_adopted == adopted + 1
     assert win.runner.runs_started - runs <= win.runs.previews_started - previews
