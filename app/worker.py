@@ -221,7 +221,8 @@ class SolveThread(QThread):
 
         gen = flatten_iter(surface, settings, self.initial, area=maker.A3, drape_progress=drape_frame,
                            drape_interval=DRAPE_FRAME_INTERVAL)
-        last = None
+        last = pattern = None
+        pattern_stats: dict = {}
         next_pattern = -math.inf if FIRST_PATTERN_AT_ONCE else time.perf_counter() + PATTERN_INTERVAL
         try:
             while True:
@@ -246,10 +247,12 @@ class SolveThread(QThread):
                     # the frame goes out first (the views need not wait for its pattern), then again with it
                     self._publish(frame)
                     pattern = maker.pattern(snap.mesh, snap.uv, snap.xyz)
-                    frame = replace(frame, pattern=pattern, stats={**frame.stats, **maker.pattern_stats(pattern)})
+                    pattern_stats = maker.pattern_stats(pattern)
                     cost = time.perf_counter() - now
                     self.pattern_seconds += cost
                     next_pattern = now + max(PATTERN_INTERVAL, cost * (1 / PATTERN_SHARE - 1))
+                if pattern is not None:  # the newest pattern rides on later frames (the GUI may skip frames)
+                    frame = replace(frame, pattern=pattern, stats={**frame.stats, **pattern_stats})
                 self._publish(frame)
         finally:
             gen.close()
