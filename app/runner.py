@@ -27,7 +27,9 @@ FRAME_SHARE = 0.06
 frame that took the GUI c seconds (its slots and the repaint they asked for),
 the next waits c (1 / FRAME_SHARE - 1). With software OpenGL on a loaded
 2-core machine a frame can take 0.1 s, and drawing every one made the run 40 %
-longer (docs/decisions.md, "Window latency, session 7"). None: every pump period."""
+longer (docs/decisions.md, "Window latency, session 7"). None: every pump period.
+The drape's frames are paced by the drape itself (``app.worker.DRAPE_FRAME_INTERVAL``),
+and a paused run shows its newest state at once."""
 
 
 class Runner(QObject):
@@ -181,11 +183,12 @@ class Runner(QObject):
         if t is None or t.abandoned:  # an abandoned run's frames belong to nobody
             return
         t0 = time.perf_counter()
-        if not final and (t0 < self._next_frame or self._drawing):
-            return  # the frames' share of the run is spent for now (the newest frame waits in its slot)
         seq, frame = t.take_frame(self._seen)
         if frame is None:
             return
+        if not final and not frame.draping and not t.pause_requested \
+                and (t0 < self._next_frame or self._drawing):
+            return  # the frames' share of the run is spent for now (the newest frame waits in its slot)
         self._seen = seq
         self.frame.emit(frame)
         self.frames_shown += 1
