@@ -170,8 +170,7 @@ class FrameMaker:
                  "max_shear_deg": float(np.abs(shear).max(initial=0.0)),
                  "area_beyond_lock_pct": area_beyond_lock_pct(shear, cell_areas(xyz, mesh), mesh.material.lock_deg)}
         if pattern is not None:
-            stats["boundary_error_pct"] = 100 * abs(pattern.perimeter - self.L3) / self.L3
-            stats["area_error_pct"] = 100 * abs(pattern.area - self.A3) / self.A3
+            stats.update(self.pattern_stats(pattern))
         pos, neg = self._dart_nodes
         if self._rosette is None:
             self._rosette = reference_direction(self.surface, self.settings)
@@ -179,6 +178,11 @@ class FrameMaker:
         return Frame(topology, mesh, uv, xyz, self._xy, strain, shear, self._boundary, pos, neg,
                      self.dart_curves(), pattern, int(iteration), float(energy), float(seconds), stats,
                      final, status, fibre)
+
+    def pattern_stats(self, pattern: Pattern) -> dict:
+        """The pattern's boundary and area errors, % (a frame's stats)."""
+        return {"boundary_error_pct": 100 * abs(pattern.perimeter - self.L3) / self.L3,
+                "area_error_pct": 100 * abs(pattern.area - self.A3) / self.A3}
 
     def from_snapshot(self, snap, pattern: Pattern | None = None) -> Frame:
         """A live frame from a :class:`core.solver.Snapshot`."""

@@ -1,13 +1,23 @@
 """Run, Pause/Resume, Stop and the re-run after a settings edit, and what the
 window does with a run's end: a result is handed to the document (one undo
 step), a failure is shown, an abandoned run leaves nothing behind.
+
+Previews (a dart point being dragged): :meth:`RunControl.preview_dart` solves
+the document's project with one dart replaced, outside the document, warm
+from the document's result, and shows its frames; each newer position
+replaces the preview in flight (throttled, the newest wins). The release makes
+the edit as usual; when its settings are the preview's, the preview in flight
+(or its finished result) answers the edit instead of a new re-run, so the drag
+is one undo step with one result.
 """
 
 from __future__ import annotations
 
+import time
+
 from PySide6.QtCore import QTimer
 
-from core.project import Project, warm_start
+from core.project import Project, settings_equal, warm_start
 
 from app.aspects import HISTORY, Aspect
 from app.runner import Runner
@@ -16,6 +26,13 @@ from app.worker import RunOutcome
 __all__ = ["RunControl", "RERUN_DELAY_MS", "NO_DOCUMENT", "NOT_SOLVED", "result_text", "status_text"]
 
 RERUN_DELAY_MS = 250  # settings edits closer together than this make one re-run
+RERUN_AT_ONCE = True
+"""An edit with no run in flight re-runs at once (the delay only merges the
+edits that follow it while its run is in flight): Enter on a dart starts its
+solve without waiting (docs/decisions.md, "Window latency, session 7")."""
+PREVIEW_INTERVAL_MS = 120
+"""A preview in flight is replaced by a newer drag position once it has shown
+a frame, or after this long without one (so a drag never only restarts solves)."""
 
 NO_DOCUMENT = "Open a surface or pick an example, then Run."
 NOT_SOLVED = "Not solved yet: Run (F5) drapes the mesh and solves it."
@@ -53,8 +70,21 @@ class RunControl:
         self.last_outcome: RunOutcome | None = None
         self.rerun_timer = QTimer(window, singleShot=True, interval=RERUN_DELAY_MS)
         self.rerun_timer.timeout.connect(self.rerun)
+        self.now_timer = QTimer(window, singleShot=True, interval=0)  # an edit's re-run at once, after its listeners
+        self.now_timer.timeout.connect(self.rerun)
+        # previews: the newest requested (None: none), the one the runner was given, its finished outcome
+        self._preview_wanted: Project | None = None
+        self._preview_started: Project | None = None
+        self._preview_started_at = 0.0
+        self._preview_frames = 0
+        self._preview_outcome: RunOutcome | None = None
+        self.preview_timer = QTimer(window, singleShot=True, interval=PREVIEW_INTERVAL_MS)
+        self.preview_timer.timeout.connect(self._launch_preview)
+        self.previews_started = 0  # previews asked of the runner (for the tests and the benchmark)
+        self.previews_adopted = 0  # previews that answered the edit made at the release
         r = self.runner
         r.frame.connect(window.presenter.draw_frame)
+        r.frame.connect(self._preview_frame)
         r.started.connect(self._started)
         r.finished.connect(self._finished)
         r.failed.connect(self._failed)
@@ -67,13 +97,20 @@ class RunControl:
         if self.window.document is None:
             return
         self.rerun_timer.stop()
+        self.now_timer.stop()
+        self._drop_preview()
         self.runner.start(self.window.document.project)
 
     def rerun(self) -> None:
         """Solve again after an edit: from the last result when the drape is unchanged."""
         if self.window.document is None:
             return
+        self.rerun_timer.stop()
+        self.now_timer.stop()
         project = self.window.document.project
+        if self._adopt_preview(project):
+            return
+        self._drop_preview()
         self.runner.start(project, warm_start(project))
 
     def toggle_pause(self) -> None:
@@ -84,16 +121,116 @@ class RunControl:
 
     def stop(self) -> None:
         self.rerun_timer.stop()
+        self.now_timer.stop()
+        if self.previewing:
+            self.end_preview()
+            return
         self.runner.stop()
 
     def abandon(self) -> None:
         """Another document: any run is abandoned, no re-run follows."""
+        self._drop_preview()
         self.runner.cancel()
         self.rerun_timer.stop()
+        self.now_timer.stop()
 
     def close(self) -> None:
+        self._drop_preview()
         self.rerun_timer.stop()
+        self.now_timer.stop()
         self.runner.shutdown()
+
+    # ------------------------------------------------------------------ previews
+    @property
+    def previewing(self) -> bool:
+        """A preview is wanted, in flight or finished and not yet answered by an edit."""
+        return self._preview_wanted is not None or self._preview_started is not None \
+            or self._preview_outcome is not None
+
+    def preview_dart(self, index: int, dart) -> bool:
+        """Solve the document's project with dart ``index`` replaced by ``dart``
+        (not an edit), warm from the document's result, replacing any preview
+        in flight. False (nothing starts) with no result to start from, with
+        "auto re-run" off, or while a run that is not a preview is in flight."""
+        doc = self.window.document
+        if doc is None or not self.window.settings_panel.auto_rerun.isChecked():
+            return False
+        project = doc.project
+        if warm_start(project) is None or not 0 <= index < len(project.settings.darts):
+            return False
+        if self.runner.active and self._preview_started is None and self.runner.last_start[1] is None:
+            return False  # a new drape the designer asked for goes on (a warm re-run gives way)
+        darts = list(project.settings.darts)
+        darts[index] = dart
+        self._preview_wanted = project.with_settings(darts=tuple(darts))
+        self._preview_outcome = None
+        if self._preview_started is None or self._preview_frames or \
+                time.perf_counter() - self._preview_started_at >= PREVIEW_INTERVAL_MS / 1000:
+            self._launch_preview()
+        elif not self.preview_timer.isActive():
+            left = PREVIEW_INTERVAL_MS / 1000 - (time.perf_counter() - self._preview_started_at)
+            self.preview_timer.start(max(1, int(1000 * left)))
+        return True
+
+    def end_preview(self) -> None:
+        """The drag ended without an edit: the preview is dropped and the views
+        go back to the document."""
+        had_run = self._preview_started is not None
+        self._drop_preview()
+        if had_run and self.runner.busy:
+            self.runner.cancel()  # its frames are no longer shown
+        project = self.window.project
+        if project is None:
+            return
+        self.window.presenter.show_result(project)
+        self.window.progress.setText(status_text(project))
+        if not project.result_is_current and self.window.settings_panel.auto_rerun.isChecked():
+            self.now_timer.start()  # the preview replaced the re-run of an earlier edit: run it again
+
+    def _launch_preview(self) -> None:
+        self.preview_timer.stop()
+        project, self._preview_wanted = self._preview_wanted, None
+        doc = self.window.document
+        if project is None or doc is None:
+            return
+        self._preview_started = project
+        self._preview_started_at = time.perf_counter()
+        self._preview_frames = 0
+        self.previews_started += 1
+        # from the document's result, as the edit's own re-run would: the release's result is then the
+        # one Enter gives. (Starting from the previous position's mid-solve state was measured: after four
+        # positions, 148 iterations to a higher energy instead of 11; docs/decisions.md.)
+        self.runner.start(project, warm_start(doc.project))
+
+    def _preview_frame(self, frame) -> None:
+        """A frame of the run in flight: a position waiting for the preview to show something may go now."""
+        if self._preview_started is None or frame.draping:
+            return
+        self._preview_frames += 1
+        if self._preview_wanted is not None:
+            self._launch_preview()
+
+    def _drop_preview(self) -> None:
+        self.preview_timer.stop()
+        self._preview_wanted = self._preview_started = self._preview_outcome = None
+
+    def _adopt_preview(self, project: Project) -> bool:
+        """The edit ``project`` is what the newest preview solves: its run in
+        flight (or its finished result) answers the edit. True if so."""
+        started, outcome = self._preview_started, self._preview_outcome
+        if self._preview_wanted is not None or started is None or started.surface is not project.surface \
+                or not settings_equal(started.settings, project.settings):
+            return False  # a newer position was never solved, or the edit is another one
+        in_flight = self.runner.busy and self.runner.solving is started
+        if outcome is None and not in_flight:
+            return False
+        self._drop_preview()
+        self.previews_adopted += 1
+        if outcome is not None:
+            self._finished(outcome)  # its result answers the edit now
+        else:
+            self.window.progress.setText("Solving the moved dart...")
+        return True
 
     # ------------------------------------------------------------------ the document
     def before_change(self, cause: str, aspects: Aspect) -> None:
@@ -111,9 +248,18 @@ class RunControl:
             self.window.progress.setText(text)
             if cause in HISTORY:
                 self.window.statusBar().showMessage(f"{cause.capitalize()} {label}: {text}" if label else text, 8000)
+        if cause != "edit" and self.previewing:
+            self.end_preview()  # undo, redo, another document: the drag's preview is gone
         if (cause == "edit" and aspects & Aspect.SETTINGS and self.window.settings_panel.auto_rerun.isChecked()
                 and (project.result is not None or self.runner.busy)):
-            self.rerun_timer.start()
+            # at once (after the other listeners) when nothing is in flight or a preview may answer it;
+            # otherwise after a quiet spell, so a burst of edits makes one run
+            if RERUN_AT_ONCE and (not self.runner.busy or self._preview_started is not None) \
+                    and not self.rerun_timer.isActive():
+                self.now_timer.start()
+            else:
+                self.now_timer.stop()
+                self.rerun_timer.start()
 
     # ------------------------------------------------------------------ a run's end
     def _started(self, project: Project) -> None:
@@ -127,6 +273,12 @@ class RunControl:
 
     def _finished(self, outcome: RunOutcome) -> None:
         w = self.window
+        if self._preview_started is not None and outcome.source is self._preview_started:
+            # a preview ran to its end before the release: kept (on screen) for the edit to come
+            self._preview_outcome = outcome
+            w.progress.setText("Preview of the moved point (release to keep it).")
+            w.update_actions()
+            return
         self.last_outcome = outcome
         r = outcome.result
         if r is None:
@@ -150,6 +302,7 @@ class RunControl:
 
     def _failed(self, message: str) -> None:
         w = self.window
+        self._drop_preview()
         w.show_error(f"Solve failed: {message}")
         w.progress.setText(f"Solve failed: {message}")
         if w.project is not None:
@@ -162,6 +315,7 @@ class RunControl:
         follows: nothing of it is kept, and views still showing its live frames
         go back to the document."""
         w = self.window
+        self._preview_started = None
         w.progress.setText("The run was cancelled; nothing of it was kept.")
         frame = w.presenter.frame
         if w.project is not None and frame is not None and not frame.final:

@@ -22,6 +22,14 @@ __all__ = ["Runner"]
 
 FRAME_INTERVAL_MS = 30
 """The frame pump's period: at most about 33 frames a second reach the views."""
+FRAME_SHARE = 0.06
+"""At most about this share of a run goes into drawing its live frames: after a
+frame that took the GUI c seconds (its slots and the repaint they asked for),
+the next waits c (1 / FRAME_SHARE - 1). With software OpenGL on a loaded
+2-core machine a frame can take 0.1 s, and drawing every one made the run 40 %
+longer (docs/decisions.md, "Window latency, session 7"). None: every pump period.
+The drape's frames are paced by the drape itself (``app.worker.DRAPE_FRAME_INTERVAL``),
+and a paused run shows its newest state at once."""
 
 
 class Runner(QObject):
@@ -49,9 +57,12 @@ class Runner(QObject):
         self._timer.setInterval(FRAME_INTERVAL_MS)
         self._timer.timeout.connect(self.pump)
         self.frames_shown = 0
-        self.frame_seconds: list[float] = []  # GUI time spent on each delivered frame (for the benchmark)
+        self.frame_seconds: list[float] = []  # GUI time on each delivered frame, its repaint included
+        self._next_frame = 0.0  # no live frame before this (perf_counter seconds)
+        self._drawing = False  # a frame was handed out and its repaint has not been done yet
         self.runs_started = 0
         self.last_history: list = []  # the history of the last run that ended
+        self.last_pattern_seconds = 0.0  # its solve thread's time in live patterns (for the benchmark)
         self.last_start: tuple[Project, State | None] | None = None  # what the last run started from
 
     # ------------------------------------------------------------------ state
@@ -63,6 +74,13 @@ class Runner(QObject):
     def active(self) -> bool:
         """A run is in flight that will deliver frames and an outcome (not abandoned)."""
         return self.thread is not None and not self.thread.abandoned
+
+    @property
+    def solving(self) -> Project | None:
+        """The project the run in flight (or the one queued to follow it) solves; None when idle or abandoned."""
+        if self._pending is not None:
+            return self._pending[0]
+        return self.last_start[0] if self.active else None
 
     @property
     def paused(self) -> bool:
@@ -149,6 +167,7 @@ class Runner(QObject):
         t.finished.connect(self._on_thread_finished)
         self.thread = t
         self._seen = 0
+        self._next_frame = 0.0  # a new run's first frame goes out at once
         self._outcome = None
         self._error = None
         self.runs_started += 1
@@ -157,19 +176,32 @@ class Runner(QObject):
         self.started.emit(project)
         self.state_changed.emit(self.state)
 
-    def pump(self) -> None:
-        """Hand the newest frame (if there is a new one) to ``frame``'s slots."""
+    def pump(self, final: bool = False) -> None:
+        """Hand the newest frame (if there is a new one) to ``frame``'s slots
+        (within the frames' share of the run, see FRAME_SHARE, unless ``final``)."""
         t = self.thread
         if t is None or t.abandoned:  # an abandoned run's frames belong to nobody
             return
+        t0 = time.perf_counter()
         seq, frame = t.take_frame(self._seen)
         if frame is None:
             return
+        if not final and not frame.draping and not t.pause_requested \
+                and (t0 < self._next_frame or self._drawing):
+            return  # the frames' share of the run is spent for now (the newest frame waits in its slot)
         self._seen = seq
-        t0 = time.perf_counter()
         self.frame.emit(frame)
-        self.frame_seconds.append(time.perf_counter() - t0)
         self.frames_shown += 1
+        self._drawing = True
+        # the views repaint when the event loop next runs: a zero timer fires after that repaint
+        QTimer.singleShot(0, lambda: self._drawn(t0))
+
+    def _drawn(self, t0: float) -> None:
+        now = time.perf_counter()
+        cost = now - t0
+        self.frame_seconds.append(cost)
+        self._drawing = False
+        self._next_frame = now + (0.0 if FRAME_SHARE is None else cost * (1 / FRAME_SHARE - 1))
 
     def _on_succeeded(self, outcome: RunOutcome) -> None:
         self._outcome = outcome
@@ -183,9 +215,10 @@ class Runner(QObject):
             return
         abandoned = t.abandoned
         if not abandoned:
-            self.pump()  # the final frame (or the last live one)
+            self.pump(final=True)  # the final frame (or the last live one)
         outcome, error = self._outcome, self._error
         self.last_history = list(t.history)
+        self.last_pattern_seconds = t.pattern_seconds
         self._cleanup()
         if error is not None:
             self.failed.emit(error)

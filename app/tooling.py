@@ -70,6 +70,12 @@ class WindowToolHost:
     def drop_tool(self) -> None:
         self._control.set_tool(None)
 
+    def preview_dart(self, index: int, dart) -> None:
+        self._window.runs.preview_dart(index, dart)
+
+    def end_preview(self) -> None:
+        self._window.runs.end_preview()
+
 
 class ToolMouse:
     """The 3D view's left-button events, handed to the active tool.

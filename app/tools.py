@@ -95,6 +95,12 @@ class ToolHost(Protocol):
     def drop_tool(self) -> None:
         """End the active tool (the window falls back to the selection's, if any)."""
 
+    def preview_dart(self, index: int, dart) -> None:
+        """Re-solve with dart ``index`` replaced by ``dart``, outside the document (a drag in progress)."""
+
+    def end_preview(self) -> None:
+        """The drag's preview is over without an edit: show the document again."""
+
 
 class Tool:
     """A tool of the 3D view (see the module docstring), working for ``host``.
@@ -297,8 +303,10 @@ class CurveDartTool(Tool):
 
 class HandleEditor(Tool):
     """Move the points of the selected curve dart: drag a handle across the
-    surface; on release the dart is rebuilt through the points (projected
-    along the current view direction) and replaces the old one."""
+    surface. While it moves, the dart through the points (projected along the
+    current view direction) is re-solved as a preview (``host.preview_dart``,
+    not an edit; the newest position wins); on release it replaces the old
+    dart as one edit, which the preview of that position answers."""
 
     name = "dart points"
     implied = True
@@ -311,6 +319,7 @@ class HandleEditor(Tool):
         self.handles = dart_handles(self.surface, dart)
         self.grabbed: int | None = None
         self.moved = False
+        self.previewing = False  # a preview of an uncommitted position was asked for
 
     def activate(self) -> None:
         self.view.set_handles(self.surface.points(self.handles))
@@ -318,6 +327,18 @@ class HandleEditor(Tool):
     def deactivate(self) -> None:
         self.view.set_handles()
         self.view.set_preview()
+        self._end_preview()
+
+    def _end_preview(self) -> None:
+        if self.previewing:
+            self.previewing = False
+            self.host.end_preview()
+
+    def _dart(self) -> CurveDart:
+        """The dart through the handles as they are now (SettingsError if none goes through them)."""
+        d = self.dart
+        return curve_dart_through(self.surface, self.handles, self.view.view_direction(), name=d.name,
+                                  visible=d.visible)
 
     def press(self, x, y, double):
         disp = self.view.display_points(self.surface.points(self.handles))
@@ -338,11 +359,16 @@ class HandleEditor(Tool):
         self.moved = True
         pts = self.surface.points(self.handles)
         try:
-            curve = self.surface.points(curve_dart_through(self.surface, self.handles, self.view.view_direction()).uv)
+            dart = self._dart()
         except SettingsError:
-            curve = pts
+            dart, curve = None, pts
+        else:
+            curve = self.surface.points(dart.uv)
         self.view.set_handles(pts, render=False)
         self.view.set_preview(curve, None)
+        if dart is not None:
+            self.previewing = True
+            self.host.preview_dart(self.index, dart)
         return True
 
     def release(self, x, y):
@@ -354,19 +380,22 @@ class HandleEditor(Tool):
         return True
 
     def commit(self) -> bool:
-        """Rebuild the dart through the handles and make it an edit."""
+        """Rebuild the dart through the handles and make it an edit (the preview of
+        the same position, if one runs, answers it)."""
         d = self.dart
         try:
-            new = curve_dart_through(self.surface, self.handles, self.view.view_direction(), name=d.name,
-                                     visible=d.visible)
+            new = self._dart()
         except SettingsError as exc:
             self.hint(f"Cannot move the point: {exc}")
             self.handles = dart_handles(self.surface, d)
             self.view.set_handles(self.surface.points(self.handles))
             self.view.set_preview()
+            self._end_preview()
             return False
         self.view.set_preview()
-        self.document.replace_dart(self.index, new, label=f"Move {d.name}")
+        self.previewing = False  # the edit takes the preview over (or re-runs)
+        if self.document.replace_dart(self.index, new, label=f"Move {d.name}") is None:
+            self.host.end_preview()  # the same dart as before: no edit, nothing to answer
         return True
 
 

@@ -32,7 +32,7 @@ import sys
 import threading
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from PySide6.QtCore import QThread, Signal
 
@@ -53,8 +53,14 @@ core.drape.REPORT_SHARE). Each frame has a new mesh (the views rebuild their
 geometry). The most frequent interval that did not lengthen the run
 (docs/decisions.md, "Engine threads and frames")."""
 PATTERN_INTERVAL = 0.25
-"""Seconds between live patterns at least (more when a pattern is slow: at most
-about a seventh of the run goes into them)."""
+"""Seconds between live patterns at least (more when a pattern is slow, see PATTERN_SHARE)."""
+PATTERN_SHARE = 0.04
+"""At most about this share of a run goes into its live patterns (a pattern's
+cost sets the wait for the next one); with ``app.runner.FRAME_SHARE`` for
+drawing them, live frames stay within a tenth of the run."""
+FIRST_PATTERN_AT_ONCE = True
+"""The solve's first snapshot gets a pattern (after its frame without one is
+published): the opening of a new dart shows as soon as the solve moves."""
 
 
 def one_line(exc: BaseException) -> str:
@@ -215,8 +221,9 @@ class SolveThread(QThread):
 
         gen = flatten_iter(surface, settings, self.initial, area=maker.A3, drape_progress=drape_frame,
                            drape_interval=DRAPE_FRAME_INTERVAL)
-        last = None
-        next_pattern = time.perf_counter() + PATTERN_INTERVAL
+        last = pattern = None
+        pattern_stats: dict = {}
+        next_pattern = -math.inf if FIRST_PATTERN_AT_ONCE else time.perf_counter() + PATTERN_INTERVAL
         try:
             while True:
                 self._wait_if_paused()
@@ -234,14 +241,19 @@ class SolveThread(QThread):
                 self.stage = "solving"
                 last = snap
                 self.history.append((snap.iteration, snap.energy, snap.population_changed))
-                pattern = None
+                frame = maker.from_snapshot(snap)
                 now = time.perf_counter()
                 if now >= next_pattern:
+                    # the frame goes out first (the views need not wait for its pattern), then again with it
+                    self._publish(frame)
                     pattern = maker.pattern(snap.mesh, snap.uv, snap.xyz)
+                    pattern_stats = maker.pattern_stats(pattern)
                     cost = time.perf_counter() - now
                     self.pattern_seconds += cost
-                    next_pattern = now + max(PATTERN_INTERVAL, 6 * cost)
-                self._publish(maker.from_snapshot(snap, pattern))
+                    next_pattern = now + max(PATTERN_INTERVAL, cost * (1 / PATTERN_SHARE - 1))
+                if pattern is not None:  # the newest pattern rides on later frames (the GUI may skip frames)
+                    frame = replace(frame, pattern=pattern, stats={**frame.stats, **pattern_stats})
+                self._publish(frame)
         finally:
             gen.close()
         if self._abandon.is_set():

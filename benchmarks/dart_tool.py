@@ -15,18 +15,31 @@ designer does, and measures:
 * Enter to result: until the re-solve's result is in the document;
 * iterations, frames shown, longest event-loop gap (10 ms timer) during the re-solve.
 
+* Enter to the first pattern with the dart's opening (the V in the pattern view);
+* the share of the run in live frames: the solve thread's live patterns plus
+  the GUI's time drawing frames, over Enter to result.
+
 Each repeat undoes the dart first (undo restores the earlier result without a
-solve), so every row answers the same edit. The rows are run twice: with the
-solve thread at the app's lower OS priority (``app.worker.SOLVE_NICENESS``, so the GUI thread wins
-the CPU), and at normal priority, which shows how much of the time goes to
-other processes on a shared machine. Not a test: numbers depend on the machine
-(software OpenGL under Xvfb here) and its load (reported).
+solve), so every row answers the same edit. The window's behaviour is set per
+row (variants, run alternately, medians at the end): "before" is session 6's
+window (edits re-run after a 250 ms delay, the first live pattern 0.25 s into
+the run, live patterns up to a seventh of it, every frame drawn), "after" is
+this one's (an edit with no run in flight re-runs at once, the first snapshot
+gets a pattern, live patterns up to 4 % and drawing up to 6 % of the run),
+each with the solve thread at the app's lower OS priority
+(``app.worker.SOLVE_NICENESS``) or at normal priority; "no live frames" draws
+only the result (what the frames cost). Then a drag of the dart's middle point
+across four positions: from each move to the first frame of that position's
+preview, and from the release to the result in the document. Not a test:
+numbers depend on the machine (software OpenGL under Xvfb here) and its load
+(reported).
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime as _dt
+import math
 import os
 import platform
 import sys
@@ -46,7 +59,7 @@ from PySide6.QtCore import QEventLoop, QPoint, Qt, QTimer  # noqa: E402
 from PySide6.QtTest import QTest  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app import worker as solve_worker  # noqa: E402
+from app import runcontrol, runner, worker as solve_worker  # noqa: E402
 from app.mainwindow import MainWindow  # noqa: E402
 from core.examples import example_path, load_example  # noqa: E402
 from core.project import new_project  # noqa: E402
@@ -56,20 +69,68 @@ TARGETS = np.array([[0.93, 0.3, 0.2], [0.62, 0.58, 0.53], [0.3, 0.85, 0.45]])
 TARGETS /= np.linalg.norm(TARGETS, axis=1, keepdims=True)
 
 
+POLL = False  # --poll: session 6's polling wait (to measure what it cost)
+
+
 def wait(app, condition, timeout=600.0):
+    """Run the event loop until ``condition()``. It sleeps between events as the window's
+    own loop does (a 10 ms timer wakes it to check): a loop that polls instead keeps the
+    GUI thread busy, and its Python holds the GIL the solve thread needs (session 6's
+    version did, and its times were up to twice the window's)."""
     t0 = time.perf_counter()
-    while not condition():
-        app.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 10)
-        if time.perf_counter() - t0 > timeout:
-            raise TimeoutError("gave up waiting")
+    if POLL:
+        while not condition():
+            app.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 10)
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError("gave up waiting")
+        return
+    waker = QTimer(interval=10)
+    waker.start()
+    try:
+        while not condition():
+            app.processEvents(QEventLoop.ProcessEventsFlag.WaitForMoreEvents)
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError("gave up waiting")
+    finally:
+        waker.stop()
+
+
+VARIANTS = {
+    # name: (re-run at once, first pattern at once, pattern share, drawing share, nice, live frames)
+    "before (nice 5)": (False, False, 1 / 7, None, True, True),
+    "after (nice 5)": (True, True, 0.04, 0.06, True, True),
+    "after (normal priority)": (True, True, 0.04, 0.06, False, True),
+    "after (no live frames)": (True, True, 0.04, 0.06, True, False),
+}
+
+
+def set_variant(win, name, lower_priority):
+    at_once, first, share, drawing, nice, live = VARIANTS[name]
+    runcontrol.RERUN_AT_ONCE = at_once
+    runner.FRAME_SHARE = drawing
+    solve_worker.FIRST_PATTERN_AT_ONCE = first
+    solve_worker.PATTERN_SHARE = share
+    solve_worker.PATTERN_INTERVAL = 0.25 if live else 1e9
+    solve_worker._lower_priority = lower_priority if nice else (lambda *a: None)
+    win.runner._timer.setInterval(30 if live else 10 ** 8)  # the pump (the final frame is drawn at the end)
+
+
+def qt_point(widget, xy):
+    return QPoint(int(round(xy[0])), widget.height() - 1 - int(round(xy[1])))
 
 
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--spacing", type=float, default=0.025)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--variants", default=",".join(VARIANTS))
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--poll", action="store_true", help="wait by polling the event loop (session 6's benchmark)")
+    ap.add_argument("--no-drag", action="store_true")
     args = ap.parse_args()
+    global POLL
+    POLL = args.poll
+    variants = [v for v in args.variants.split(",") if v]
 
     app = QApplication.instance() or QApplication([])
     win = MainWindow()
@@ -88,72 +149,148 @@ def main() -> int:
     win.activateWindow()
     wait(app, win.isActiveWindow, 10)
     widget = win.view.widget
+    seen = []  # (time, frame) of every frame drawn
+    win.runner.frame.connect(lambda f: seen.append((time.perf_counter(), f)))
     rows = []
     lower_priority = solve_worker._lower_priority
-    for nice in [True] * args.repeat + [False] * args.repeat:
-        solve_worker._lower_priority = lower_priority if nice else (lambda *a: None)
-        win.actions["tool_curve_dart"].setChecked(True)
-        clicks = []
-        for t in TARGETS:
-            x, y = win.view.display_point(t)
+    for _ in range(args.repeat):
+        for name in variants:
+            set_variant(win, name, lower_priority)
+            win.actions["tool_curve_dart"].setChecked(True)
+            clicks = []
+            for t in TARGETS:
+                x, y = win.view.display_point(t)
+                t0 = time.perf_counter()
+                QTest.mouseClick(widget, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier,
+                                 qt_point(widget, (x, y)))
+                clicks.append(time.perf_counter() - t0)
+            ticks = []
+            timer = QTimer(interval=10)
+            timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
+            shown0, drawn0 = win.runner.frames_shown, len(win.runner.frame_seconds)
+            done.clear()
+            seen.clear()
+            timer.start()
             t0 = time.perf_counter()
-            QTest.mouseClick(widget, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier,
-                             QPoint(int(round(x)), widget.height() - 1 - int(round(y))))
-            clicks.append(time.perf_counter() - t0)
-        ticks = []
-        timer = QTimer(interval=10)
-        timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
-        first = []
-        shown0 = win.runner.frames_shown
-        done.clear()
-        timer.start()
-        t0 = time.perf_counter()
-        QTest.keyClick(widget, Qt.Key.Key_Return)
-        wait(app, lambda: win.runner.frames_shown > shown0 or done)
-        first.append(time.perf_counter() - t0)
-        wait(app, lambda: done)
-        total = time.perf_counter() - t0
-        timer.stop()
-        r = win.project.result
-        assert len(win.project.settings.darts) == 1 and win.project.result_is_current
-        gaps = np.diff(ticks) if len(ticks) > 1 else np.zeros(1)
-        rows.append({"nice": nice, "load": os.getloadavg()[0], "nodes": r.mesh.n_nodes,
-                     "click_ms": 1000 * float(np.median(clicks)), "first_s": first[0], "total_s": total,
-                     "iterations": r.metrics["iterations"],
-                     "frames": win.runner.frames_shown - shown0, "gap_ms": 1000 * float(gaps.max()),
-                     "energy": (base.result.metrics["energy"], r.metrics["energy"])})
-        win.actions["tool_curve_dart"].setChecked(False)
-        win.document.undo()
-        assert win.project.result is base.result
+            QTest.keyClick(widget, Qt.Key.Key_Return)
+            wait(app, lambda: done)
+            total = time.perf_counter() - t0
+            timer.stop()
+            live = [(t, f) for t, f in seen if not f.final]
+            vee = [t for t, f in seen if f.pattern is not None and len(f.pattern.darts)]
+            r = win.project.result
+            assert len(win.project.settings.darts) == 1 and win.project.result_is_current
+            gaps = np.diff(ticks) if len(ticks) > 1 else np.zeros(1)
+            gui = float(np.sum(win.runner.frame_seconds[drawn0:]))
+            rows.append({"variant": name, "load": os.getloadavg()[0], "nodes": r.mesh.n_nodes,
+                         "click_ms": 1000 * float(np.median(clicks)),
+                         "first_s": live[0][0] - t0 if live else math.nan,
+                         "vee_s": vee[0] - t0 if vee else math.nan, "total_s": total,
+                         "iterations": r.metrics["iterations"], "frames": win.runner.frames_shown - shown0,
+                         "frame_share": (gui + win.runner.last_pattern_seconds) / total,
+                         "gap_ms": 1000 * float(gaps.max()),
+                         "energy": (base.result.metrics["energy"], r.metrics["energy"])})
+            print(rows[-1], flush=True)
+            win.actions["tool_curve_dart"].setChecked(False)
+            win.document.undo()
+            assert win.project.result is base.result
+    drags = None if args.no_drag else drag_rows(app, win, done, seen, lower_priority, args.repeat)
     win.close()
 
     lines = [
         "# Drawing a curve dart in the app: time to the re-solved pattern",
         "",
-        f"`benchmarks/dart_tool.py --spacing {args.spacing:g}`, {_dt.date.today().isoformat()}, "
+        f"`benchmarks/dart_tool.py --spacing {args.spacing:g} --repeat {args.repeat}"
+        f"{' --poll' if args.poll else ''}`, "
+        f"{_dt.date.today().isoformat()}, "
         f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
         "Xvfb with Mesa software OpenGL, window 1600x1000. The woven octant, solved, then a "
-        "three-click curve dart across it and Enter; the re-solve warm-starts from the solved mesh.",
+        "three-click curve dart across it and Enter; the re-solve warm-starts from the solved mesh. "
+        "Variants alternate, one row each per repeat.",
         "",
-        "| solve thread | load | nodes | click (ms, median) | Enter to first live frame (s) | "
-        "Enter to result (s) | iterations | frames shown | longest event-loop gap (ms) | energy before -> after |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+        "| variant | load | nodes | click (ms) | Enter to first live frame (s) | Enter to the V (s) | "
+        "Enter to result (s) | iterations | frames shown | live frames' share | longest event-loop gap (ms) | "
+        "energy before -> after |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for row in rows:
-        thread = f"nice {solve_worker.SOLVE_NICENESS}" if row["nice"] else "normal"
-        lines.append(f"| {thread} | {row['load']:.1f} | {row['nodes']:,} | "
-                     f"{row['click_ms']:.0f} | {row['first_s']:.2f} | {row['total_s']:.2f} | {row['iterations']} | "
-                     f"{row['frames']} | {row['gap_ms']:.0f} | "
-                     f"{row['energy'][0]:.4g} -> {row['energy'][1]:.4g} |")
+        lines.append(f"| {row['variant']} | {row['load']:.1f} | {row['nodes']:,} | "
+                     f"{row['click_ms']:.0f} | {row['first_s']:.2f} | {row['vee_s']:.2f} | {row['total_s']:.2f} | "
+                     f"{row['iterations']} | {row['frames']} | {100 * row['frame_share']:.0f} % | "
+                     f"{row['gap_ms']:.0f} | {row['energy'][0]:.4g} -> {row['energy'][1]:.4g} |")
+    lines += ["", "Medians:", "",
+              "| variant | Enter to first live frame (s) | Enter to the V (s) | Enter to result (s) | "
+              "live frames' share | longest gap (ms) |", "|---|---:|---:|---:|---:|---:|"]
+    for name in variants:
+        sel = [r for r in rows if r["variant"] == name]
+        med = lambda k: float(np.nanmedian([r[k] for r in sel]))  # noqa: E731
+        lines.append(f"| {name} | {med('first_s'):.2f} | {med('vee_s'):.2f} | {med('total_s'):.2f} | "
+                     f"{100 * med('frame_share'):.0f} % | {med('gap_ms'):.0f} |")
+    if drags:
+        lines += ["", "Dragging the dart's middle point (the \"after (nice 5)\" window), four positions a drag, "
+                  f"{args.repeat} drags:", "",
+                  "| move to that position's first frame (s, median) | (max) | release to result (s, median) | "
+                  "(max) | previews started a drag |", "|---:|---:|---:|---:|---:|",
+                  f"| {np.median(drags['move']):.2f} | {np.max(drags['move']):.2f} | "
+                  f"{np.median(drags['release']):.2f} | {np.max(drags['release']):.2f} | "
+                  f"{np.median(drags['previews']):.0f} |"]
     lines += ["", "Load: the one-minute load average when the re-solve ended (this benchmark included; the "
-              "rest is other work on the shared machine). Enter to first frame includes the window's 250 ms "
-              "delay that merges edits made in quick succession into one re-run. The same re-solve in core "
-              "alone (`core.pipeline.flatten` warm-started, no window) takes about 2.6 s."]
+              "rest is other work on the shared machine). The V: the first frame whose pattern has the dart's "
+              "legs. Live frames' share: the solve thread's time in live patterns plus the GUI thread's time "
+              "drawing frames, over Enter to result. The same re-solve in core alone (`core.pipeline.flatten` "
+              "warm-started, no window) takes about 1.9-2.1 s on a quiet machine."]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.out:
         args.out.write_text(text)
     return 0
+
+
+def drag_rows(app, win, done, seen, lower_priority, repeat) -> dict:
+    """Drag the middle point of the dart (drawn once) through four positions, waiting at each
+    for its preview's first frame; then release and wait for the result."""
+    set_variant(win, "after (nice 5)", lower_priority)
+    widget = win.view.widget
+    win.actions["tool_curve_dart"].setChecked(True)
+    for t in TARGETS:
+        QTest.mouseClick(widget, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier,
+                         qt_point(widget, win.view.display_point(t)))
+    done.clear()
+    QTest.keyClick(widget, Qt.Key.Key_Return)
+    wait(app, lambda: done)
+    win.actions["tool_curve_dart"].setChecked(False)
+    win.dart_panel.dart_list.setCurrentRow(0)
+    wait(app, lambda: win.tool is not None, 10)
+    s = win.surface
+    out = {"move": [], "release": [], "previews": []}
+    spots = [np.array(p) / np.linalg.norm(p) for p in ([0.55, 0.5, 0.67], [0.72, 0.42, 0.55],
+                                                       [0.5, 0.62, 0.6], [0.6, 0.52, 0.6])]
+    for _ in range(repeat):
+        dart = win.project.settings.darts[0]
+        here = win.view.display_point(s.points(dart.handles[1:2])[0])
+        previews = win.runs.previews_started
+        QTest.mousePress(widget, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, qt_point(widget, here))
+        for p in spots:
+            there = win.view.display_point(p)
+            seen.clear()
+            t0 = time.perf_counter()
+            for f in (0.25, 0.5, 0.75, 1.0):
+                QTest.mouseMove(widget, qt_point(widget, here + f * (np.asarray(there) - here)))
+                app.processEvents()
+            here = np.asarray(there)
+            wait(app, lambda: any(not f.draping and f.iteration >= 1
+                                  and np.min(np.linalg.norm(f.dart_curves[0] - p, axis=1)) < 0.01 for _, f in seen),
+                 60)
+            out["move"].append(time.perf_counter() - t0)
+        done.clear()
+        t0 = time.perf_counter()
+        QTest.mouseRelease(widget, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, qt_point(widget, here))
+        wait(app, lambda: done)
+        out["release"].append(time.perf_counter() - t0)
+        out["previews"].append(win.runs.previews_started - previews)
+        print("drag", out, win.runs.previews_adopted, win.runner.runs_started, flush=True)
+        wait(app, lambda: win.tool is not None, 10)
+    return out
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, Qt
 
-from core.darts import DartSet, PlaneDart
+from core.darts import DartSet, PlaneDart, curve_dart_through
 from core.energy import yarn_nodes
 from core.project import project_problems, project_to_dict
 
@@ -372,6 +372,66 @@ def test_dart_list_rename_hide_move_points_and_delete(solved, qtbot):
         qtbot.mouseClick(panel.delete_dart, Qt.MouseButton.LeftButton)
     assert win.project.settings.darts == () and panel.dart_list.count() == 0
     assert len(view.handle_points) == 0 and view.dart_curves == []
+
+
+def test_a_dragged_dart_point_re_solves_as_it_moves(solved, qtbot):
+    """While a dart's point is dragged the pattern follows it (previews, not
+    edits); the release makes one edit whose result is the final position's."""
+    win = solved
+    view, panel, doc = win.view, win.dart_panel, win.document
+    draw_dart(qtbot, win)
+    panel.dart_list.setCurrentRow(0)
+    before, steps = win.project, len(doc.history)
+    dart = before.settings.darts[0]
+    s = win.surface
+    frames = []
+    win.runner.frame.connect(frames.append)
+    runs, previews, adopted = win.runner.runs_started, win.runs.previews_started, win.runs.previews_adopted
+    w = view.widget
+    to_qt = lambda p: QPoint(int(p[0]), w.height() - 1 - int(p[1]))  # noqa: E731
+    start = pixel(view, s.points(dart.handles[1:2])[0])
+    targets = [np.array(t) / np.linalg.norm(t) for t in ([0.55, 0.5, 0.67], [0.72, 0.42, 0.55], [0.5, 0.62, 0.6])]
+    qtbot.mousePress(w, Qt.MouseButton.LeftButton, pos=to_qt(start))
+    last, seen = start, []
+    for k, t in enumerate(targets):
+        end = pixel(view, t)
+        for f in np.linspace(0, 1, 5)[1:]:  # a few moves on the way: intermediate positions may be dropped
+            qtbot.mouseMove(w, to_qt([a + round(f * (b - a)) for a, b in zip(last, end)]))
+        last = end
+        point = ray_sphere(view, *end)
+        moved = curve_dart_through(s, win.tool.handles, view.view_direction())
+        n0, final_wanted = len(frames), k < len(targets) - 1
+
+        def solved_here():  # this position's solved pattern (the last position: a live frame of its solve)
+            return next((fr for fr in frames[n0:] if (fr.final or not final_wanted) and not fr.draping
+                         and fr.iteration >= 1 and distance_to_polyline(point, fr.dart_curves[0]) < 2e-3), None)
+        qtbot.waitUntil(lambda: solved_here() is not None, timeout=RUN_TIMEOUT_MS)
+        fr = solved_here()
+        assert doc.project is before and len(doc.history) == steps  # previews are not edits
+        if final_wanted:  # the shown pattern is cut along the dart as it is now
+            ends = fr.mesh.ends
+            assert int(DartSet(s, (moved,)).crossing(fr.uv[ends[:, 0]], fr.uv[ends[:, 1]]).sum()) == 0
+            assert fr.pattern is not None and len(fr.pattern.darts) == 1
+            seen.append((moved, fr))
+    # the pattern changed with the point: each position's mesh is cut along its own dart only
+    for (d_a, _), (_, f_b) in zip(seen, seen[1:]):
+        ends = f_b.mesh.ends
+        assert int(DartSet(s, (d_a,)).crossing(f_b.uv[ends[:, 0]], f_b.uv[ends[:, 1]]).sum()) > 0
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS) as blocker:
+        qtbot.mouseRelease(w, Qt.MouseButton.LeftButton, pos=to_qt(last))
+    after = win.project
+    final = after.settings.darts[0]
+    assert len(doc.history) == steps + 1 and doc.undo_label == "Move curve dart 1"
+    assert blocker.args[0].result is after.result and after.result_is_current
+    np.testing.assert_allclose(s.points(final.handles[1:2])[0], ray_sphere(view, *last), atol=1e-7)
+    np.testing.assert_array_equal(final.handles[[0, 2]], dart.handles[[0, 2]])
+    assert crossing_springs(after.result, final) == 0 and crossing_springs(after.result, dart) > 0
+    # the previews ran (at least one per position) and the last one answered the edit: no run after the release
+    assert win.runs.previews_started - previews >= len(targets) and win.runs.previews_adopted == adopted + 1
+    assert win.runner.runs_started - runs <= win.runs.previews_started - previews
+    # one undo step goes back to the dart and the result before the drag
+    win.actions["undo"].trigger()
+    assert win.project is before and len(doc.history) == steps
 
 
 def test_undo_and_redo_restore_the_exact_documents(solved, qtbot):
