@@ -250,8 +250,9 @@ class RunControl:
                 self.window.statusBar().showMessage(f"{cause.capitalize()} {label}: {text}" if label else text, 8000)
         if cause != "edit" and self.previewing:
             self.end_preview()  # undo, redo, another document: the drag's preview is gone
+        # an edit that brings its own answer (a suggested dart's re-solve) needs no run
         if (cause == "edit" and aspects & Aspect.SETTINGS and self.window.settings_panel.auto_rerun.isChecked()
-                and (project.result is not None or self.runner.busy)):
+                and not project.result_is_current and (project.result is not None or self.runner.busy)):
             # at once (after the other listeners) when nothing is in flight or a preview may answer it;
             # otherwise after a quiet spell, so a burst of edits makes one run
             if RERUN_AT_ONCE and (not self.runner.busy or self._preview_started is not None) \

@@ -149,9 +149,7 @@ class SuggestDialog(QDialog):
         prefix = rows == list(range(len(rows)))
         if prefix:  # the re-solve was made with exactly these darts: it is the edit's result
             new = new.with_result(self.proposals[rows[-1]].result)
-        doc.apply(label, new, answers_solve=not prefix)
-        if prefix:
-            self.window_.runs.rerun_timer.stop()
+        doc.apply(label, new, answers_solve=not prefix)  # with its result: the window starts no run
         self.project = doc.project
         self._restore()
         self.accept()

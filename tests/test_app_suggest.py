@@ -3,14 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from PySide6.QtCore import Qt
 
 from tests.test_app_run import run_to_end, small_project
 
 
-@pytest.mark.xfail(reason="fails since the session-7 solver and window merges (wt20a, wt20b), not yet analysed; "
-                          "it passed on main before them", strict=False)
 def test_suggest_preview_accept_and_undo(qtbot, make_window):
     win = make_window(small_project(0.1))
     run_to_end(qtbot, win)
