@@ -149,7 +149,7 @@ class RunControl:
 
     def preview_dart(self, index: int, dart) -> bool:
         """Solve the document's project with dart ``index`` replaced by ``dart``
-        (not an edit), warm from the document's result, replacing any preview
+        (not an edit), from a new drape, replacing any preview
         in flight. False (nothing starts) with no result to start from, with
         "auto re-run" off, or while a run that is not a preview is in flight."""
         doc = self.window.document
@@ -197,10 +197,11 @@ class RunControl:
         self._preview_started_at = time.perf_counter()
         self._preview_frames = 0
         self.previews_started += 1
-        # from the document's result, as the edit's own re-run would: the release's result is then the
-        # one Enter gives. (Starting from the previous position's mid-solve state was measured: after four
-        # positions, 148 iterations to a higher energy instead of 11; docs/decisions.md.)
-        self.runner.start(project, warm_start(doc.project))
+        # as the edit's own re-run would start, so the release's result is the one Enter gives: a moved
+        # dart drapes anew (core.project.warm_start; the old opening is a worse start). Starting from the
+        # previous position's mid-solve state was measured too: after four positions, 148 iterations to a
+        # higher energy instead of 11 (docs/decisions.md).
+        self.runner.start(project, warm_start(project))
 
     def _preview_frame(self, frame) -> None:
         """A frame of the run in flight: a position waiting for the preview to show something may go now."""

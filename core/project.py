@@ -80,7 +80,7 @@ from core.surface_io import surface_from_json_dict, surface_to_json_dict
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
            "DRAPE_KEYS", "settings_to_dict", "settings_from_dict", "settings_equal", "labels_equal",
            "validate_settings",
-           "needs_new_drape", "warm_start", "project_to_dict", "project_from_dict", "save_project",
+           "needs_new_drape", "drops_a_dart", "warm_start", "project_to_dict", "project_from_dict", "save_project",
            "load_project", "result_from_dict", "project_problems", "new_project", "UPGRADES"]
 
 PROJECT_FORMAT = "flatweave-project"
@@ -358,11 +358,24 @@ def needs_new_drape(old: FlattenSettings, new: FlattenSettings) -> bool:
     return any(a[k] != b[k] for k in DRAPE_KEYS)
 
 
+def drops_a_dart(old: FlattenSettings, new: FlattenSettings) -> bool:
+    """True when a dart cut in ``old`` is not cut the same way in ``new``: it
+    was moved, reshaped or deleted (labels do not count)."""
+    kept = {json.dumps(d.to_dict(CUT_DART_KEYS)) for d in new.darts}
+    return any(json.dumps(d.to_dict(CUT_DART_KEYS)) not in kept for d in old.darts)
+
+
 def warm_start(project: Project) -> State | None:
     """The state a re-run of ``project`` can start from: its last result's mesh,
-    when that result is on the same surface and drape; else None (drape anew)."""
+    when that result is on the same surface and drape and every dart it cut is
+    still cut there (a new dart opens from it); else None (drape anew).
+
+    A result whose dart moved or went away holds the old dart's opening, which
+    the restored springs have to close: that start ends in another, worse
+    minimum, and more slowly than a new drape (benchmarks/results/moved_dart.md)."""
     r = project.result
-    if r is None or r.surface is not project.surface or needs_new_drape(r.settings, project.settings):
+    if r is None or r.surface is not project.surface or needs_new_drape(r.settings, project.settings) \
+            or drops_a_dart(r.settings, project.settings):
         return None
     return r.state()
 

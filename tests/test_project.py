@@ -20,7 +20,7 @@ from core.mesh import MATERIALS, Material
 from core.pipeline import FlattenSettings, flatten
 from core.project import (PROJECT_VERSION, Project, ProjectError, load_project, needs_new_drape,
                           project_from_dict, project_problems, project_to_dict, save_project,
-                          settings_equal, warm_start)
+                          settings_equal, warm_start, drops_a_dart)
 from tests.helpers import NO_SPACE, FullDisk
 
 
@@ -91,6 +91,21 @@ def test_needs_new_drape_and_warm_start(solved):
     assert state is not None and np.array_equal(state.uv, solved.result.uv)
     assert warm_start(solved.with_settings(spacing=0.09)) is None
     assert warm_start(replace(solved, result=None)) is None
+
+
+def test_a_moved_or_deleted_dart_drapes_anew(solved):
+    """A dart added warm-starts (its V opens from the mesh); one moved, reshaped or
+    deleted does not, since the mesh still holds its old opening; labels do not count."""
+    side, curve = solved.settings.darts
+    extra = CurveDart(np.array([[0.95, 0.2], [0.7, 0.25]]), name="extra")
+    assert warm_start(solved.with_settings(darts=(side, curve, extra))) is not None
+    assert warm_start(solved.with_settings(darts=(curve, side))) is not None  # the same cuts, reordered
+    assert warm_start(solved.with_settings(darts=(side, replace(curve, name="renamed", visible=False)))) is not None
+    moved = replace(curve, uv=curve.uv + [0.0, 0.02])
+    for darts in ((side, moved), (side,), (), (side, CurveDart(curve.uv[:2], name="curve"))):
+        assert drops_a_dart(solved.settings, replace(solved.settings, darts=darts))
+        assert warm_start(solved.with_settings(darts=darts)) is None
+    assert not drops_a_dart(solved.settings, solved.settings)
 
 
 # ---------------------------------------------------------------------- files
