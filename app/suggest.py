@@ -10,12 +10,11 @@ nothing solves again. Close, or a document that moves on, puts the views back.
 
 from __future__ import annotations
 
-import threading
-
-from PySide6.QtCore import QObject, Qt, Signal
+from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QHBoxLayout, QLabel, QListWidget, QListWidgetItem,
                                QPushButton, QSpinBox, QVBoxLayout)
 
+from app.background import BackgroundCall
 from app.frames import FrameMaker
 
 __all__ = ["SuggestDialog", "proposal_text"]
@@ -28,10 +27,6 @@ def proposal_text(p) -> str:
             f"beyond lock {m.get('area_beyond_lock_pct', 0.0):.2f} %")
 
 
-class _Relay(QObject):
-    done = Signal(object, object)  # proposals, error text
-
-
 class SuggestDialog(QDialog):
     """The suggestions of one result (the document's when opened)."""
 
@@ -41,9 +36,7 @@ class SuggestDialog(QDialog):
         self.window_ = window
         self.project = window.document.project
         self.proposals: list = []
-        self.relay = _Relay()
-        self.relay.done.connect(self._done, Qt.ConnectionType.QueuedConnection)
-        self.thread: threading.Thread | None = None
+        self.call = BackgroundCall(self._done, self)
         lay = QVBoxLayout(self)
         row = QHBoxLayout()
         row.addWidget(QLabel("Up to"))
@@ -70,7 +63,7 @@ class SuggestDialog(QDialog):
     # ------------------------------------------------------------------ suggesting
     @property
     def busy(self) -> bool:
-        return self.thread is not None and self.thread.is_alive()
+        return self.call.busy
 
     def start(self) -> None:
         if self.busy:
@@ -85,20 +78,8 @@ class SuggestDialog(QDialog):
         self.suggest_button.setEnabled(False)
         self.status.setText(f"Trying darts on the piece (up to {count})...")
 
-        def work():
-            from core.autodarts import suggest_darts
-            from core.errors import FlatweaveError
-            try:
-                found = suggest_darts(result, count=count)
-            except FlatweaveError as exc:
-                self.relay.done.emit(None, str(exc))
-            except Exception as exc:  # a bug must not take the window down with it
-                self.relay.done.emit(None, f"internal error: {type(exc).__name__}: {exc}")
-            else:
-                self.relay.done.emit(found, None)
-
-        self.thread = threading.Thread(target=work, name="suggest-darts", daemon=True)
-        self.thread.start()
+        from core.autodarts import suggest_darts
+        self.call.start(lambda: suggest_darts(result, count=count), "suggest-darts")
 
     def _done(self, proposals, error) -> None:
         self.suggest_button.setEnabled(True)

@@ -6,13 +6,13 @@ undoable settings edit (the window then solves it as after any such edit).
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
-from PySide6.QtCore import QObject, QPointF, QSize, Qt, Signal
+from PySide6.QtCore import QPointF, QSize
 from PySide6.QtGui import QColor, QPainter, QPen, QPolygonF
 from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QHBoxLayout, QLabel, QPushButton, QSpinBox,
                                QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
+
+from app.background import BackgroundCall
 
 __all__ = ["SweepDialog", "ShearPlot", "COLUMNS"]
 
@@ -75,10 +75,6 @@ class ShearPlot(QWidget):
         p.end()
 
 
-class _Relay(QObject):
-    done = Signal(object, object)  # SweepResult, error text
-
-
 class SweepDialog(QDialog):
     def __init__(self, window):
         super().__init__(window)
@@ -86,9 +82,7 @@ class SweepDialog(QDialog):
         self.window_ = window
         self.project = window.document.project
         self.result = None
-        self.relay = _Relay()
-        self.relay.done.connect(self._done, Qt.ConnectionType.QueuedConnection)
-        self.thread: threading.Thread | None = None
+        self.call = BackgroundCall(self._done, self)
         lay = QVBoxLayout(self)
         row = QHBoxLayout()
         row.addWidget(QLabel("Angles"))
@@ -122,7 +116,7 @@ class SweepDialog(QDialog):
 
     @property
     def busy(self) -> bool:
-        return self.thread is not None and self.thread.is_alive()
+        return self.call.busy
 
     def start(self) -> None:
         if self.busy:
@@ -134,20 +128,8 @@ class SweepDialog(QDialog):
         self.apply_button.setEnabled(False)
         self.status.setText(f"Solving at {angles} angles x {seeds} seed{'s' if seeds > 1 else ''}...")
 
-        def work():
-            from core.errors import FlatweaveError
-            from core.sweep import sweep
-            try:
-                out = sweep(project.surface, project.settings, angles=angles, seeds=seeds)
-            except FlatweaveError as exc:
-                self.relay.done.emit(None, str(exc))
-            except Exception as exc:  # a bug must not take the window down with it
-                self.relay.done.emit(None, f"internal error: {type(exc).__name__}: {exc}")
-            else:
-                self.relay.done.emit(out, None)
-
-        self.thread = threading.Thread(target=work, name="sweep", daemon=True)
-        self.thread.start()
+        from core.sweep import sweep
+        self.call.start(lambda: sweep(project.surface, project.settings, angles=angles, seeds=seeds), "sweep")
 
     def _done(self, result, error) -> None:
         self.go.setEnabled(True)

@@ -91,3 +91,24 @@ def test_best_orientation_table_plot_and_apply(qtbot, make_window):
     assert after.settings == FlattenSettings(**{**before.settings.__dict__, "angle_deg": rows[1]["angle_deg"],
                                                  "seed": tuple(rows[1]["seed"])})
     assert win.document.undo() and win.document.project is before
+
+
+def test_a_background_call_reports_one_line_and_never_raises(qtbot):
+    from app.background import BackgroundCall
+    from core.errors import SettingsError
+
+    got = []
+    call = BackgroundCall(lambda value, error: got.append((value, error)))
+
+    def boom():
+        raise ZeroDivisionError("division by zero\nsecond line")
+
+    def refused():
+        raise SettingsError("the spacing must be positive")
+
+    for fn in (lambda: 42, boom, refused):
+        call.start(fn, "test-call")
+        qtbot.waitUntil(lambda: not call.busy, timeout=5000)
+        qtbot.wait(20)  # the queued signal
+    assert got == [(42, None), (None, "internal error: ZeroDivisionError: division by zero"),
+                   (None, "the spacing must be positive")]
