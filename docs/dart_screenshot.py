@@ -10,7 +10,6 @@ and grabs the window while that one is being drawn.
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 from pathlib import Path
@@ -18,19 +17,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
-from app.nonefix import keep_none_alive
+from docs.shotkit import Shot
 
-keep_none_alive()  # before any Qt call
-
-from PySide6.QtCore import QEventLoop, QPoint, Qt  # noqa: E402
-from PySide6.QtTest import QTest  # noqa: E402
-from PySide6.QtWidgets import QApplication  # noqa: E402
-
-from app.mainwindow import MainWindow  # noqa: E402
-from core.examples import example_path, load_example  # noqa: E402
-from core.project import new_project  # noqa: E402
+from PySide6.QtCore import QPoint, Qt
+from PySide6.QtTest import QTest
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -42,25 +33,11 @@ def sphere(lon_deg: float, lat_deg: float) -> np.ndarray:
 
 def main() -> int:
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "docs/images/dart_tool.png"
-    _app = QApplication.instance() or QApplication([])  # kept: the loop needs a live application
-    loop = QEventLoop()
-
-    def wait(cond, timeout=300.0):
-        t0 = time.perf_counter()
-        while not cond():
-            loop.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 20)
-            if time.perf_counter() - t0 > timeout:
-                raise TimeoutError("gave up waiting")
-
-    win = MainWindow()
-    win.resize(1600, 1000)
-    win.set_project(new_project(load_example("octant"), "octant", str(example_path("octant")), 0.04))
-    win.show()
-    wait(lambda: win.view.is_ready() and win.pattern_view.is_ready())
+    shot = Shot()
+    wait, loop = shot.wait, shot.loop
+    win = shot.solved_window("octant", 0.04)
     done = []
     win.run_finished.connect(done.append)
-    win.run()
-    wait(lambda: done)
     view = win.view
     view.reset_camera()  # the home view: the whole piece
     view.render_now()

@@ -1,0 +1,57 @@
+"""What the screenshot scripts in docs/ share: a Qt application on the X display
+(xvfb-run), a wait that keeps the event loop turning, and a window that has
+solved a bundled example. Imported by those scripts only (they put the
+repository on ``sys.path`` first)."""
+
+from __future__ import annotations
+
+import os
+import time
+
+os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
+
+from app.nonefix import keep_none_alive
+
+keep_none_alive()  # before any Qt call
+
+from PySide6.QtCore import QEventLoop  # noqa: E402
+from PySide6.QtWidgets import QApplication  # noqa: E402
+
+__all__ = ["Shot"]
+
+
+class Shot:
+    """The application, its event loop and ``wait``; ``solved_window`` opens one."""
+
+    def __init__(self):
+        self.app = QApplication.instance() or QApplication([])
+        self.loop = QEventLoop()
+
+    def wait(self, cond, timeout: float = 600.0) -> None:
+        t0 = time.perf_counter()
+        while not cond():
+            self.loop.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 20)
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError("gave up waiting")
+
+    def settle(self, seconds: float) -> None:
+        t0 = time.perf_counter()
+        self.wait(lambda: time.perf_counter() - t0 >= seconds)
+
+    def solved_window(self, example: str, spacing: float, size=(1600, 1000)):
+        """A shown main window on ``example`` at ``spacing``, solved from the drape."""
+        from app.mainwindow import MainWindow
+        from core.examples import example_path, load_example
+        from core.project import new_project
+
+        win = MainWindow()
+        win.resize(*size)
+        win.move(0, 0)
+        win.set_project(new_project(load_example(example), example, str(example_path(example)), spacing))
+        win.show()
+        self.wait(lambda: win.view.is_ready() and win.pattern_view.is_ready())
+        done = []
+        win.run_finished.connect(done.append)
+        win.run()
+        self.wait(lambda: done)
+        return win
