@@ -273,8 +273,8 @@ class SettingsPanel(QWidget):
         s = project.settings
         self._loading = True
         try:
-            key = s.material.name if s.material.name in MATERIALS and MATERIALS[s.material.name] == s.material \
-                else "custom"
+            preset = MATERIALS.get(s.material.name)  # a preset with other shear angles is still that preset
+            key = s.material.name if preset is not None and preset.same_constants(s.material) else "custom"
             self.material.setCurrentIndex(self.material.findData(key))
             self.ratio.setText(s.material.ratio)
             self.ratio.setEnabled(key == "custom")

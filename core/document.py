@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Callable
 
 from core.errors import SettingsError
-from core.pipeline import FlattenResult
+from core.pipeline import FlattenResult, with_shear_angles
 from core.project import Project, labels_equal, settings_equal
 
 __all__ = ["Document", "Edit", "Change", "ASPECTS", "unique_name"]
@@ -175,12 +175,29 @@ class Document:
         return edit
 
     def edit_settings(self, label: str, **changes) -> Edit | None:
-        """An edit of FlattenSettings fields (validated; a SettingsError leaves the document as it was)."""
-        return self.apply(label, self._project.with_settings(**changes))
+        """An edit of FlattenSettings fields (validated; a SettingsError leaves the document as it was).
+
+        A new material whose shear angles differ from the old one's brings them
+        to the display too, in the same edit: the colours and the verdicts then
+        judge the shear by the cloth's own warning and lock angles."""
+        project = self._project.with_settings(**changes)
+        old, new = self._project.settings.material, project.settings.material
+        if (old.warn_deg, old.lock_deg) != (new.warn_deg, new.lock_deg):
+            project = project.with_display(shear_warning_deg=float(new.warn_deg), shear_limit_deg=float(new.lock_deg))
+        return self.apply(label, project)
 
     def edit_display(self, label: str, **changes) -> Edit | None:
-        """An edit of units or shear angles (no solve answers it)."""
-        return self.apply(label, self._project.with_display(**changes), answers_solve=False)
+        """An edit of units or shear angles (no solve answers it). The shear
+        angles are the material's: they change with it, and a current result
+        stays current, judged by the new angles (:func:`core.pipeline.with_shear_angles`)."""
+        project = self._project.with_display(**changes)
+        if {"shear_warning_deg", "shear_limit_deg"} & set(changes):
+            w, lock = project.shear_warning_deg, project.shear_limit_deg
+            current = self._project.result_is_current
+            project = project.with_settings(material=replace(project.settings.material, warn_deg=w, lock_deg=lock))
+            if current:
+                project = project.with_result(with_shear_angles(self._project.result, w, lock))
+        return self.apply(label, project, answers_solve=False)
 
     # ------------------------------------------------------------------ darts and yarns
     def _dart_index(self, index: int) -> int:

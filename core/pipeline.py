@@ -24,8 +24,8 @@ from core.energy import Energy, YarnConstraint, resolve_yarns
 from core.geom import outline_errors, require_finite
 from core.errors import SettingsError, SolverError
 from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
-from core.metrics import (cell_areas, cell_shear_deg, deformation_summary, metric_limits, result_warnings,
-                          spring_lengths)
+from core.metrics import (area_beyond_lock_pct, cell_areas, cell_shear_deg, deformation_summary, metric_limits,
+                          result_warnings, spring_lengths)
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
@@ -37,7 +37,7 @@ from core.solvers import solver_entry, solver_names
 __all__ = ["FlattenSettings", "FlattenResult", "flatten", "flatten_iter", "result_to_dict",
            "make_problem", "compute_metrics", "state_from_dict", "check_result_finite", "SOLVERS",
            "validate_settings", "settings_to_dict", "SETTINGS_KEYS", "stopped_result", "coverage_metrics",
-           "warnings_for"]
+           "warnings_for", "with_shear_angles"]
 
 SOLVERS = solver_names("spring")
 """The spring method's solver choices, 'none' (the drape only) included (:mod:`core.solvers`)."""
@@ -266,6 +266,21 @@ def warnings_for(result: "FlattenResult", warn_deg: float | None = None,
     return result_warnings(result.metrics, result.settings,
                            metric_limits(result.settings.material, warn_deg, lock_deg),
                            shear=(cell_shear_deg(result.xyz, result.mesh), cell_areas(result.xyz, result.mesh)))
+
+
+def with_shear_angles(result: "FlattenResult", warn_deg: float, lock_deg: float) -> "FlattenResult":
+    """``result`` judged by a material with other shear angles: the same solve
+    (the angles do not enter the energy), with the settings, the mesh's
+    material, the share of the area beyond the lock angle and the warnings of
+    the new angles (raises SettingsError for angles a material cannot have)."""
+    material = replace(result.settings.material, warn_deg=float(warn_deg), lock_deg=float(lock_deg))
+    settings = replace(result.settings, material=material)
+    validate_settings(settings)
+    mesh = replace(result.mesh, material=material)
+    shear, areas = cell_shear_deg(result.xyz, mesh), cell_areas(result.xyz, mesh)
+    metrics = {**result.metrics, "area_beyond_lock_pct": area_beyond_lock_pct(np.abs(shear), areas, material.lock_deg)}
+    out = replace(result, settings=settings, mesh=mesh, metrics=metrics)
+    return replace(out, warnings=warnings_for(out))
 
 
 def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:

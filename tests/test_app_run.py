@@ -367,6 +367,7 @@ def test_display_settings_restyle_without_a_solve(make_window, qtbot):
     assert win.view.colour_bar_range == (0.0, 1.5 * 30.0)
     win.settings_panel.shear_limit.setValue(20.0)
     assert win.project.shear_limit_deg == 20.0 and win.view.colour_bar_range == (0.0, 30.0)
+    assert win.project.settings.material.lock_deg == 20.0 and win.project.result_is_current  # the material's angle
     qtbot.wait(400)
     assert win.runner.runs_started == runs and not win.runner.busy
 

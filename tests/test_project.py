@@ -419,3 +419,30 @@ def test_the_view_choices_travel_with_the_file_but_are_no_edit(octant, tmp_path)
     with pytest.raises(ProjectError) as exc:
         project_from_dict(doc)
     assert "display.view" in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_the_shear_angles_are_the_materials_and_keep_a_result_current(octant):
+    """The window's shear angles edit the material's; the result stays current and
+    is judged by the new angles as a solve with that material would judge it."""
+    doc = Document(Project(octant, FlattenSettings(spacing=0.1), name="octant"))
+    r = flatten(octant, doc.project.settings)
+    doc.attach_result(r, doc.project)
+    before = doc.project
+    lock = 0.5 * r.metrics["max_shear_deg"]  # some cells beyond it
+    doc.edit_display("Shear angles", shear_warning_deg=0.25 * lock, shear_limit_deg=lock)
+    p = doc.project
+    assert (p.settings.material.warn_deg, p.settings.material.lock_deg) == (0.25 * lock, lock)
+    assert p.result_is_current and p.result.metrics["energy"] == r.metrics["energy"]
+    oracle = flatten(octant, p.settings)  # the same solve with the new material from scratch
+    assert oracle.metrics["area_beyond_lock_pct"] > 0
+    assert p.result.metrics["area_beyond_lock_pct"] == pytest.approx(oracle.metrics["area_beyond_lock_pct"], abs=1e-9)
+    assert p.result.warnings == oracle.warnings and p.result.warnings != r.warnings
+    assert p.result.mesh.material == p.settings.material
+    assert doc.undo() and doc.project is before
+    # a material with other angles brings them to the display, in the same edit
+    m = Material("custom 400:400:2", 400.0, 400.0, 2.0, warn_deg=10.0, lock_deg=20.0)
+    doc.edit_settings("Material", material=m)
+    assert (doc.project.shear_warning_deg, doc.project.shear_limit_deg) == (10.0, 20.0)
+    with pytest.raises(SettingsError):
+        doc.edit_display("Shear angles", shear_warning_deg=25.0)
+    assert doc.project.settings.material is m
