@@ -69,8 +69,8 @@ def fit_summary(fit, units: str = "m") -> str:
         return "-"
     size = fit.size if fit.size > 0 else float("nan")
     return (f"max {fit.max_deviation:.3g} {units} ({100 * fit.max_deviation / size:.3g} %), "
-            f"mean {fit.mean_deviation:.3g} {units} ({100 * fit.mean_deviation / size:.3g} %) "
-            f"of size {fit.size:.4g}")
+            f"mean {fit.mean_deviation:.3g} {units} ({100 * fit.mean_deviation / size:.3g} %); "
+            f"% of the mesh's size {fit.size:.3g} {units}")
 
 
 def history_rows(history, iterations=None) -> list[tuple[float, float, bool]]:
