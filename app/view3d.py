@@ -26,7 +26,7 @@ from vtkmodules.vtkRenderingCore import (vtkActor2D, vtkCellPicker, vtkColorTran
 from app.camera import fit_view, home_view
 from app.viewbase import SCALE_TITLES, ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
-__all__ = ["SurfaceView", "FaceView", "grid_faces", "grid_boundary", "bar_labels"]
+__all__ = ["SurfaceView", "FaceView", "MeshLoopView", "grid_faces", "grid_boundary", "bar_labels"]
 
 SURFACE_COLOR = "#d8c3a5"
 EDGE_COLOR = "#3b3b3b"
@@ -864,4 +864,57 @@ class FaceView(ViewBase):
     def close(self) -> None:
         if not self._closed:
             self.on_pick = None
+        super().close()
+
+
+class MeshLoopView(FaceView):
+    """The closed-mesh region picker's view (:mod:`app.meshpicker`): the mesh,
+    and the loop being drawn on it. A click on the mesh calls
+    ``on_point(xyz)`` with the point under the cursor."""
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self.on_point: Callable[[np.ndarray], None] | None = None
+        self._loop = pv.PolyData()
+        self._loop_actor = self._plotter.add_mesh(self._loop, color=PREVIEW_COLOR, line_width=4, render=False,
+                                                  reset_camera=False, pickable=False)
+        self._loop_points = pv.PolyData()
+        self._loop_points_actor = self._plotter.add_mesh(self._loop_points, color=PREVIEW_COLOR, point_size=12,
+                                                         render_points_as_spheres=True, render=False,
+                                                         reset_camera=False, pickable=False)
+        self.loop = np.zeros((0, 3))
+
+    def set_mesh(self, vertices, triangles) -> None:
+        self.set_faces([(vertices, triangles)])
+        self.select(0)
+
+    def point_at(self, x: float, y: float) -> np.ndarray | None:
+        """(3,) the mesh's point under display point (x, y), or None off it."""
+        if self.face_at(x, y) is None:
+            return None
+        return np.array(self._face_picker.GetPickPosition(), dtype=float)
+
+    def set_loop(self, points) -> None:
+        """Draw the loop's points and the polyline through them (closed from 3 points)."""
+        P = np.asarray(points, dtype=float).reshape(-1, 3)
+        self.loop = P.copy()
+        pts, cells = polyline_cells([P], closed=len(P) >= 3) if len(P) >= 2 else (np.zeros((0, 3)), None)
+        replace_geometry(self._loop, pts, lines=cells)
+        replace_geometry(self._loop_points, P, verts=True)
+        self.render()
+
+    def _on_release(self, iren, _event) -> None:
+        press, self._press = self._press, None
+        if press is None or self._closed:
+            return
+        x, y = iren.GetEventPosition()
+        if abs(x - press[0]) > CLICK_SLOP or abs(y - press[1]) > CLICK_SLOP:
+            return
+        p = self.point_at(x, y)
+        if p is not None and self.on_point is not None:
+            self.on_point(p)
+
+    def close(self) -> None:
+        if not self._closed:
+            self.on_point = None
         super().close()

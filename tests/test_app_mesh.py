@@ -129,14 +129,61 @@ def test_a_reopened_project_reads_its_mesh_again_on_request(make_window, qtbot, 
     assert "is not there any more" in win3.statusBar().currentMessage()
 
 
-def test_a_closed_mesh_says_it_needs_a_region_in_one_line(make_window, tmp_path):
+def test_a_closed_mesh_says_it_needs_a_region_and_its_piece_is_drawn_on_it(make_window, qtbot, tmp_path):
+    """A sphere: the window says in one line it needs a region and shows it to draw the piece on;
+    twelve clicks round the ring z = 0.5, one taken back, and OK open the cap above the ring."""
+    import math
+
+    from PySide6.QtCore import QPoint, Qt
+    from vtkmodules.vtkRenderingCore import vtkCoordinate
+
+    from core.region import cover_for
+
     path = tmp_path / "ball.stl"
-    path.write_bytes(trimesh.creation.icosphere(2).export(file_type="stl"))
+    path.write_bytes(trimesh.creation.icosphere(4).export(file_type="stl"))
     win = make_window(example=None)
     shown = []
     win.show_error = shown.append
-    assert not win.open_file(path)
-    assert len(shown) == 1 and "\n" not in shown[0] and "closed mesh" in shown[0] and "region" in shown[0]
+    assert win.open_file(path) and not shown and win.project is None
+    message = win.statusBar().currentMessage()
+    assert "\n" not in message and "closed mesh" in message and "draw the piece" in message
+    picker = win.files.face_picker
+    qtbot.waitExposed(picker)
+    qtbot.waitUntil(picker.view.is_ready, timeout=10000)
+    view = picker.view
+    view.plotter.camera_position = "xy"  # from above: the whole ring in sight
+    view.plotter.reset_camera()
+    view.render_now()
+    assert not picker.ok_button.isEnabled()
+    t = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    z0 = 0.5
+    ring = np.stack([math.sqrt(1 - z0 * z0) * np.cos(t), math.sqrt(1 - z0 * z0) * np.sin(t), z0 + 0 * t], 1)
+    w = view.widget
+    ratio = w.devicePixelRatioF()
+    for p in [*ring, [0.0, 0.0, 1.0]]:
+        c = vtkCoordinate()
+        c.SetCoordinateSystemToWorld()
+        c.SetValue(*p)
+        x, y = c.GetComputedDoubleDisplayValue(view.plotter.renderer)
+        qtbot.mouseClick(w, Qt.MouseButton.LeftButton,
+                         pos=QPoint(int(round(x / ratio)), w.height() - 1 - int(round(y / ratio))))
+    assert len(picker.points) == 13
+    assert np.linalg.norm(picker.points[-1] - [0, 0, 1]) < 0.05  # the click's point on the mesh
+    picker.back_button.click()
+    assert len(picker.points) == 12 and picker.ok_button.isEnabled()
+    assert np.abs(np.array(picker.points) - ring).max() < 0.05  # each click found the mesh under it
+    picker.ok_button.click()
+    qtbot.waitUntil(lambda: win.project is not None, timeout=60000)
+    surface = win.project.surface
+    assert isinstance(surface, FittedSurface) and "cut along a drawn loop" in surface.fit.repairs
+    cover = cover_for(surface, win.project.settings.region)
+    V, F = surface.mesh.vertices, surface.mesh.triangles
+    assert V[:, 2].min() > z0 - 0.15  # the cap above the ring (the smaller side), cut along mesh edges
+    mesh_area = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum()
+    assert cover.area == pytest.approx(mesh_area, rel=3e-3)
+    # between the caps above z0 + 0.1 and z0 - 0.1: the edge paths between twelve points zigzag round the ring
+    assert 2 * math.pi * (0.9 - z0) < cover.area < 2 * math.pi * (1.1 - z0)
+    assert win.actions["show_fit_deviation"].isEnabled() and not shown
 
 
 def test_meshfit_record_round_trip():
