@@ -108,6 +108,7 @@ class Presenter:
         self._curve_cache: dict = {}
         self._region = None  # the trimmed piece's region drawn (None: the whole surface)
         self._fit_drawn = None  # the fitted surface whose mesh the 3D view holds (set_fit_mesh)
+        self._fit_failed = None  # the fitted surface whose mesh could not be had (asked again only by its toggles)
         self.view.hover_callback = self.show_hover
         self.pattern_view.hover_callback = self.show_hover
 
@@ -174,19 +175,23 @@ class Presenter:
         self.info_label.setText(self.surface_info)
 
     # ------------------------------------------------------------------ the mesh a surface was fitted to
-    def show_fit_mesh(self, surface, render: bool = True) -> bool:
+    def show_fit_mesh(self, surface, render: bool = True, retry: bool = True) -> bool:
         """Give the 3D view the mesh ``surface`` was fitted to, with its vertices'
         deviations, once either of its view options is on (the mesh is read
         again for a reopened project: so only on request). False, with one line
-        in the status bar, when the mesh cannot be had."""
+        in the status bar, when the mesh cannot be had (tried again only when
+        ``retry``: its toggles, not every other view change)."""
         opts = self.view_options
         fit = getattr(surface, "fit", None)
         if fit is None or not (opts.fit_deviation or opts.fit_mesh) or self._fit_drawn is surface:
             return self._fit_drawn is surface and surface is not None
+        if self._fit_failed is surface and not retry:
+            return False
         from core.meshsurf import fit_mesh, vertex_deviation
         try:
             mesh = fit_mesh(surface)
         except (FlatweaveError, OSError) as exc:
+            self._fit_failed = surface
             self.window.statusBar().showMessage(f"Cannot show the mesh: {exc}", 10000)
             return False
         self.view.set_fit_mesh(mesh.vertices, mesh.triangles, vertex_deviation(surface, mesh))
@@ -230,7 +235,8 @@ class Presenter:
     # ------------------------------------------------------------------ frames
     def set_view_options(self, **changes) -> None:
         self.view_options = replace(self.view_options, **changes)
-        self.show_fit_mesh(None if self.window.project is None else self.window.project.surface, render=False)
+        self.show_fit_mesh(None if self.window.project is None else self.window.project.surface, render=False,
+                           retry=bool({"fit_deviation", "fit_mesh"} & changes.keys()))
         self.view.restyle(self.view_options)
         self.pattern_view.restyle(self.view_options)
 

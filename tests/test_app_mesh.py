@@ -127,6 +127,11 @@ def test_a_reopened_project_reads_its_mesh_again_on_request(make_window, qtbot, 
     win3.actions["show_fit_deviation"].trigger()
     assert not win3.view.fit_mesh_shown
     assert "is not there any more" in win3.statusBar().currentMessage()
+    win3.statusBar().clearMessage()
+    win3.actions["show_weft"].trigger()  # another view change does not try again
+    assert win3.statusBar().currentMessage() == ""
+    win3.actions["show_fit_mesh"].trigger()  # the mesh's own toggles do
+    assert "is not there any more" in win3.statusBar().currentMessage() and not win3.view.fit_mesh_shown
 
 
 def test_a_closed_mesh_says_it_needs_a_region_and_its_piece_is_drawn_on_it(make_window, qtbot, tmp_path):
