@@ -200,6 +200,14 @@ class Presenter:
             self.view.restyle(opts)
         return True
 
+    def show_fit_deviation(self, on: bool) -> None:
+        """View > Mesh fit deviation."""
+        self.set_view_options(fit_deviation=bool(on))
+
+    def show_fit_mesh_beside(self, on: bool) -> None:
+        """View > Mesh beside the surface."""
+        self.set_view_options(fit_mesh=bool(on))
+
     # ------------------------------------------------------------------ darts and yarns
     def dart_curve(self, surface: NurbsSurface, dart) -> np.ndarray:
         """(k, 3) a dart's curve on the surface (cached: a plane dart's takes a grid search)."""
