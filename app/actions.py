@@ -75,6 +75,11 @@ class ActionSpec:
     tool: type | None = None
 
 
+def _has_fit(s: UiState) -> bool:
+    """The document's surface was fitted to a mesh (:class:`core.meshsurf.FittedSurface`)."""
+    return s.has_doc and getattr(s.document.project.surface, "fit", None) is not None
+
+
 def _redo_keys() -> list:
     keys = list(QKeySequence.keyBindings(Keys.Redo))
     if QKeySequence("Ctrl+Y") not in keys:
@@ -99,7 +104,8 @@ _FILE, _EDIT, _TOOLS, _SOLVE, _VIEW = "&File", "&Edit", "&Tools", "&Solve", "&Vi
 
 ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("open", "&Open...", "open_dialog", Keys.Open,
-               "Open a project (.flatweave) or a surface (geomdl JSON)", menu=_FILE),
+               "Open a project (.flatweave), a surface (geomdl JSON, STEP, IGES) or a mesh (STL, OBJ, PLY, OFF)",
+               menu=_FILE),
     ActionSpec("save", "&Save", "save", Keys.Save, "Save the project", menu=_FILE, enabled=_has_doc),
     ActionSpec("save_as", "Save &As...", "save_as", Keys.SaveAs, "Save the project under a new name", menu=_FILE,
                enabled=_has_doc),
@@ -140,6 +146,13 @@ ACTIONS: tuple[ActionSpec, ...] = (
                menu=_VIEW, section=1, toolbar=2),
     ActionSpec("show_nodes", "&Nodes", None, None, "Show boundary nodes (yellow) and dart nodes (red, blue)",
                True, True, "nodes", menu=_VIEW, section=1, toolbar=2),
+    # not view choices kept with the project (no option): drawn on request, a reopened project rereads the mesh
+    ActionSpec("show_fit_deviation", "Mesh fit &deviation", "presenter.show_fit_deviation", None,
+               "Colour the mesh the surface was fitted to by each vertex's distance to the surface",
+               True, False, menu=_VIEW, section=3, enabled=_has_fit),
+    ActionSpec("show_fit_mesh", "&Mesh beside the surface", "presenter.show_fit_mesh_beside", None,
+               "Draw the mesh the surface was fitted to beside it (off: over it, when its deviation is shown)",
+               True, False, menu=_VIEW, section=3, enabled=_has_fit),
     *(ActionSpec(t.key, t.text, None, t.shortcut, t.tip, checkable=True, menu=t.menu,
                  toolbar=3 if t.toolbar else None, enabled=_has_doc, tool=t.tool) for t in TOOLS),
     ActionSpec("sweep", "&Best orientation...", "sweep_dialog", "Ctrl+Shift+A",

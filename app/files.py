@@ -29,6 +29,7 @@ from core.readers import dialog_filter, open_path, reader_for
 
 from app.actions import view_choices
 from app.facepicker import FacePicker
+from app.meshpicker import MeshLoopPicker
 from app.worker import one_line
 
 __all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS", "stored_view"]
@@ -68,7 +69,7 @@ class Files(QObject):
         self.window = window
         self.session: Session | None = None
         self.recovery_box: QMessageBox | None = None
-        self.face_picker: FacePicker | None = None  # open while a CAD file's face is being chosen
+        self.face_picker: FacePicker | MeshLoopPicker | None = None  # open while a face or a mesh's piece is chosen
         self.recovery_problem: str | None = None
         if recovery:
             try:
@@ -100,6 +101,9 @@ class Files(QObject):
             elif opened.cad is not None and opened.face is None:
                 self.pick_face(opened)
                 return True
+            elif opened.mesh is not None and opened.surface is None and opened.mesh.needs_region:
+                self.pick_mesh_region(opened)
+                return True
             else:  # a surface, or a CAD file's only face (its region and units with it)
                 self.window.set_project(opened.as_project())
         except (FlatweaveError, OSError) as exc:
@@ -127,6 +131,39 @@ class Files(QObject):
     def _picker_closed(self, picker) -> None:
         if self.face_picker is picker:
             self.face_picker = None
+
+    def pick_mesh_region(self, opened) -> MeshLoopPicker:
+        """Show the region picker (non-modal) for a closed mesh (or one with
+        handles): the piece's outline is drawn on it, and its OK cuts the piece
+        out and opens it (:meth:`open_mesh_region`)."""
+        if self.face_picker is not None:
+            self.face_picker.close()
+        doc = self.window.document
+        asked_at = None if doc is None else doc.revision
+        picker = MeshLoopPicker(opened, self.window)
+        picker.chosen.connect(lambda loop: self.open_mesh_region(opened, loop, asked_at))
+        picker.finished.connect(lambda _result: self._picker_closed(picker))
+        self.face_picker = picker
+        picker.show()
+        reason = opened.mesh.needs_region.split(":")[0]
+        self._status(f"{reason}: draw the piece on it (click points round it, then OK)", 15000)
+        return picker
+
+    def open_mesh_region(self, opened, loop3d, asked_at: int | None = None) -> bool:
+        """Open the piece of a closed mesh inside ``loop3d`` ((k, 3) points drawn on it) as a
+        new document (:meth:`core.meshsurf.MeshFile.cut`: the smaller side of the loop)."""
+        doc = self.window.document
+        if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
+            return False
+        try:
+            piece = opened.mesh.cut(loop3d)
+            project = replace(opened, surface=piece.surface, region=piece.region).as_project()
+        except (FlatweaveError, OSError) as exc:
+            self.window.show_error(f"Cannot cut the piece out of {opened.path.name}: {exc}")
+            return False
+        self.window.set_project(project)
+        self._status(f"Opened the piece drawn on {opened.path}: {piece.fit.describe()}", 10000)
+        return True
 
     def open_face(self, opened, index: int, asked_at: int | None = None) -> bool:
         """Open face ``index`` of a CAD file (``opened``, :func:`core.readers.open_path`'s)

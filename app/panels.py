@@ -318,7 +318,7 @@ class MetricsPanel(QWidget):
             ("shear", "Max shear"), ("beyond_lock", "Beyond lock angle"), ("thread", "Max thread strain"),
             ("uncovered", "Uncovered"),
             ("size", "Pattern size"), ("nodes", "Nodes / springs"), ("iterations", "Iterations"),
-            ("status", "Status"), ("warnings", "Warnings"))
+            ("status", "Status"), ("warnings", "Warnings"), ("fit", "Mesh fit"))
     LIMITED = (("boundary", "boundary_error_pct"), ("area", "area_error_pct"), ("shear", "max_shear_deg"),
                ("beyond_lock", "area_beyond_lock_pct"), ("thread", "max_thread_strain_pct"),
                ("uncovered", "uncovered_pct"))
@@ -335,6 +335,8 @@ class MetricsPanel(QWidget):
             self.labels[key] = lab
             form.addRow(title, lab)
         self.labels["warnings"].setWordWrap(True)
+        self.labels["fit"].setWordWrap(True)
+        self.fit_text = "-"  # the surface's fit to its mesh (kept through results: it is the surface's)
         self.warnings: tuple[str, ...] = ()
         self._warned = None  # (result, angles) the warnings were made for
 
@@ -346,6 +348,12 @@ class MetricsPanel(QWidget):
         for lab in self.labels.values():
             lab.setText("-")
             lab.setStyleSheet("")
+        self.labels["fit"].setText(self.fit_text)
+
+    def set_fit(self, text: str) -> None:
+        """Show how the surface follows the mesh it was fitted to ("-": not a mesh)."""
+        self.fit_text = text
+        self.labels["fit"].setText(text)
 
     def show_frame(self, frame, project: Project, stale: bool = False) -> None:
         st = frame.stats

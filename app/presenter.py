@@ -16,6 +16,7 @@ from PySide6.QtGui import QCursor
 from PySide6.QtWidgets import QToolTip
 
 from core.energy import yarn_nodes
+from core.errors import FlatweaveError
 from core.nurbs import NurbsSurface
 from core.project import Project
 
@@ -23,7 +24,7 @@ from app.aspects import HISTORY, WHOLE, Aspect
 from app.frames import FrameMaker
 from app.viewbase import ViewOptions
 
-__all__ = ["Presenter", "surface_grid", "piece_grid", "history_rows", "GRID_POINTS"]
+__all__ = ["Presenter", "surface_grid", "piece_grid", "history_rows", "fit_summary", "GRID_POINTS"]
 
 GRID_POINTS = 60
 CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
@@ -61,6 +62,17 @@ def piece_grid(surface: NurbsSurface, region=None, n: int = GRID_POINTS):
     return uv, xyz, normals, keep, loops
 
 
+def fit_summary(fit, units: str = "m") -> str:
+    """The metrics' line for a surface fitted to a mesh (:class:`core.meshsurf.MeshFit`):
+    its largest and mean vertex deviation in model units and as a share of the mesh's size."""
+    if fit is None:
+        return "-"
+    size = fit.size if fit.size > 0 else float("nan")
+    return (f"max {fit.max_deviation:.3g} {units} ({100 * fit.max_deviation / size:.3g} %), "
+            f"mean {fit.mean_deviation:.3g} {units} ({100 * fit.mean_deviation / size:.3g} %); "
+            f"% of the mesh's size {fit.size:.3g} {units}")
+
+
 def history_rows(history, iterations=None) -> list[tuple[float, float, bool]]:
     """The energy plot's (iteration, energy, changed) rows for a stored result's
     energy trace. The trace has one entry per snapshot, and a refill round adds
@@ -95,6 +107,8 @@ class Presenter:
         self.surface_info = ""  # the surface's description (the status bar's, with no result)
         self._curve_cache: dict = {}
         self._region = None  # the trimmed piece's region drawn (None: the whole surface)
+        self._fit_drawn = None  # the fitted surface whose mesh the 3D view holds (set_fit_mesh)
+        self._fit_failed = None  # the fitted surface whose mesh could not be had (asked again only by its toggles)
         self.view.hover_callback = self.show_hover
         self.pattern_view.hover_callback = self.show_hover
 
@@ -120,6 +134,8 @@ class Presenter:
             self.show_yarns(project)
         if aspects & Aspect.RESULT:
             w.tools.result_changed()
+        if aspects & (Aspect.SURFACE | Aspect.DISPLAY):
+            w.metrics.set_fit(fit_summary(getattr(project.surface, "fit", None), project.units))
         if aspects & Aspect.DISPLAY:
             self.set_view_options(units=project.units, shear_warning_deg=project.shear_warning_deg,
                                   shear_limit_deg=project.shear_limit_deg)
@@ -147,6 +163,8 @@ class Presenter:
         _, xyz, normals, keep, loops = piece_grid(surface, region)
         self._region = region
         self.view.set_surface(xyz, normals, keep=keep, loops=loops)
+        self._fit_drawn = None  # a new surface drops the old one's mesh
+        self.show_fit_mesh(surface)
         self.pattern_view.clear_frame()
         self.frame = None
         kind = "rational" if surface.rational else "polynomial"
@@ -155,6 +173,40 @@ class Presenter:
         if region is not None:
             self.surface_info += f", trimmed ({region.n_holes} hole{'s' if region.n_holes != 1 else ''})"
         self.info_label.setText(self.surface_info)
+
+    # ------------------------------------------------------------------ the mesh a surface was fitted to
+    def show_fit_mesh(self, surface, render: bool = True, retry: bool = True) -> bool:
+        """Give the 3D view the mesh ``surface`` was fitted to, with its vertices'
+        deviations, once either of its view options is on (the mesh is read
+        again for a reopened project: so only on request). False, with one line
+        in the status bar, when the mesh cannot be had (tried again only when
+        ``retry``: its toggles, not every other view change)."""
+        opts = self.view_options
+        fit = getattr(surface, "fit", None)
+        if fit is None or not (opts.fit_deviation or opts.fit_mesh) or self._fit_drawn is surface:
+            return self._fit_drawn is surface and surface is not None
+        if self._fit_failed is surface and not retry:
+            return False
+        from core.meshsurf import fit_mesh, vertex_deviation
+        try:
+            mesh = fit_mesh(surface)
+        except (FlatweaveError, OSError) as exc:
+            self._fit_failed = surface
+            self.window.statusBar().showMessage(f"Cannot show the mesh: {exc}", 10000)
+            return False
+        self.view.set_fit_mesh(mesh.vertices, mesh.triangles, vertex_deviation(surface, mesh))
+        self._fit_drawn = surface
+        if render:
+            self.view.restyle(opts)
+        return True
+
+    def show_fit_deviation(self, on: bool) -> None:
+        """View > Mesh fit deviation."""
+        self.set_view_options(fit_deviation=bool(on))
+
+    def show_fit_mesh_beside(self, on: bool) -> None:
+        """View > Mesh beside the surface."""
+        self.set_view_options(fit_mesh=bool(on))
 
     # ------------------------------------------------------------------ darts and yarns
     def dart_curve(self, surface: NurbsSurface, dart) -> np.ndarray:
@@ -191,6 +243,8 @@ class Presenter:
     # ------------------------------------------------------------------ frames
     def set_view_options(self, **changes) -> None:
         self.view_options = replace(self.view_options, **changes)
+        self.show_fit_mesh(None if self.window.project is None else self.window.project.surface, render=False,
+                           retry=bool({"fit_deviation", "fit_mesh"} & changes.keys()))
         self.view.restyle(self.view_options)
         self.pattern_view.restyle(self.view_options)
 

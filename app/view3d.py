@@ -20,12 +20,13 @@ import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkDoubleArray
 from vtkmodules.vtkInteractionWidgets import vtkBoxWidget, vtkImplicitPlaneWidget
 from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
-from vtkmodules.vtkRenderingCore import vtkActor2D, vtkCellPicker, vtkCoordinate, vtkPolyDataMapper2D
+from vtkmodules.vtkRenderingCore import (vtkActor2D, vtkCellPicker, vtkColorTransferFunction, vtkCoordinate,
+                                         vtkPolyDataMapper2D)
 
 from app.camera import fit_view, home_view
 from app.viewbase import SCALE_TITLES, ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
-__all__ = ["SurfaceView", "FaceView", "grid_faces", "grid_boundary", "bar_labels"]
+__all__ = ["SurfaceView", "FaceView", "MeshLoopView", "grid_faces", "grid_boundary", "bar_labels"]
 
 SURFACE_COLOR = "#d8c3a5"
 EDGE_COLOR = "#3b3b3b"
@@ -37,6 +38,11 @@ PICK_COLOR = "#00a0d0"
 LOOP_COLOR = "#000000"
 FAINT_COLOR = "#c8c8c8"
 CHOSEN_COLOR = "#e08a1e"
+MESH_COLOR = "#b9c4cf"  # the fitted-to mesh drawn plain (beside the surface)
+MESH_EDGE_COLOR = "#55606b"
+DEVIATION_STOPS = ((0.0, (0.19, 0.21, 0.58)), (0.5, (0.17, 0.64, 0.56)), (0.8, (0.99, 0.82, 0.18)),
+                   (1.0, (0.85, 0.12, 0.12)))  # share of the largest deviation -> RGB: dark blue, teal, yellow, red
+BESIDE_GAP = 0.15  # the mesh beside the surface: this share of its width between them
 CLICK_SLOP = 4  # pixels: a press and release closer than this is a click (not a turn of the camera)
 TEXT_COLOR = (0.1, 0.1, 0.1)
 TOOL_PRIORITY = 10.0  # above the camera style (0) and VTK's widgets (0.5): tools see clicks first
@@ -181,6 +187,17 @@ class SurfaceView(ViewBase):
         p.renderer.AddObserver("StartEvent", self._on_render_start)
         self.options = ViewOptions()
         self._home = (np.array([-1.0, 1.0, -1.0]) / np.sqrt(3.0), np.array([0.0, 0.0, 1.0]))
+        self._fit_poly: pv.PolyData | None = None  # the mesh the surface was fitted to (set_fit_mesh)
+        self._fit_actor = None
+        self._fit_offset = np.zeros(3)
+        self._fit_beside = False  # the camera frames the mesh beside the surface too
+        self._surface_fit_points = None  # what the home view frames without it
+        self._fit_ctf = vtkColorTransferFunction()
+        self._fit_ctf.SetColorSpaceToRGB()
+        self._fit_ctf.ClampingOn()
+        self._fit_bar = _scalar_bar()  # the deviation's scale, left of the view (the right column is the frame's)
+        self._fit_bar.SetLookupTable(self._fit_ctf)
+        p.renderer.AddViewProp(self._fit_bar)
         self._wheel_tags = {event: iren.AddObserver(event, self._on_wheel, TOOL_PRIORITY)
                             for event in ("MouseWheelForwardEvent", "MouseWheelBackwardEvent")}
 
@@ -286,6 +303,7 @@ class SurfaceView(ViewBase):
         self._surface, self._boundary, self._shape = mesh, boundary, (nu, nv)
         self.clear_frame()
         self.clear_overlays()
+        self.clear_fit_mesh()
         self._apply_surface_visibility()
         self._fit_points = np.asarray(mesh.points)
         self._home = home_view(xyz, normals)
@@ -389,6 +407,7 @@ class SurfaceView(ViewBase):
         self.layer.restyle(options)
         self._update_bar()
         self._apply_surface_visibility()
+        self._apply_fit_mesh()
         self.render()
 
     def _apply_surface_visibility(self) -> None:
@@ -444,6 +463,106 @@ class SurfaceView(ViewBase):
             bar.GetPositionCoordinate().SetValue(x, y)
             bar.SetWidth(width)
             bar.SetHeight(height)
+
+    # ------------------------------------------------------------------ the mesh a surface was fitted to
+    def set_fit_mesh(self, vertices, triangles, deviation) -> None:
+        """Hold the mesh the shown surface was fitted to: ``vertices`` (n, 3),
+        ``triangles`` (m, 3) and ``deviation`` (n,), each vertex's distance to the
+        surface (:func:`core.meshsurf.vertex_deviation`). It is drawn as the
+        options say (``fit_deviation``: coloured by it; ``fit_mesh``: beside the
+        surface, else over it); a new surface drops it."""
+        self.clear_fit_mesh(render=False)
+        V = np.asarray(vertices, dtype=float).reshape(-1, 3)
+        F = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+        dev = np.asarray(deviation, dtype=float).reshape(-1)
+        poly = pv.PolyData(V.copy(), np.column_stack([np.full(len(F), 3), F]).ravel())
+        poly.point_data["deviation"] = dev
+        top = max(float(dev.max()) if dev.size else 0.0, 1e-300)
+        self._fit_ctf.RemoveAllPoints()
+        for share, rgb in DEVIATION_STOPS:
+            self._fit_ctf.AddRGBPoint(share * top, *rgb)
+        actor = self._plotter.add_mesh(poly, color=MESH_COLOR, name=f"{self._name}-fit-mesh", render=False,
+                                       reset_camera=False, pickable=False, edge_color=MESH_EDGE_COLOR)
+        mapper = actor.GetMapper()
+        mapper.SetLookupTable(self._fit_ctf)
+        mapper.SetScalarModeToUsePointFieldData()
+        mapper.SelectColorArray("deviation")
+        mapper.UseLookupTableScalarRangeOn()
+        # beside the surface the home view's right: its width and a gap away
+        direction, up = self._home
+        right = np.cross(direction, up)
+        right /= max(float(np.linalg.norm(right)), 1e-300)
+        along = V @ right if len(V) else np.zeros(1)
+        surf = np.asarray(self._fit_points) @ right if len(self._fit_points) else along
+        self._fit_offset = right * (float(surf.max() - along.min()) + BESIDE_GAP * float(np.ptp(along)))
+        self._fit_poly, self._fit_actor = poly, actor
+        self._surface_fit_points = np.asarray(self._fit_points)
+        labels = vtkDoubleArray()
+        for v in (0.0, 0.5 * top, top):
+            labels.InsertNextValue(v)
+        self._fit_bar.SetCustomLabels(labels)
+        self._apply_fit_mesh()
+
+    def clear_fit_mesh(self, render: bool = False) -> None:
+        """Drop the fitted-to mesh (a new surface)."""
+        if self._fit_actor is not None:
+            self._plotter.remove_actor(self._fit_actor, render=False)
+        if self._fit_beside and self._surface_fit_points is not None:
+            self._fit_points = self._surface_fit_points
+        self._fit_poly = self._fit_actor = self._surface_fit_points = None
+        self._fit_beside = False
+        self._fit_bar.SetVisibility(False)
+        if render:
+            self.render()
+
+    @property
+    def fit_mesh_shown(self) -> bool:
+        """The fitted-to mesh is drawn (either option on, and a mesh held)."""
+        return self._fit_actor is not None and bool(self._fit_actor.GetVisibility())
+
+    @property
+    def fit_deviation_values(self) -> np.ndarray | None:
+        """(n,) the deviation the mesh's colours map (None without a mesh)."""
+        return None if self._fit_poly is None else np.array(self._fit_poly.point_data["deviation"])
+
+    @property
+    def fit_colour_range(self) -> tuple[float, float] | None:
+        """(lo, hi) of the deviation colour map while it is drawn, else None."""
+        a = self._fit_actor
+        if a is None or not a.GetVisibility() or not a.GetMapper().GetScalarVisibility():
+            return None
+        lo, hi = self._fit_ctf.GetRange()
+        return float(lo), float(hi)
+
+    @property
+    def fit_mesh_offset(self) -> np.ndarray:
+        """(3,) how far the mesh is moved from where it is (zero over the surface)."""
+        return np.zeros(3) if self._fit_actor is None else np.array(self._fit_actor.GetPosition())
+
+    def _apply_fit_mesh(self) -> None:
+        a = self._fit_actor
+        if a is None:
+            return
+        colour, beside = bool(self.options.fit_deviation), bool(self.options.fit_mesh)
+        a.SetVisibility(colour or beside)
+        a.GetMapper().SetScalarVisibility(colour)
+        a.GetProperty().SetEdgeVisibility(not colour)
+        a.SetPosition(*(self._fit_offset if beside else np.zeros(3)))
+        self._fit_bar.SetVisibility(colour)
+        if colour:
+            self._fit_bar.SetTitle(f"deviation\n({self.options.units})")
+            w, h = self.device_size()
+            self._fit_bar.GetPositionCoordinate().SetValue(BAR_MARGIN / w, 0.05)
+            self._fit_bar.SetWidth(self._bar_width_px / w)
+            self._fit_bar.SetHeight(0.43)
+        if beside != self._fit_beside:  # frame what is drawn: the surface, and the mesh beside it
+            self._fit_beside = beside
+            base = self._surface_fit_points
+            self._fit_points = np.vstack([base, np.asarray(self._fit_poly.points) + self._fit_offset]) \
+                if beside else base
+            if self._surface is not None and not self._closed:
+                self._fit_home()
+                self.update_density()
 
     # ------------------------------------------------------------------ the document's darts and yarns
     def clear_overlays(self) -> None:
@@ -745,4 +864,57 @@ class FaceView(ViewBase):
     def close(self) -> None:
         if not self._closed:
             self.on_pick = None
+        super().close()
+
+
+class MeshLoopView(FaceView):
+    """The closed-mesh region picker's view (:mod:`app.meshpicker`): the mesh,
+    and the loop being drawn on it. A click on the mesh calls
+    ``on_point(xyz)`` with the point under the cursor."""
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self.on_point: Callable[[np.ndarray], None] | None = None
+        self._loop = pv.PolyData()
+        self._loop_actor = self._plotter.add_mesh(self._loop, color=PREVIEW_COLOR, line_width=4, render=False,
+                                                  reset_camera=False, pickable=False)
+        self._loop_points = pv.PolyData()
+        self._loop_points_actor = self._plotter.add_mesh(self._loop_points, color=PREVIEW_COLOR, point_size=12,
+                                                         render_points_as_spheres=True, render=False,
+                                                         reset_camera=False, pickable=False)
+        self.loop = np.zeros((0, 3))
+
+    def set_mesh(self, vertices, triangles) -> None:
+        self.set_faces([(vertices, triangles)])
+        self.select(0)
+
+    def point_at(self, x: float, y: float) -> np.ndarray | None:
+        """(3,) the mesh's point under display point (x, y), or None off it."""
+        if self.face_at(x, y) is None:
+            return None
+        return np.array(self._face_picker.GetPickPosition(), dtype=float)
+
+    def set_loop(self, points) -> None:
+        """Draw the loop's points and the polyline through them (closed from 3 points)."""
+        P = np.asarray(points, dtype=float).reshape(-1, 3)
+        self.loop = P.copy()
+        pts, cells = polyline_cells([P], closed=len(P) >= 3) if len(P) >= 2 else (np.zeros((0, 3)), None)
+        replace_geometry(self._loop, pts, lines=cells)
+        replace_geometry(self._loop_points, P, verts=True)
+        self.render()
+
+    def _on_release(self, iren, _event) -> None:
+        press, self._press = self._press, None
+        if press is None or self._closed:
+            return
+        x, y = iren.GetEventPosition()
+        if abs(x - press[0]) > CLICK_SLOP or abs(y - press[1]) > CLICK_SLOP:
+            return
+        p = self.point_at(x, y)
+        if p is not None and self.on_point is not None:
+            self.on_point(p)
+
+    def close(self) -> None:
+        if not self._closed:
+            self.on_point = None
         super().close()

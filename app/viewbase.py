@@ -54,6 +54,8 @@ class ViewOptions:
     nodes : draw boundary nodes (yellow) and dart nodes (red +, blue -)
     shear_warning_deg, shear_limit_deg : the shear scale's thresholds
     units : model units, for the pattern's scale bar
+    fit_deviation : colour the mesh a surface was fitted to by its vertices' distance to it (3D view)
+    fit_mesh : draw that mesh beside the surface (3D view; off: over it, when its deviation is shown)
     """
 
     mode: str = "strain"
@@ -65,6 +67,8 @@ class ViewOptions:
     shear_warning_deg: float = 15.0
     shear_limit_deg: float = 30.0
     units: str = "m"
+    fit_deviation: bool = False
+    fit_mesh: bool = False
 
     @property
     def kinds(self) -> tuple[bool, bool, bool]:

@@ -44,7 +44,7 @@ from core.nurbs import NurbsSurface, basis_functions
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MESH_SUFFIXES", "MAX_TRIANGLES", "check_mesh_file",
            "read_mesh", "clean_mesh", "lscm", "fit_bspline", "mesh_surface", "load_mesh_piece",
            "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "MeshFile", "cut_mesh", "open_mesh",
-           "with_fit"]
+           "with_fit", "FitMesh", "fit_mesh", "vertex_deviation"]
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off")
 
@@ -108,12 +108,30 @@ class MeshFit:
                 f"mean {self.mean_deviation:.4g} ({100 * self.mean_deviation / self.size:.3g} %)")
 
 
-class FittedSurface(NurbsSurface):
-    """A :class:`NurbsSurface` fitted to a mesh; ``fit`` says how closely."""
+@dataclass(frozen=True, eq=False)
+class FitMesh:
+    """The mesh a surface was fitted to: vertices (n, 3), triangles (m, 3) and
+    uv (n, 2), where on the surface each vertex maps (the deviation's pairs)."""
 
-    def __init__(self, *args, fit: MeshFit, **kwargs):
+    vertices: np.ndarray
+    triangles: np.ndarray
+    uv: np.ndarray
+
+
+class FittedSurface(NurbsSurface):
+    """A :class:`NurbsSurface` fitted to a mesh; ``fit`` says how closely,
+    ``mesh`` (:class:`FitMesh`, or None for a reopened project until
+    :func:`fit_mesh` reads it again) is the mesh itself."""
+
+    def __init__(self, *args, fit: MeshFit, mesh: FitMesh | None = None, **kwargs):
         super().__init__(*args, **kwargs)
         self.fit = fit
+        self.mesh = mesh
+
+    def __getstate__(self):  # a pickled copy (the sweep's workers) needs the surface, not the mesh
+        state = self.__dict__.copy()
+        state["mesh"] = None
+        return state
 
 
 @dataclass(frozen=True)
@@ -606,7 +624,7 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
         nu = min(int(nu * 1.5), MAX_CTRL)
         nv = min(max(int(round((nu - 3) * aspect)), 4), MAX_CTRL - 3) + 3
     fit = MeshFit(str(source), len(V), len(F), size, float(dev.max()), float(dev.mean()), (nu, nv), tuple(repairs))
-    surface = FittedSurface(3, 3, _clamped_knots(nu), _clamped_knots(nv), C, fit=fit)
+    surface = FittedSurface(3, 3, _clamped_knots(nu), _clamped_knots(nv), C, fit=fit, mesh=FitMesh(V, F, uv))
     loops_uv = [uv[lp] for lp in loops]
     areas = [abs(_loop_area(p)) for p in loops_uv]
     k = int(np.argmax(areas))
@@ -634,6 +652,36 @@ def with_fit(surface: NurbsSurface, fit: MeshFit) -> FittedSurface:
     """``surface`` as a :class:`FittedSurface` carrying ``fit`` (a project reopened)."""
     return FittedSurface(surface.degree_u, surface.degree_v, surface.knots_u, surface.knots_v, surface.ctrlpts,
                          surface.weights if surface.rational else None, fit=fit)
+
+
+def fit_mesh(surface: FittedSurface) -> FitMesh:
+    """The mesh ``surface`` was fitted to: the one it was made from, or, for a
+    reopened project (which keeps the surface, not the mesh), its source file
+    read and mapped again (the same steps give the same map). A one-line
+    SurfaceError when that file is gone, changed, or was cut along a loop."""
+    mesh = getattr(surface, "mesh", None)
+    if mesh is not None:
+        return mesh
+    fit = getattr(surface, "fit", None)
+    if fit is None:
+        raise SurfaceError("the surface was not fitted to a mesh")
+    path = Path(fit.source)
+    if any(r.startswith("cut along") for r in fit.repairs):
+        raise SurfaceError(f"{path.name} was cut along a drawn loop: open the mesh again to see it")
+    if not path.is_file():
+        raise SurfaceError(f"the mesh {fit.source} the surface was fitted to is not there any more")
+    piece = load_mesh_piece(path)
+    if (piece.fit.vertices, piece.fit.triangles) != (fit.vertices, fit.triangles):
+        raise SurfaceError(f"{path.name} has changed since the surface was fitted to it "
+                           f"({piece.fit.vertices} vertices, was {fit.vertices})")
+    surface.mesh = piece.surface.mesh
+    return surface.mesh
+
+
+def vertex_deviation(surface: NurbsSurface, mesh: FitMesh) -> np.ndarray:
+    """(n,) each mesh vertex's distance to the surface point it maps to: the
+    numbers ``MeshFit`` summarises (its max and mean), for a colour map."""
+    return fit_deviation(surface, mesh.uv, mesh.vertices)
 
 
 @dataclass(frozen=True, eq=False)

@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 import core
 from core.coverage import cell_diagonal, coverage_grid, uncovered_regions
 from core.darts import DART_KINDS, RESULT_DART_KEYS, DartSet
-from core.drape import DrapeSettings, drape, refill
+from core.drape import DrapeResult, DrapeSettings, drape, refill
 from core.energy import Energy, YarnConstraint, resolve_yarns
 from core.geom import outline_errors, require_finite
 from core.errors import SettingsError, SolverError
@@ -309,6 +309,34 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
     return Problem(surface, build, settings.yarns, refill_nodes, invalid, cut=cut)
 
 
+def drape_piece(surface: NurbsSurface, ds: DrapeSettings, material: Material, cover: Cover,
+                **kwargs) -> DrapeResult:
+    """:func:`core.drape.drape` for a piece: over the whole domain, or, trimmed,
+    inside the region's outer loop, its holes and all, and then without the
+    nodes in the holes.
+
+    The net is laid as if the holes were not there because one laid round a
+    hole is not one net: the fronts that pass either side of it meet behind it
+    out of step (each grew from its own neighbours), the drape refuses the
+    positions where they meet (too near a node of the other front), and a slit
+    with no springs across it is left from the hole to the edge. The solve then
+    lets the slit's sides overlap and the pattern opens there like a dart (a
+    doubly curved panel with a hole: boundary error 22 % against 1.7 %,
+    docs/decisions.md, "A hole in the drape"). The surface is there in a hole
+    (it spans the domain), so the net can cross it."""
+    if not cover.trimmed:
+        return drape(surface, ds, material, **kwargs)
+    if not cover.region.n_holes:
+        return drape(surface, ds, material, inside=cover.contains, **kwargs)
+    outer = cover_for(surface, Region.from_loops(cover.region.arrays()[0]))
+    d = drape(surface, ds, material, inside=outer.contains, **kwargs)
+    keep = cover.contains(d.uv)
+    if keep.all():
+        return d
+    mesh = build_mesh(d.mesh.ij[keep], ds.r_weft, ds.r_warp, material)
+    return DrapeResult(mesh=mesh, uv=d.uv[keep], xyz=d.xyz[keep], stats=d.stats)
+
+
 UNCOVERED_LIMIT = 0.10
 """Largest share of the surface's area a new drape may leave farther than two
 spacings from every node. A complete drape leaves none (every point is within
@@ -432,8 +460,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
                     return
                 order = np.lexsort((ij[:, 1], ij[:, 0]))
                 drape_progress(problem.build(ij[order], uv[order]), uv[order], xyz[order])
-        d = drape(surface, settings.drape_settings(), settings.material, area=A3, progress=progress,
-                  progress_interval=drape_interval, inside=cover.contains if cover.trimmed else None)
+        d = drape_piece(surface, settings.drape_settings(), settings.material, cover, area=A3, progress=progress,
+                        progress_interval=drape_interval)
         _check_drape(surface, d, settings.drape_settings(), cover)
         state, stats = State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
     else:
