@@ -73,6 +73,9 @@ class WindowToolHost:
     def preview_dart(self, index: int, dart) -> None:
         self._window.runs.preview_dart(index, dart)
 
+    def preview_settings(self, **changes) -> None:
+        self._window.runs.preview_settings(**changes)
+
     def end_preview(self) -> None:
         self._window.runs.end_preview()
 
