@@ -55,9 +55,11 @@ def piece_grid(surface: NurbsSurface, region=None, n: int = GRID_POINTS):
     from core.region import cover_for
 
     cover = cover_for(surface, region)
+    loops = [surface.points(loop) for loop in cover.loops]
+    if region.drawn is not None:  # a drawn ply: the whole surface stays in sight, to edit the boundary on it
+        return uv, xyz, normals, None, loops
     centres = 0.25 * (uv[:-1, :-1] + uv[1:, :-1] + uv[1:, 1:] + uv[:-1, 1:])
     keep = cover.contains(centres.reshape(-1, 2)).reshape(n - 1, n - 1)
-    loops = [surface.points(loop) for loop in cover.loops]
     return uv, xyz, normals, keep, loops
 
 
@@ -103,7 +105,10 @@ class Presenter:
         w = self.window
         whole = cause in WHOLE
         if aspects & Aspect.SURFACE or (aspects & Aspect.SETTINGS and project.settings.region is not self._region):
-            self._show_surface(project.surface, project.settings.region)
+            # a drawn region edited on the same surface keeps the camera (the designer is working in it)
+            drawn = [r is not None and r.drawn is not None for r in (self._region, project.settings.region)]
+            self._show_surface(project.surface, project.settings.region,
+                               fit=bool(aspects & Aspect.SURFACE) or cause == "reset" or not any(drawn))
         if aspects & (Aspect.SETTINGS | Aspect.DISPLAY | Aspect.NAME) or whole:
             w.settings_panel.set_project(project)
         new_surface = bool(aspects & Aspect.SURFACE) or cause == "reset"
@@ -142,11 +147,12 @@ class Presenter:
         text = f"{m.get('iterations', 0)} iterations  EN {m.get('energy', 0):.4g}  {m.get('nodes', 0):,} nodes"
         return text if project.result_is_current else f"{text} (settings changed since)"
 
-    def _show_surface(self, surface: NurbsSurface, region=None) -> None:
-        """Draw the surface: its trimmed piece and the piece's loops when ``region`` is set."""
+    def _show_surface(self, surface: NurbsSurface, region=None, fit: bool = True) -> None:
+        """Draw the surface: its trimmed piece and the piece's loops when ``region`` is set
+        (``fit``: frame it anew)."""
         _, xyz, normals, keep, loops = piece_grid(surface, region)
         self._region = region
-        self.view.set_surface(xyz, normals, keep=keep, loops=loops)
+        self.view.set_surface(xyz, normals, keep=keep, loops=loops, fit=fit)
         self.pattern_view.clear_frame()
         self.frame = None
         kind = "rational" if surface.rational else "polynomial"

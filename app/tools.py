@@ -979,6 +979,9 @@ class RegionTool(PointsTool):
                 return True
         if not self.placed:
             at = self._handle_at(x, y)
+            if at is None and double and self._side_at(x, y) is not None:
+                self._insert_point(self._side_at(x, y), x, y)
+                return True
             if at is not None:
                 if double:
                     self._delete_point(at)

@@ -241,14 +241,14 @@ class SurfaceView(ViewBase):
 
     # ------------------------------------------------------------------ content
     def set_surface(self, xyz: np.ndarray, normals: np.ndarray | None = None, keep: np.ndarray | None = None,
-                    loops=None) -> None:
+                    loops=None, fit: bool = True) -> None:
         """Show a new surface, clear the mesh and fit the camera.
 
         xyz : (nu, nv, 3) float, grid points; normals : (nu, nv, 3) float or None,
         unit normals at them (used for smooth shading). A trimmed piece: ``keep``
         ((nu-1, nv-1) bool) the grid's quads in its region, and ``loops`` its
         boundary loops on the surface ((k, 3) each, closed implicitly), drawn
-        as black lines instead of the grid's rim.
+        as black lines instead of the grid's rim. ``fit`` False: the camera stays.
         """
         xyz = np.asarray(xyz, dtype=float)
         nu, nv = xyz.shape[:2]
@@ -296,7 +296,10 @@ class SurfaceView(ViewBase):
             self._fit_points = self._fit_points[used]
             self._home = home_view(self._fit_points, None if normals is None else
                                    np.asarray(normals, dtype=float).reshape(-1, 3)[used])
-        self.reset_camera()
+        if fit:
+            self.reset_camera()
+        else:
+            self.render()
 
     @property
     def home(self) -> tuple[np.ndarray, np.ndarray]:
