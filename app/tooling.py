@@ -17,7 +17,7 @@ from PySide6.QtWidgets import QAbstractSpinBox, QApplication, QLineEdit
 
 from core.errors import FlatweaveError
 
-from app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, Tool, YarnTool
+from app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, SeedTool, Tool, YarnTool
 from app.worker import one_line
 
 __all__ = ["ToolSpec", "TOOLS", "ToolControl", "ToolMouse", "WindowToolHost"]
@@ -49,6 +49,8 @@ TOOLS = (
              YarnTool, "pick_yarn"),
     ToolSpec("tool_region", "&Region", "B", "Draw the piece's boundary on the surface: click points, Enter or the "
              "first point closes; a loop inside it is a hole", RegionTool, ""),
+    ToolSpec("tool_seed", "&Seed and direction", "S", "Pick the seed inside the piece (click) and the weft "
+             "direction (drag from it); the rosette is drawn as two arrows", SeedTool, ""),
 )
 
 

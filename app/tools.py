@@ -39,7 +39,8 @@ from core.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn
 from core.errors import SettingsError
 
 __all__ = ["Tool", "ToolHost", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
-           "RegionTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS", "DEFAULT_YARN_K"]
+           "RegionTool", "SeedTool", "PointsTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS",
+           "DEFAULT_YARN_K"]
 
 STROKE_PIXELS = 8      # a drag adds a point every this many pixels
 SNAP_PIXELS = 10       # a click this close to the surface's visible rim goes onto the rim
@@ -1076,4 +1077,97 @@ class RegionTool(PointsTool):
             return False
         self.hint(f"{label}: {len(region.loops) - 1} hole(s).")
         self._show_handles()
+        return True
+
+
+# ---------------------------------------------------------------------- the seed and the rosette
+ROSETTE_FRACTION = 0.12  # the weft arrow's length, of the surface's size
+
+
+class SeedTool(Tool):
+    """Pick the drape's seed and weft direction (the rosette) on the surface: a
+    click inside the piece puts the seed there, a drag from it turns the weft
+    towards the cursor (measured in the seed's tangent plane). The rosette is
+    drawn as two arrows, weft and warp. A click outside the piece's region is
+    refused with a one-line hint and changes nothing. The release is one
+    settings edit (seed, and angle when dragged)."""
+
+    name = "seed"
+
+    def __init__(self, host):
+        super().__init__(host)
+        self.seed: tuple[float, float] | None = None   # the seed being placed (fractions of the domain)
+        self.angle: float | None = None
+        self.start: tuple[float, float] | None = None  # the press's pixel
+
+    def activate(self) -> None:
+        self.hint("Seed: click inside the piece to put the seed there; drag from it to turn the weft "
+                  "(the red arrow; blue is the warp). Drag off the surface to turn the view.")
+        self._draw()
+
+    def deactivate(self) -> None:
+        self.seed = self.angle = self.start = None
+        self.view.set_rosette()
+
+    def on_result(self) -> None:
+        if self.seed is None:
+            self._draw()
+
+    def _length(self) -> float:
+        xyz = _rim(self.surface)[1]  # the surface's size: the diagonal of its rim's box
+        return ROSETTE_FRACTION * float(np.linalg.norm(np.ptp(xyz, axis=0)))
+
+    def _draw(self, seed=None, angle=None) -> None:
+        from core.rosette import rosette, rosette_arrows
+
+        s = self.document.project.settings
+        r = rosette(self.surface, s.seed if seed is None else seed, s.angle_deg if angle is None else angle)
+        self.view.set_rosette(rosette_arrows(r, self._length()))
+
+    def press(self, x, y, double):
+        from core.region import cover_for
+        from core.rosette import seed_fraction
+
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            return False
+        region = self.document.project.settings.region
+        if region is not None and not cover_for(self.surface, region).contains(np.asarray(hit[0])[None])[0]:
+            self.hint("That point lies outside the piece's region: the seed must be inside it (nothing changed).")
+            return True
+        self.seed, self.angle, self.start = seed_fraction(self.surface, hit[0]), None, (float(x), float(y))
+        self._draw(self.seed)
+        return True
+
+    def move(self, x, y):
+        from core.rosette import angle_towards
+
+        if self.seed is None:
+            return False
+        if math.hypot(x - self.start[0], y - self.start[1]) < STROKE_PIXELS:
+            return True  # a click, not yet a drag
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            return True
+        angle = angle_towards(self.surface, self.seed, hit[1])
+        if angle is not None:
+            self.angle = round(angle, 1)  # as the settings panel shows it
+            self._draw(self.seed, self.angle)
+            self.hint(f"Weft at {self.angle:g} deg from the u direction; release to keep it.")
+        return True
+
+    def release(self, x, y):
+        if self.seed is None:
+            return False
+        seed, angle, self.seed, self.angle, self.start = self.seed, self.angle, None, None, None
+        changes = {"seed": seed} if angle is None else {"seed": seed, "angle_deg": angle}
+        label = "Move seed" if angle is None else "Seed and weft direction"
+        try:
+            self.document.edit_settings(label, **changes)
+        except SettingsError as exc:
+            self.hint(f"Cannot move the seed: {exc}")
+        else:
+            self.hint(f"{label}: seed at ({seed[0]:.3f}, {seed[1]:.3f})"
+                      + ("." if angle is None else f", weft at {angle:g} deg."))
+        self._draw()
         return True

@@ -35,6 +35,7 @@ PREVIEW_COLOR = "#ff7f00"
 YARN_COLOR = "#6a3d9a"
 PICK_COLOR = "#00a0d0"
 LOOP_COLOR = "#000000"
+ROSETTE_COLORS = ("#c0392b", "#1f5fbf")  # the rosette's weft and warp arrows
 FAINT_COLOR = "#c8c8c8"
 CHOSEN_COLOR = "#e08a1e"
 CLICK_SLOP = 4  # pixels: a press and release closer than this is a click (not a turn of the camera)
@@ -146,6 +147,7 @@ class SurfaceView(ViewBase):
         self._pick_node, self._pick_node_actor = overlay(PICK_COLOR, points=True, size=16.0)
         self._preview, self._preview_actor = overlay(PREVIEW_COLOR, 5.0)
         self._preview_points, self._preview_points_actor = overlay(PREVIEW_COLOR, points=True, size=13.0)
+        self._rosette = [overlay(c, 4.0) for c in ROSETTE_COLORS]  # the seed's weft and warp arrows
         # a curve dart's handles: 2D squares (white, ringed in black) drawn over everything,
         # unlike the round red and blue dart nodes among which they sit
         self._handles = pv.PolyData()
@@ -455,6 +457,7 @@ class SurfaceView(ViewBase):
         self.set_yarns([], render=False)
         self.set_preview(render=False)
         self.set_handles(render=False)
+        self.set_rosette(render=False)
         self.set_picked_yarn(render=False)
         self.hide_plane_widget()
         self.hide_box_widget()
@@ -505,6 +508,20 @@ class SurfaceView(ViewBase):
         replace_geometry(self._handles, np.zeros((0, 3)) if points is None else points, verts=True)
         if render:
             self.render()
+
+    def set_rosette(self, arrows=None, render: bool = True) -> None:
+        """The seed's rosette: two arrows (weft, warp), polylines (k, 3) each; None hides them."""
+        for k, (poly, _actor) in enumerate(self._rosette):
+            line = [] if arrows is None else [arrows[k]]
+            pts, cells = polyline_cells(line, closed=False)
+            replace_geometry(poly, pts, lines=cells)
+        if render:
+            self.render()
+
+    @property
+    def rosette_arrows(self) -> list[np.ndarray]:
+        """The rosette's arrows drawn now, weft then warp ((k, 3) each; empty when hidden)."""
+        return [np.array(poly.points).reshape(-1, 3) for poly, _actor in self._rosette]
 
     @property
     def handle_points(self) -> np.ndarray:
