@@ -156,3 +156,39 @@ def test_insert_and_delete_region_points(make_window, qtbot):
     revision = doc.revision
     click(qtbot, tool().view, *pixel(view, five[0]), double=True)
     assert "at least three points" in win.last_hint and doc.revision == revision
+
+
+def test_the_region_offset_in_the_settings_panel(make_window, qtbot, tmp_path):
+    """Region offset d (model units along the surface): on the unit sphere the outer loop's
+    farthest point from the ring's centre moves out by d radians (a vertex's fan is a circle of
+    geodesic radius d about it); one edit, undone in one step, saved and reopened."""
+    win = drawn_window(make_window, qtbot)
+    doc, field = win.document, win.settings_panel.region_offset
+    before = win.project
+    drawn = before.settings.region.drawn
+    assert field.isEnabled() and field.value() == 0.0
+    base = reach_deg(win.surface.points(np.asarray(before.settings.region.loops[0])))
+    assert abs(base - 27.0) < 0.1  # the drawn vertices lie on the 27 degree ring (to the pixel)
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        field.setText("0.05")
+        field.editingFinished.emit()
+    p = win.project
+    region = p.settings.region
+    assert doc.undo_label == "Region offset" and region.drawn.offset == 0.05 and p.result_is_current
+    assert region.drawn.outer == drawn.outer  # the points drawn stay; the boundary moves
+    grown = reach_deg(win.surface.points(np.asarray(region.loops[0])))
+    assert abs(grown - (base + math.degrees(0.05))) < 0.03, (base, grown)
+    assert p.result.pattern.area > before.result.pattern.area
+    # an offset that leaves too little is refused in one line, nothing changes
+    revision = doc.revision
+    field.setText("-0.4")
+    field.editingFinished.emit()
+    assert win.last_error.startswith("Region offset:") and "\n" not in win.last_error
+    assert doc.revision == revision and field.value() == 0.05
+    # save and reopen: the drawing, its offset and the loops come back
+    assert win.save_to(tmp_path / "offset")
+    other = make_window(example="saddle")
+    assert other.open_file(tmp_path / "offset.flatweave")
+    assert other.project.settings.region == region and other.settings_panel.region_offset.value() == 0.05
+    doc.undo()
+    assert win.project.settings.region == before.settings.region and field.value() == 0.0
