@@ -180,6 +180,14 @@ class Presenter:
         darts = project.settings.darts
         curves = [self.dart_curve(project.surface, d) for d in darts]
         self.view.set_darts(curves, [d.visible for d in darts], self.window.tools.selected_dart)
+        self.show_kept_regions(project)
+
+    def show_kept_regions(self, project: Project) -> None:
+        """The shown candidate regions' loops (core.candidates), faint, beside the active region."""
+        from core.region import cover_for
+        loops = [project.surface.points(p) for c in project.candidates
+                 if c.visible and c.region is not None for p in cover_for(project.surface, c.region).loops]
+        self.view.set_kept_regions(loops)
 
     def show_yarns(self, project: Project | None, frame=None) -> None:
         if project is None:

@@ -238,6 +238,20 @@ class ToolControl:
             return False
         return True
 
+    def region_edit(self, label: str, change, solves: bool) -> bool:
+        """One edit of the candidate regions (app.regionpanel): ``change(project)`` made current;
+        a refused one shows its message and the list as it was."""
+        doc = self.window.document
+        if doc is None:
+            return False
+        try:
+            doc.apply(label, change(doc.project), answers_solve=solves)
+        except FlatweaveError as exc:
+            self.window.show_error(str(exc))
+            self.window.dart_panel.set_project(doc.project, self.selected_dart)
+            return False
+        return True
+
     def delete_dart(self, index: int) -> None:
         if self.selected_dart == index:
             self.selected_dart = None

@@ -36,6 +36,7 @@ YARN_COLOR = "#6a3d9a"
 PICK_COLOR = "#00a0d0"
 LOOP_COLOR = "#000000"
 ROSETTE_COLORS = ("#c0392b", "#1f5fbf")  # the rosette's weft and warp arrows
+KEPT_COLOR = "#808080"  # the loops of regions kept beside the active one
 FAINT_COLOR = "#c8c8c8"
 CHOSEN_COLOR = "#e08a1e"
 CLICK_SLOP = 4  # pixels: a press and release closer than this is a click (not a turn of the camera)
@@ -148,6 +149,7 @@ class SurfaceView(ViewBase):
         self._preview, self._preview_actor = overlay(PREVIEW_COLOR, 5.0)
         self._preview_points, self._preview_points_actor = overlay(PREVIEW_COLOR, points=True, size=13.0)
         self._rosette = [overlay(c, 4.0) for c in ROSETTE_COLORS]  # the seed's weft and warp arrows
+        self._kept, self._kept_actor = overlay(KEPT_COLOR, 2.0)  # candidate regions kept beside the active one
         # a curve dart's handles: 2D squares (white, ringed in black) drawn over everything,
         # unlike the round red and blue dart nodes among which they sit
         self._handles = pv.PolyData()
@@ -458,6 +460,7 @@ class SurfaceView(ViewBase):
         self.set_preview(render=False)
         self.set_handles(render=False)
         self.set_rosette(render=False)
+        self.set_kept_regions(render=False)
         self.set_picked_yarn(render=False)
         self.hide_plane_widget()
         self.hide_box_widget()
@@ -517,6 +520,17 @@ class SurfaceView(ViewBase):
             replace_geometry(poly, pts, lines=cells)
         if render:
             self.render()
+
+    def set_kept_regions(self, loops=None, render: bool = True) -> None:
+        """The loops of the candidate regions shown beside the active one ((k, 3) each, closed); None: none."""
+        pts, cells = polyline_cells([] if loops is None else list(loops), closed=True)
+        replace_geometry(self._kept, pts, lines=cells)
+        if render:
+            self.render()
+
+    @property
+    def kept_region_points(self) -> np.ndarray:
+        return np.array(self._kept.points).reshape(-1, 3)
 
     @property
     def rosette_arrows(self) -> list[np.ndarray]:

@@ -192,3 +192,57 @@ def test_the_region_offset_in_the_settings_panel(make_window, qtbot, tmp_path):
     assert other.project.settings.region == region and other.settings_panel.region_offset.value() == 0.05
     doc.undo()
     assert win.project.settings.region == before.settings.region and field.value() == 0.0
+
+
+def test_several_candidate_regions_one_active(make_window, qtbot, tmp_path):
+    """Keep a copy of the drawn region, draw another in its place, switch between them
+    (the piece re-solves), rename, hide, delete; saved and reopened; undo."""
+    win = drawn_window(make_window, qtbot)
+    view, doc, panel = win.view, win.document, win.dart_panel.regions
+    first = win.project.settings.region
+    assert panel.names() == ["region"] and not panel.use.isEnabled()
+    panel.keep.click()
+    assert panel.names() == ["region", "region 2"] and doc.undo_label == "Keep region"
+    assert len(view.kept_region_points) > 50  # the kept copy drawn on the surface (under the active one)
+    # draw a smaller region elsewhere: it replaces the active one, the copy stays
+    from app.tools import RegionTool
+    if not isinstance(win.tool, RegionTool):
+        win.actions["tool_region"].trigger()
+    small = [pixel(view, t) for t in ring((1.0, 0.45, 0.75), 12, 5)]
+    for p in small:
+        click(qtbot, view, *p)
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.keyClick(view.widget, Qt.Key.Key_Return)
+    second = win.project.settings.region
+    assert second != first and win.project.candidates[0].region == first, win.last_hint
+    area_second = win.project.result.pattern.area
+    # rename both, then use the kept one: they swap, the piece re-solves as the first
+    panel.list.item(0).setText("small ply")
+    panel.list.item(1).setText("large ply")
+    assert panel.names() == ["small ply", "large ply"] and win.project.region_name == "small ply"
+    panel.list.setCurrentRow(1)
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        panel.use.click()
+    p = win.project
+    assert p.settings.region == first and p.region_name == "large ply" and doc.undo_label == "Use large ply"
+    assert p.candidates[0].name == "small ply" and p.candidates[0].region == second and p.result_is_current
+    assert p.result.pattern.area > 1.5 * area_second
+    # hide the kept one: nothing drawn, no solve
+    revision, result = doc.revision, p.result
+    panel.list.item(1).setCheckState(Qt.CheckState.Unchecked)
+    assert doc.undo_label == "Hide small ply" and len(view.kept_region_points) == 0
+    assert doc.revision == revision + 1 and win.project.result is result
+    # saved and reopened: names, regions and visibility come back
+    assert win.save_to(tmp_path / "plies")
+    other = make_window(example="saddle")
+    assert other.open_file(tmp_path / "plies.flatweave")
+    assert other.dart_panel.regions.names() == ["large ply", "small ply"]
+    assert other.project.candidates == win.project.candidates and other.project.settings.region == first
+    # a name already taken is refused in one line; delete; undo brings it back
+    panel.list.item(1).setText("large ply")
+    assert "already a region called" in win.last_error and panel.names() == ["large ply", "small ply"]
+    panel.list.setCurrentRow(1)
+    panel.delete.click()
+    assert win.project.candidates == () and panel.names() == ["large ply"]
+    doc.undo()
+    assert [c.name for c in win.project.candidates] == ["small ply"]
