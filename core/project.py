@@ -24,7 +24,8 @@ The file (``.flatweave``) is JSON::
                 "point": [x, y, z] (optional: the picked point; index is then as resolved)}],
      "display": {"units": "m", "shear_warning_deg": 15.0, "shear_limit_deg": 30.0},
      "result": a result document (core.pipeline.result_to_dict, its
-               "warnings" included) with "history": [EN after each iteration, ...], or null}
+               "warnings" included) with "history": [EN after each iteration, ...], or null,
+     "candidates": optional, the regions kept beside the active one (core.candidates)}
 
 Versions. Version 2 added the result's ``history`` (the energy trace, so the
 energy plot comes back with the project). Version 3 added the result's
