@@ -1,7 +1,7 @@
 """The darts panel's list of candidate regions (issue 21, :mod:`core.candidates`):
 the active region first, then the regions kept beside it (tick to show one on
 the surface, double-click to rename); Keep copy, Use (make the selected one
-active) and Delete. It never changes the document: each button or edit is
+active) and Delete. Shown once there is a region. It never changes the document: each button or edit is
 reported as ``region_edit(label, change, solves)``, ``change`` a function of
 the project giving the edited one, which the window makes one document edit."""
 
@@ -27,7 +27,7 @@ class RegionList(QGroupBox):
         self._loading = False
         self._project: Project | None = None
         col = QVBoxLayout(self)
-        self.list = ShortList(3)
+        self.list = ShortList(2)
         self.list.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
         self.list.setEditTriggers(QAbstractItemView.EditTrigger.DoubleClicked
                                   | QAbstractItemView.EditTrigger.EditKeyPressed)
@@ -81,8 +81,11 @@ class RegionList(QGroupBox):
             self.region_edit.emit(f"{'Show' if on else 'Hide'} {old}", lambda p: cand.set_visible(p, k, on), False)
 
     def set_project(self, project: Project | None) -> None:
-        """List ``project``'s regions (without reporting edits), keeping the selected row."""
+        """List ``project``'s regions (without reporting edits), keeping the selected row;
+        hidden while there is no region to keep (the whole surface, nothing kept), so the
+        darts panel keeps its room."""
         self._project = project
+        self.setVisible(project is not None and (project.settings.region is not None or bool(project.candidates)))
         row = self.list.currentRow()
         self._loading = True
         try:

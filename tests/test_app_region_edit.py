@@ -200,7 +200,7 @@ def test_several_candidate_regions_one_active(make_window, qtbot, tmp_path):
     win = drawn_window(make_window, qtbot)
     view, doc, panel = win.view, win.document, win.dart_panel.regions
     first = win.project.settings.region
-    assert panel.names() == ["region"] and not panel.use.isEnabled()
+    assert panel.isVisible() and panel.names() == ["region"] and not panel.use.isEnabled()
     panel.keep.click()
     assert panel.names() == ["region", "region 2"] and doc.undo_label == "Keep region"
     assert len(view.kept_region_points) > 50  # the kept copy drawn on the surface (under the active one)
