@@ -179,6 +179,9 @@ class DartPanel(QWidget):
         form.addRow(row)
         self.yarn_box.hide()
         layout.addWidget(self.yarn_box)
+        from app.regionpanel import RegionList  # (it imports ShortList from here)
+        self.regions = RegionList()
+        layout.addWidget(self.regions)
         layout.addStretch(1)
         self._connect()
 
@@ -290,6 +293,7 @@ class DartPanel(QWidget):
         finally:
             self._loading = False
         self._update_buttons()
+        self.regions.set_project(project)
 
     def dart_names(self) -> list[str]:
         return [self.dart_list.item(k).text() for k in range(self.dart_list.count())]

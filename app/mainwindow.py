@@ -199,6 +199,7 @@ class MainWindow(QMainWindow):
         dp.yarn_apply.connect(tools.finish_tool)
         dp.yarn_cancel.connect(tools.cancel_tool)
         dp.input_error.connect(self.show_error)
+        dp.regions.region_edit.connect(tools.region_edit)
 
     # ------------------------------------------------------------------ actions and title
     def update_actions(self) -> None:

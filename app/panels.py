@@ -159,6 +159,10 @@ class SettingsPanel(QWidget):
         self.angle = _spin(-180.0, 180.0, 5.0, 1, " deg")
         self.angle.setToolTip("Weft direction at the seed, from the u direction towards v")
         form.addRow("Weft angle", self.angle)
+        self.region_offset = NumberEdit(0.0, -1e12, 1e12)
+        self.region_offset.setToolTip("Move the drawn region's boundary along the surface by this distance, in "
+                                      "model units: positive outwards, negative inwards (0: as drawn)")
+        form.addRow("Region offset", self.region_offset)
         layout.addWidget(mesh_box)
 
         solve_box = QGroupBox("Solver")
@@ -194,7 +198,7 @@ class SettingsPanel(QWidget):
 
         self.undo_keys = DocumentUndoKeys(self)
         for field in (self.ratio, self.spacing, self.spacing_warp, self.tol, self.seed_u, self.seed_v, self.angle,
-                      self.max_iter, self.shear_warning, self.shear_limit):
+                      self.region_offset, self.max_iter, self.shear_warning, self.shear_limit):
             self.undo_keys.watch(field)
         self._connect()
 
@@ -208,6 +212,7 @@ class SettingsPanel(QWidget):
         self.seed_u.valueChanged.connect(lambda _v: self._seed())
         self.seed_v.valueChanged.connect(lambda _v: self._seed())
         self.angle.valueChanged.connect(lambda v: self._settings("Weft angle", angle_deg=float(v)))
+        self.region_offset.value_committed.connect(self._offset_committed)
         self.solver.activated.connect(lambda _i: self._settings("Solver", solver=self.solver.currentData()))
         self.tol.value_committed.connect(lambda v: self._settings("Tolerance", tol=v))
         self.max_iter.valueChanged.connect(lambda v: self._settings("Max iterations", max_iter=int(v)))
@@ -227,6 +232,22 @@ class SettingsPanel(QWidget):
 
     def _seed(self) -> None:
         self._settings("Seed", seed=(float(self.seed_u.value()), float(self.seed_v.value())))
+
+    def _offset_committed(self, value: float) -> None:
+        """The drawn region offset by ``value`` (its seed kept while inside): one settings edit."""
+        p = self._project
+        if self._loading or p is None:
+            return
+        from core.region import with_offset
+
+        s = p.settings
+        try:
+            region, seed = with_offset(p.surface, s.region, value, s.spacing, s.spacing_warp, s.seed)
+        except SettingsError as exc:
+            self.region_offset.set_value(s.region.drawn.offset if s.region is not None and s.region.drawn else 0.0)
+            self.input_error.emit(f"Region offset: {exc}")
+            return
+        self._settings("Region offset", region=region, seed=seed)
 
     def _same_warp_toggled(self, on: bool) -> None:
         self.spacing_warp.setEnabled(not on)
@@ -286,6 +307,9 @@ class SettingsPanel(QWidget):
             self.seed_u.setValue(float(s.seed[0]))
             self.seed_v.setValue(float(s.seed[1]))
             self.angle.setValue(float(s.angle_deg))
+            drawn = s.region.drawn if s.region is not None else None
+            self.region_offset.set_value(drawn.offset if drawn is not None else 0.0)
+            self.region_offset.setEnabled(drawn is not None)
             idx = self.solver.findData(s.solver)
             self.solver.setCurrentIndex(idx if idx >= 0 else 0)
             self.tol.set_value(s.tol)

@@ -56,9 +56,11 @@ def piece_grid(surface: NurbsSurface, region=None, n: int = GRID_POINTS):
     from core.region import cover_for
 
     cover = cover_for(surface, region)
+    loops = [surface.points(loop) for loop in cover.loops]
+    if region.drawn is not None:  # a drawn ply: the whole surface stays in sight, to edit the boundary on it
+        return uv, xyz, normals, None, loops
     centres = 0.25 * (uv[:-1, :-1] + uv[1:, :-1] + uv[1:, 1:] + uv[:-1, 1:])
     keep = cover.contains(centres.reshape(-1, 2)).reshape(n - 1, n - 1)
-    loops = [surface.points(loop) for loop in cover.loops]
     return uv, xyz, normals, keep, loops
 
 
@@ -117,7 +119,10 @@ class Presenter:
         w = self.window
         whole = cause in WHOLE
         if aspects & Aspect.SURFACE or (aspects & Aspect.SETTINGS and project.settings.region is not self._region):
-            self._show_surface(project.surface, project.settings.region)
+            # a drawn region edited on the same surface keeps the camera (the designer is working in it)
+            drawn = [r is not None and r.drawn is not None for r in (self._region, project.settings.region)]
+            self._show_surface(project.surface, project.settings.region,
+                               fit=bool(aspects & Aspect.SURFACE) or cause == "reset" or not any(drawn))
         if aspects & (Aspect.SETTINGS | Aspect.DISPLAY | Aspect.NAME) or whole:
             w.settings_panel.set_project(project)
         new_surface = bool(aspects & Aspect.SURFACE) or cause == "reset"
@@ -158,11 +163,12 @@ class Presenter:
         text = f"{m.get('iterations', 0)} iterations  EN {m.get('energy', 0):.4g}  {m.get('nodes', 0):,} nodes"
         return text if project.result_is_current else f"{text} (settings changed since)"
 
-    def _show_surface(self, surface: NurbsSurface, region=None) -> None:
-        """Draw the surface: its trimmed piece and the piece's loops when ``region`` is set."""
+    def _show_surface(self, surface: NurbsSurface, region=None, fit: bool = True) -> None:
+        """Draw the surface: its trimmed piece and the piece's loops when ``region`` is set
+        (``fit``: frame it anew)."""
         _, xyz, normals, keep, loops = piece_grid(surface, region)
         self._region = region
-        self.view.set_surface(xyz, normals, keep=keep, loops=loops)
+        self.view.set_surface(xyz, normals, keep=keep, loops=loops, fit=fit)
         self._fit_drawn = None  # a new surface drops the old one's mesh
         self.show_fit_mesh(surface)
         self.pattern_view.clear_frame()
@@ -226,6 +232,14 @@ class Presenter:
         darts = project.settings.darts
         curves = [self.dart_curve(project.surface, d) for d in darts]
         self.view.set_darts(curves, [d.visible for d in darts], self.window.tools.selected_dart)
+        self.show_kept_regions(project)
+
+    def show_kept_regions(self, project: Project) -> None:
+        """The shown candidate regions' loops (core.candidates), faint, beside the active region."""
+        from core.region import cover_for
+        loops = [project.surface.points(p) for c in project.candidates
+                 if c.visible and c.region is not None for p in cover_for(project.surface, c.region).loops]
+        self.view.set_kept_regions(loops)
 
     def show_yarns(self, project: Project | None, frame=None) -> None:
         if project is None:

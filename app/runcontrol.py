@@ -2,9 +2,10 @@
 window does with a run's end: a result is handed to the document (one undo
 step), a failure is shown, an abandoned run leaves nothing behind.
 
-Previews (a dart point being dragged): :meth:`RunControl.preview_dart` solves
-the document's project with one dart replaced, outside the document, warm
-from the document's result, and shows its frames; each newer position
+Previews (a dart or region point being dragged): :meth:`RunControl.preview_dart`
+(:meth:`~RunControl.preview_settings` for a region) solves the document's
+project with one dart (the region) replaced, outside the document, warm from
+the document's result (a new drape for a region), and shows its frames; each newer position
 replaces the preview in flight (throttled, the newest wins). The release makes
 the edit as usual; when its settings are the preview's, the preview in flight
 (or its finished result) answers the edit instead of a new re-run, so the drag
@@ -153,16 +154,28 @@ class RunControl:
         in flight. False (nothing starts) with no result to start from, with
         "auto re-run" off, or while a run that is not a preview is in flight."""
         doc = self.window.document
+        if doc is None or warm_start(doc.project) is None or not 0 <= index < len(doc.project.settings.darts):
+            return False
+        darts = list(doc.project.settings.darts)
+        darts[index] = dart
+        return self.preview_settings(darts=tuple(darts))
+
+    def preview_settings(self, **changes) -> bool:
+        """Solve the document's project with these settings changed (not an edit;
+        a dragged region point: ``region`` and ``seed``), from the document's
+        result when the drape is unchanged, else from a new drape; as
+        :meth:`preview_dart` otherwise (the newest wins, the release's edit adopts it).
+        False with no result on screen to replace, "auto re-run" off, or a run that is not a
+        preview in flight."""
+        doc = self.window.document
         if doc is None or not self.window.settings_panel.auto_rerun.isChecked():
             return False
         project = doc.project
-        if warm_start(project) is None or not 0 <= index < len(project.settings.darts):
+        if project.result is None or project.result.surface is not project.surface:
             return False
         if self.runner.active and self._preview_started is None and self.runner.last_start[1] is None:
             return False  # a new drape the designer asked for goes on (a warm re-run gives way)
-        darts = list(project.settings.darts)
-        darts[index] = dart
-        self._preview_wanted = project.with_settings(darts=tuple(darts))
+        self._preview_wanted = project.with_settings(**changes)
         self._preview_outcome = None
         if self._preview_started is None or self._preview_frames or \
                 time.perf_counter() - self._preview_started_at >= PREVIEW_INTERVAL_MS / 1000:

@@ -17,7 +17,7 @@ from PySide6.QtWidgets import QAbstractSpinBox, QApplication, QLineEdit
 
 from core.errors import FlatweaveError
 
-from app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, Tool, YarnTool
+from app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, SeedTool, Tool, YarnTool
 from app.worker import one_line
 
 __all__ = ["ToolSpec", "TOOLS", "ToolControl", "ToolMouse", "WindowToolHost"]
@@ -49,6 +49,8 @@ TOOLS = (
              YarnTool, "pick_yarn"),
     ToolSpec("tool_region", "&Region", "B", "Draw the piece's boundary on the surface: click points, Enter or the "
              "first point closes; a loop inside it is a hole", RegionTool, ""),
+    ToolSpec("tool_seed", "&Seed and direction", "S", "Pick the seed inside the piece (click) and the weft "
+             "direction (drag from it); the rosette is drawn as two arrows", SeedTool, ""),
 )
 
 
@@ -72,6 +74,9 @@ class WindowToolHost:
 
     def preview_dart(self, index: int, dart) -> None:
         self._window.runs.preview_dart(index, dart)
+
+    def preview_settings(self, **changes) -> None:
+        self._window.runs.preview_settings(**changes)
 
     def end_preview(self) -> None:
         self._window.runs.end_preview()
@@ -227,6 +232,20 @@ class ToolControl:
             return False
         try:
             method(*args)
+        except FlatweaveError as exc:
+            self.window.show_error(str(exc))
+            self.window.dart_panel.set_project(doc.project, self.selected_dart)
+            return False
+        return True
+
+    def region_edit(self, label: str, change, solves: bool) -> bool:
+        """One edit of the candidate regions (app.regionpanel): ``change(project)`` made current;
+        a refused one shows its message and the list as it was."""
+        doc = self.window.document
+        if doc is None:
+            return False
+        try:
+            doc.apply(label, change(doc.project), answers_solve=solves)
         except FlatweaveError as exc:
             self.window.show_error(str(exc))
             self.window.dart_panel.set_project(doc.project, self.selected_dart)

@@ -39,7 +39,8 @@ from core.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn
 from core.errors import SettingsError
 
 __all__ = ["Tool", "ToolHost", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
-           "RegionTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS", "DEFAULT_YARN_K"]
+           "RegionTool", "SeedTool", "PointsTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS",
+           "DEFAULT_YARN_K"]
 
 STROKE_PIXELS = 8      # a drag adds a point every this many pixels
 SNAP_PIXELS = 10       # a click this close to the surface's visible rim goes onto the rim
@@ -97,6 +98,9 @@ class ToolHost(Protocol):
 
     def preview_dart(self, index: int, dart) -> None:
         """Re-solve with dart ``index`` replaced by ``dart``, outside the document (a drag in progress)."""
+
+    def preview_settings(self, **changes) -> None:
+        """Re-solve with these settings changed, outside the document (a region point being dragged)."""
 
     def end_preview(self) -> None:
         """The drag's preview is over without an edit: show the document again."""
@@ -181,20 +185,76 @@ class Tool:
         return None
 
 
+# ---------------------------------------------------------------------- drawing by points
+class PointsTool(Tool):
+    """What the curve dart and region tools share: points placed by clicks on
+    the surface (under the cursor; just off the visible rim, onto the rim),
+    one list of what each click placed (``placed``, the subclass's form) and
+    of its pixel, Esc dropping them, Backspace taking back the last."""
+
+    takes_back = True
+    what = "points"  # "Dart cancelled." / "Region cancelled."
+
+    def __init__(self, host):
+        super().__init__(host)
+        self.placed: list[np.ndarray] = []
+        self.pixels: list[tuple[float, float]] = []
+
+    def _same_as_last(self, x, y) -> bool:
+        return bool(self.pixels) and math.hypot(x - self.pixels[-1][0], y - self.pixels[-1][1]) < SAME_PIXELS
+
+    def _hit(self, x, y):
+        """((u, v), xyz, snapped) of the surface under (x, y), or of the rim just beside it; None: a miss."""
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is not None:
+            return hit[0], hit[1], False
+        hit = self._rim_point(x, y)
+        return None if hit is None else (hit[0], hit[1], True)
+
+    def _place(self, value, x, y) -> None:
+        self.placed.append(np.asarray(value, dtype=float))
+        self.pixels.append((float(x), float(y)))
+        self._update_preview()
+
+    def _update_preview(self) -> None:
+        raise NotImplementedError
+
+    def cancel(self, quiet: bool = False) -> None:
+        had = bool(self.placed)
+        self._clear()
+        if had and not quiet:
+            self.hint(f"{self.what.capitalize()} cancelled.")
+
+    def back(self) -> None:
+        if self.placed:
+            self.placed.pop()
+            self.pixels.pop()
+            self._update_preview()
+
+    def _clear(self) -> None:
+        self.placed.clear()
+        self.pixels.clear()
+        self.preview = None
+        self.view.set_preview()
+
+
 # ---------------------------------------------------------------------- curve darts
-class CurveDartTool(Tool):
+class CurveDartTool(PointsTool):
     """Draw a curve dart: clicks (or drags) add points on the surface, Enter or
     a double click finishes, Esc cancels, Backspace removes the last point."""
 
     name = "curve dart"
-    takes_back = True
+    what = "dart"
 
     def __init__(self, host):
         super().__init__(host)
-        self.handles: list[np.ndarray] = []   # (u, v) of the points placed
-        self.pixels: list[tuple[float, float]] = []
         self.dragging = False
         self.preview: CurveDart | None = None
+
+    @property
+    def handles(self) -> list[np.ndarray]:
+        """(u, v) of the points placed."""
+        return self.placed
 
     def activate(self) -> None:
         self.hint("Curve dart: click points on the surface (or drag a stroke); Enter or a double click "
@@ -229,23 +289,17 @@ class CurveDartTool(Tool):
         return True
 
     def _add(self, x, y, explain: bool) -> bool:
-        if self.pixels and math.hypot(x - self.pixels[-1][0], y - self.pixels[-1][1]) < SAME_PIXELS:
+        if self._same_as_last(x, y):
             return True  # the same point again: nothing new, but the click is ours
-        hit = pick_surface(self.surface, self.view, x, y)
-        snapped = False
-        if hit is None:
-            hit = self._rim_point(x, y)
-            snapped = hit is not None
+        hit = self._hit(x, y)
         if hit is None:
             if explain:
                 self.hint("That click missed the surface: no point added. Click on the surface "
                           "(Esc cancels the dart).")
             return False
-        self.handles.append(np.asarray(hit[0], dtype=float))
-        self.pixels.append((float(x), float(y)))
-        self._update_preview()
+        self._place(hit[0], x, y)
         n = len(self.handles)
-        where = "on the edge" if snapped else "on the surface"
+        where = "on the edge" if hit[2] else "on the surface"
         self.hint(f"Point {n} {where}. " + ("Click the next point." if n < 2 else
                                             "Click more points, or Enter to make the dart."))
         return True
@@ -281,24 +335,9 @@ class CurveDartTool(Tool):
         self.hint(f"Added {name}.")
         return True
 
-    def cancel(self, quiet: bool = False) -> None:
-        had = bool(self.handles)
-        self._clear()
-        if had and not quiet:
-            self.hint("Dart cancelled.")
-
-    def back(self) -> None:
-        if self.handles:
-            self.handles.pop()
-            self.pixels.pop()
-            self._update_preview()
-
     def _clear(self) -> None:
-        self.handles.clear()
-        self.pixels.clear()
+        super()._clear()
         self.dragging = False
-        self.preview = None
-        self.view.set_preview()
 
 
 class HandleEditor(Tool):
@@ -715,42 +754,77 @@ class YarnTool(Tool):
 
 
 # ---------------------------------------------------------------------- regions (issue 21)
-class RegionTool(Tool):
-    """Draw the piece's region (a ply boundary) on the surface: clicks add points
-    (each under the cursor; near the face's edge they snap onto it), the loop
-    between them follows the surface as a curve dart's curve does
-    (:func:`core.region.region_from_spec`, projected along the view); Enter or a
-    click on the first point closes it, Esc cancels, Backspace takes back a point.
-    A loop drawn inside a drawn region is a hole of it; elsewhere it is a new
-    region. The commit is one settings edit (the region and its farthest-from-the-
-    edge seed), so undo, redo, re-runs and saving work as for any other edit."""
+INSERT_PIXELS = 8  # a double click this close to a side of the drawn region inserts a point there
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(k,) distance of 2D point ``p`` from segments a[i]-b[i] ((k, 2) each)."""
+    d = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(a + t[:, None] * d - p, axis=1)
+
+
+class RegionTool(PointsTool):
+    """Draw and edit the piece's region (a ply boundary) on the surface.
+
+    Drawing: clicks add points (each under the cursor; near the face's edge
+    they snap onto it), the loop between them follows the surface as a curve
+    dart's curve does (:func:`core.region.region_from_spec`, projected along
+    the view); Enter or a click on the first point closes it, Esc cancels,
+    Backspace takes back a point. A loop drawn inside a drawn region is a hole
+    of it; elsewhere it is a new region.
+
+    Editing the drawn region (its points are handles): drag one (the piece
+    re-solves as it moves, a preview outside the document through
+    ``host.preview_settings``, the newest position winning; the release is
+    one edit the preview answers), double-click a side to insert a point
+    there, double-click a point (or pick it and press Delete or Backspace) to
+    delete it; deleting a point of a three-point hole deletes the hole.
+    Every commit is one settings edit (the region and its seed: the old seed
+    while it stays inside, else the farthest-from-the-edge point), so undo,
+    redo, re-runs and saving work as for any other edit."""
 
     name = "region"
-    takes_back = True
+    what = "region"
 
     def __init__(self, host):
         super().__init__(host)
-        self.points: list[np.ndarray] = []   # xyz of the points placed (on the surface)
-        self.pixels: list[tuple[float, float]] = []
         self.preview = None                  # core.region.Region of the loop so far
         self.grabbed: tuple[int, int] | None = None  # (loop, point) of the drawn region being dragged
+        self.picked: tuple[int, int] | None = None   # the last point grabbed (Delete removes it)
         self.dragged: dict | None = None     # the drawing with the dragged point moved
+        self.previewing = False              # a preview of an uncommitted position was asked for
+
+    @property
+    def points(self) -> list[np.ndarray]:
+        """xyz of the points placed (on the surface) of a loop being drawn."""
+        return self.placed
 
     def activate(self) -> None:
         self.hint("Region: click points round the piece on the surface; Enter or a click on the first point "
-                  "closes it, Esc cancels, Backspace takes back a point. A loop inside the region is a hole; "
-                  "drag a drawn point to move it.")
+                  "closes it, Esc cancels, Backspace takes back a point. A loop inside the region is a hole. "
+                  "Drag a drawn point to move it, double-click a side to insert one, double-click a point "
+                  "(or pick it and press Delete) to delete it.")
         self._show_handles()
 
     def deactivate(self) -> None:
         self.cancel(quiet=True)
         self.view.set_handles()
+        self._end_preview()
 
-    # -- the drawn region's points: drag one to move it
-    def _drawn_loops(self) -> list[np.ndarray]:
+    def on_result(self) -> None:
+        if not self.placed and self.grabbed is None:
+            self._show_handles()  # undo or redo may have changed the region
+
+    # -- the drawn region's points
+    def _drawing(self):
         region = self.document.project.settings.region
         drawn = region.drawn if region is not None else None
-        if drawn is None or drawn.form != "points":
+        return drawn if drawn is not None and drawn.form == "points" else None
+
+    def _drawn_loops(self) -> list[np.ndarray]:
+        drawn = self._drawing()
+        if drawn is None:
             return []
         return [np.array(drawn.outer)] + [np.array(h) for h in drawn.holes]
 
@@ -758,48 +832,130 @@ class RegionTool(Tool):
         loops = self._drawn_loops()
         self.view.set_handles(np.vstack(loops) if loops else None)
 
-    def _grab(self, x, y) -> bool:
+    def _handle_at(self, x, y) -> tuple[int, int] | None:
+        """(loop, point) of the drawn region's point within HANDLE_PIXELS of (x, y), or None."""
         loops = self._drawn_loops()
         if not loops:
-            return False
-        pts = np.vstack(loops)
-        disp = self.view.display_points(pts)
+            return None
+        disp = self.view.display_points(np.vstack(loops))
         dist = np.hypot(disp[:, 0] - x, disp[:, 1] - y)
         j = int(np.argmin(dist))
         if dist[j] > HANDLE_PIXELS:
-            return False
+            return None
         ends = np.cumsum([len(p) for p in loops])
         k = int(np.searchsorted(ends, j, side="right"))
-        self.grabbed, self.dragged = (k, j - (int(ends[k - 1]) if k else 0)), None
-        return True
+        return k, j - (int(ends[k - 1]) if k else 0)
 
-    def _drag_spec(self, xyz) -> dict:
-        drawn = self.document.project.settings.region.drawn
-        spec = drawn.to_dict()
-        k, i = self.grabbed
-        loop = spec["points"] if k == 0 else spec["holes"][k - 1]
-        loop[i] = [float(c) for c in xyz]
-        # the points are on the surface and seen in this view: project along it
+    def _side_at(self, x, y) -> tuple[int, int] | None:
+        """(loop, i) of the side from drawn point i to i + 1 within INSERT_PIXELS of (x, y) on
+        screen, or None. A side is drawn as the straight segment between its points' pixels:
+        exact in the view it was drawn in (the projection of a segment along the view), close
+        to the curve in a view turned a little from it."""
+        best = None
+        for k, loop in enumerate(self._drawn_loops()):
+            d = self.view.display_points(loop)
+            dist = _segment_distance(np.array([x, y], float), d, np.roll(d, -1, axis=0))
+            i = int(np.argmin(dist))
+            if dist[i] <= INSERT_PIXELS and (best is None or dist[i] < best[0]):
+                best = (float(dist[i]), k, i)
+        return None if best is None else (best[1], best[2])
+
+    def _spec_with(self, change) -> dict:
+        """The drawn region's spec with ``change(loops)`` applied to its list of loops (outer first),
+        seen along this view (the points are on the surface and seen in it)."""
+        spec = self._drawing().to_dict()
+        loops = [spec["points"]] + spec.get("holes", [])
+        change(loops)
+        spec["points"] = loops[0]
+        if len(loops) > 1:
+            spec["holes"] = loops[1:]
+        else:
+            spec.pop("holes", None)
         spec["view_direction"] = [float(v) for v in self.view.view_direction()]
         return spec
 
+    def _edit_of(self, spec) -> tuple:
+        """(region, seed) the spec makes, checked as every commit is (SettingsError otherwise):
+        the same for a drag's preview and its release, so the release adopts the preview."""
+        from core.region import check_region_size, cover_for, region_from_spec
+
+        s = self.document.project.settings
+        region = region_from_spec(self.surface, spec)
+        check_region_size(self.surface, region, s.spacing, s.spacing_warp)
+        cover = cover_for(self.surface, region)
+        seed = s.seed if cover.contains(cover.seed_uv(s.seed)[None])[0] else cover.default_seed
+        return region, seed
+
+    def _commit(self, spec, label: str) -> bool:
+        try:
+            region, seed = self._edit_of(spec)
+            edit = self.document.edit_settings(label, region=region, seed=seed)
+        except SettingsError as exc:
+            self.hint(f"Cannot {label.lower()}: {exc}")
+            self._show_handles()
+            return False
+        if edit is None and self.previewing:
+            self.host.end_preview()  # nothing changed: no edit, nothing to answer
+        self.previewing = False  # the edit takes the preview over (or re-runs)
+        self.hint(f"{label}: the region has {len(region.drawn.outer)} points and {region.n_holes} hole(s).")
+        self._show_handles()
+        return True
+
+    def _end_preview(self) -> None:
+        if self.previewing:
+            self.previewing = False
+            self.host.end_preview()
+
+    def _delete_point(self, at: tuple[int, int]) -> bool:
+        k, i = at
+        loops = self._drawn_loops()
+        if len(loops[k]) <= 3 and k == 0:
+            self.hint("The region's outer loop needs at least three points: none deleted "
+                      "(Esc, or draw a new region).")
+            return False
+        self.picked = None
+
+        def change(ls):
+            if len(ls[k]) <= 3:
+                del ls[k]  # a hole of three points: the hole goes
+            else:
+                del ls[k][i]
+        label = "Delete hole" if k and len(loops[k]) <= 3 else "Delete region point"
+        return self._commit(self._spec_with(change), label)
+
+    def _insert_point(self, side: tuple[int, int], x, y) -> bool:
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            self.hint("That double click missed the surface: no point inserted.")
+            return False
+        k, i = side
+        self.picked = (k, i + 1)
+        return self._commit(self._spec_with(lambda ls: ls[k].insert(i + 1, [float(c) for c in hit[1]])),
+                            "Insert region point")
+
+    # -- events
     def move(self, x, y):
         if self.grabbed is None:
             return False
-        from core.region import region_from_spec
         hit = pick_surface(self.surface, self.view, x, y)
         if hit is None:
             return True  # off the surface: the point stays where it was
-        self.dragged = self._drag_spec(hit[1])
+        k, i = self.grabbed
+
+        def change(ls):
+            ls[k][i] = [float(c) for c in hit[1]]
+        self.dragged = self._spec_with(change)
         pts = np.vstack([self.dragged["points"]] + self.dragged.get("holes", []))
         curve = None
         try:
-            region = region_from_spec(self.surface, self.dragged)
-            k = self.grabbed[0]
-            loop = np.asarray(region.loops[k])
-            curve = self.surface.points(np.vstack([loop, loop[:1]]))
+            region, seed = self._edit_of(self.dragged)
         except SettingsError as exc:
             self.hint(str(exc))
+        else:
+            loop = np.asarray(region.loops[min(k, region.n_holes)])
+            curve = self.surface.points(np.vstack([loop, loop[:1]]))
+            self.previewing = True
+            self.host.preview_settings(region=region, seed=seed)
         self.view.set_handles(pts, render=False)
         self.view.set_preview(curve, None)
         return True
@@ -807,62 +963,72 @@ class RegionTool(Tool):
     def release(self, x, y):
         if self.grabbed is None:
             return False
-        from core.region import check_region_size, cover_for, region_from_spec
         spec, self.grabbed, self.dragged = self.dragged, None, None
         self.view.set_preview()
         if spec is None:
-            return True
-        s = self.document.project.settings
-        try:
-            region = region_from_spec(self.surface, spec)
-            check_region_size(self.surface, region, s.spacing, s.spacing_warp)
-            cover = cover_for(self.surface, region)
-            seed = s.seed if cover.contains(cover.seed_uv(s.seed)[None])[0] else cover.default_seed
-            self.document.edit_settings("Move region point", region=region, seed=seed)
-        except SettingsError as exc:
-            self.hint(f"Cannot move the point: {exc}")
-        self._show_handles()
+            return True  # a click on a point: picked (Delete removes it)
+        if not self._commit(spec, "Move region point"):
+            self._end_preview()
         return True
 
     def press(self, x, y, double):
-        if not self.points and self._grab(x, y):
-            return True
+        if double and len(self.placed) == 1 and self._same_as_last(x, y):
+            side = self._side_at(x, y)
+            if side is not None:  # the first click of this double click began a loop: it was an insert
+                self._clear()
+                self._insert_point(side, x, y)
+                return True
+        if not self.placed:
+            at = self._handle_at(x, y)
+            if at is None and double and self._side_at(x, y) is not None:
+                self._insert_point(self._side_at(x, y), x, y)
+                return True
+            if at is not None:
+                if double:
+                    self._delete_point(at)
+                    return True
+                self.grabbed, self.picked, self.dragged = at, at, None
+                self.hint(f"Picked point {at[1] + 1} of the region's {'outer loop' if at[0] == 0 else 'hole'}: "
+                          "drag it, or Delete removes it.")
+                return True
         if len(self.pixels) >= 3 and math.hypot(x - self.pixels[0][0], y - self.pixels[0][1]) <= HANDLE_PIXELS:
             self.finish()
             return True
-        if self.pixels and math.hypot(x - self.pixels[-1][0], y - self.pixels[-1][1]) < SAME_PIXELS:
-            if double and len(self.points) >= 3:
+        if self._same_as_last(x, y):
+            if double and len(self.placed) >= 3:
                 self.finish()
             return True
-        hit = pick_surface(self.surface, self.view, x, y)
-        snapped = False
-        if hit is None:
-            hit = self._rim_point(x, y)
-            snapped = hit is not None
+        hit = self._hit(x, y)
         if hit is None:
             self.hint("That click missed the surface: no point added. Click on the surface (Esc cancels).")
             return False
-        self.points.append(np.asarray(hit[1], dtype=float))
-        self.pixels.append((float(x), float(y)))
-        self._update_preview()
-        n = len(self.points)
-        where = "on the edge" if snapped else "on the surface"
+        self.picked = None
+        self._place(hit[1], x, y)
+        n = len(self.placed)
+        where = "on the edge" if hit[2] else "on the surface"
         self.hint(f"Point {n} {where}. " + ("Click the next point." if n < 3 else
                                             "Click more points; Enter or the first point closes the loop."))
         if double and n >= 3:
             self.finish()
         return True
 
+    def back(self) -> None:
+        if self.placed:
+            super().back()
+        elif self.picked is not None and self.grabbed is None:
+            self._delete_point(self.picked)
+
+    # -- a new loop
     def _spec(self) -> dict:
         """The region the points make: a hole of the drawn region when they lie inside it."""
         from core.region import cover_for
 
         view = [float(v) for v in self.view.view_direction()]
-        loop = [p.tolist() for p in self.points]
+        loop = [p.tolist() for p in self.placed]
         region = self.document.project.settings.region
-        drawn = region.drawn if region is not None else None
-        if drawn is not None and drawn.form == "points":
-            uv = project_points(self.surface, np.array(self.points), np.array(drawn.view_direction)).uv
+        drawn = self._drawing()
+        if drawn is not None:
+            uv = project_points(self.surface, np.array(self.placed), np.array(drawn.view_direction)).uv
             if np.isfinite(uv).all() and cover_for(self.surface, region).contains(uv).all():
                 spec = drawn.to_dict()
                 spec["holes"] = spec.get("holes", []) + [loop]
@@ -872,10 +1038,10 @@ class RegionTool(Tool):
     def _update_preview(self) -> None:
         from core.region import region_from_spec
 
-        pts = np.array(self.points) if self.points else None
+        pts = np.array(self.placed) if self.placed else None
         self.preview = None
         curve = pts
-        if len(self.points) >= 3:
+        if len(self.placed) >= 3:
             try:
                 spec = self._spec()
                 self.preview = region_from_spec(self.surface, spec)
@@ -889,7 +1055,7 @@ class RegionTool(Tool):
     def finish(self) -> bool:
         from core.region import check_region_size, cover_for, region_from_spec
 
-        if len(self.points) < 3:
+        if len(self.placed) < 3:
             self.hint("A region needs at least three points on the surface.")
             return False
         doc = self.document
@@ -913,20 +1079,95 @@ class RegionTool(Tool):
         self._show_handles()
         return True
 
-    def cancel(self, quiet: bool = False) -> None:
-        had = bool(self.points)
-        self._clear()
-        if had and not quiet:
-            self.hint("Region cancelled.")
 
-    def back(self) -> None:
-        if self.points:
-            self.points.pop()
-            self.pixels.pop()
-            self._update_preview()
+# ---------------------------------------------------------------------- the seed and the rosette
+ROSETTE_FRACTION = 0.12  # the weft arrow's length, of the surface's size
 
-    def _clear(self) -> None:
-        self.points.clear()
-        self.pixels.clear()
-        self.preview = None
-        self.view.set_preview()
+
+class SeedTool(Tool):
+    """Pick the drape's seed and weft direction (the rosette) on the surface: a
+    click inside the piece puts the seed there, a drag from it turns the weft
+    towards the cursor (measured in the seed's tangent plane). The rosette is
+    drawn as two arrows, weft and warp. A click outside the piece's region is
+    refused with a one-line hint and changes nothing. The release is one
+    settings edit (seed, and angle when dragged)."""
+
+    name = "seed"
+
+    def __init__(self, host):
+        super().__init__(host)
+        self.seed: tuple[float, float] | None = None   # the seed being placed (fractions of the domain)
+        self.angle: float | None = None
+        self.start: tuple[float, float] | None = None  # the press's pixel
+
+    def activate(self) -> None:
+        self.hint("Seed: click inside the piece to put the seed there; drag from it to turn the weft "
+                  "(the red arrow; blue is the warp). Drag off the surface to turn the view.")
+        self._draw()
+
+    def deactivate(self) -> None:
+        self.seed = self.angle = self.start = None
+        self.view.set_rosette()
+
+    def on_result(self) -> None:
+        if self.seed is None:
+            self._draw()
+
+    def _length(self) -> float:
+        xyz = _rim(self.surface)[1]  # the surface's size: the diagonal of its rim's box
+        return ROSETTE_FRACTION * float(np.linalg.norm(np.ptp(xyz, axis=0)))
+
+    def _draw(self, seed=None, angle=None) -> None:
+        from core.rosette import rosette, rosette_arrows
+
+        s = self.document.project.settings
+        r = rosette(self.surface, s.seed if seed is None else seed, s.angle_deg if angle is None else angle)
+        self.view.set_rosette(rosette_arrows(r, self._length()))
+
+    def press(self, x, y, double):
+        from core.region import cover_for
+        from core.rosette import seed_fraction
+
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            return False
+        region = self.document.project.settings.region
+        if region is not None and not cover_for(self.surface, region).contains(np.asarray(hit[0])[None])[0]:
+            self.hint("That point lies outside the piece's region: the seed must be inside it (nothing changed).")
+            return True
+        self.seed, self.angle, self.start = seed_fraction(self.surface, hit[0]), None, (float(x), float(y))
+        self._draw(self.seed)
+        return True
+
+    def move(self, x, y):
+        from core.rosette import angle_towards
+
+        if self.seed is None:
+            return False
+        if math.hypot(x - self.start[0], y - self.start[1]) < STROKE_PIXELS:
+            return True  # a click, not yet a drag
+        hit = pick_surface(self.surface, self.view, x, y)
+        if hit is None:
+            return True
+        angle = angle_towards(self.surface, self.seed, hit[1])
+        if angle is not None:
+            self.angle = round(angle, 1)  # as the settings panel shows it
+            self._draw(self.seed, self.angle)
+            self.hint(f"Weft at {self.angle:g} deg from the u direction; release to keep it.")
+        return True
+
+    def release(self, x, y):
+        if self.seed is None:
+            return False
+        seed, angle, self.seed, self.angle, self.start = self.seed, self.angle, None, None, None
+        changes = {"seed": seed} if angle is None else {"seed": seed, "angle_deg": angle}
+        label = "Move seed" if angle is None else "Seed and weft direction"
+        try:
+            self.document.edit_settings(label, **changes)
+        except SettingsError as exc:
+            self.hint(f"Cannot move the seed: {exc}")
+        else:
+            self.hint(f"{label}: seed at ({seed[0]:.3f}, {seed[1]:.3f})"
+                      + ("." if angle is None else f", weft at {angle:g} deg."))
+        self._draw()
+        return True

@@ -36,6 +36,8 @@ PREVIEW_COLOR = "#ff7f00"
 YARN_COLOR = "#6a3d9a"
 PICK_COLOR = "#00a0d0"
 LOOP_COLOR = "#000000"
+ROSETTE_COLORS = ("#c0392b", "#1f5fbf")  # the rosette's weft and warp arrows
+KEPT_COLOR = "#808080"  # the loops of regions kept beside the active one
 FAINT_COLOR = "#c8c8c8"
 CHOSEN_COLOR = "#e08a1e"
 MESH_COLOR = "#b9c4cf"  # the fitted-to mesh drawn plain (beside the surface)
@@ -152,6 +154,8 @@ class SurfaceView(ViewBase):
         self._pick_node, self._pick_node_actor = overlay(PICK_COLOR, points=True, size=16.0)
         self._preview, self._preview_actor = overlay(PREVIEW_COLOR, 5.0)
         self._preview_points, self._preview_points_actor = overlay(PREVIEW_COLOR, points=True, size=13.0)
+        self._rosette = [overlay(c, 4.0) for c in ROSETTE_COLORS]  # the seed's weft and warp arrows
+        self._kept, self._kept_actor = overlay(KEPT_COLOR, 2.0)  # candidate regions kept beside the active one
         # a curve dart's handles: 2D squares (white, ringed in black) drawn over everything,
         # unlike the round red and blue dart nodes among which they sit
         self._handles = pv.PolyData()
@@ -258,14 +262,14 @@ class SurfaceView(ViewBase):
 
     # ------------------------------------------------------------------ content
     def set_surface(self, xyz: np.ndarray, normals: np.ndarray | None = None, keep: np.ndarray | None = None,
-                    loops=None) -> None:
+                    loops=None, fit: bool = True) -> None:
         """Show a new surface, clear the mesh and fit the camera.
 
         xyz : (nu, nv, 3) float, grid points; normals : (nu, nv, 3) float or None,
         unit normals at them (used for smooth shading). A trimmed piece: ``keep``
         ((nu-1, nv-1) bool) the grid's quads in its region, and ``loops`` its
         boundary loops on the surface ((k, 3) each, closed implicitly), drawn
-        as black lines instead of the grid's rim.
+        as black lines instead of the grid's rim. ``fit`` False: the camera stays.
         """
         xyz = np.asarray(xyz, dtype=float)
         nu, nv = xyz.shape[:2]
@@ -314,7 +318,10 @@ class SurfaceView(ViewBase):
             self._fit_points = self._fit_points[used]
             self._home = home_view(self._fit_points, None if normals is None else
                                    np.asarray(normals, dtype=float).reshape(-1, 3)[used])
-        self.reset_camera()
+        if fit:
+            self.reset_camera()
+        else:
+            self.render()
 
     @property
     def home(self) -> tuple[np.ndarray, np.ndarray]:
@@ -571,6 +578,8 @@ class SurfaceView(ViewBase):
         self.set_yarns([], render=False)
         self.set_preview(render=False)
         self.set_handles(render=False)
+        self.set_rosette(render=False)
+        self.set_kept_regions(render=False)
         self.set_picked_yarn(render=False)
         self.hide_plane_widget()
         self.hide_box_widget()
@@ -621,6 +630,31 @@ class SurfaceView(ViewBase):
         replace_geometry(self._handles, np.zeros((0, 3)) if points is None else points, verts=True)
         if render:
             self.render()
+
+    def set_rosette(self, arrows=None, render: bool = True) -> None:
+        """The seed's rosette: two arrows (weft, warp), polylines (k, 3) each; None hides them."""
+        for k, (poly, _actor) in enumerate(self._rosette):
+            line = [] if arrows is None else [arrows[k]]
+            pts, cells = polyline_cells(line, closed=False)
+            replace_geometry(poly, pts, lines=cells)
+        if render:
+            self.render()
+
+    def set_kept_regions(self, loops=None, render: bool = True) -> None:
+        """The loops of the candidate regions shown beside the active one ((k, 3) each, closed); None: none."""
+        pts, cells = polyline_cells([] if loops is None else list(loops), closed=True)
+        replace_geometry(self._kept, pts, lines=cells)
+        if render:
+            self.render()
+
+    @property
+    def kept_region_points(self) -> np.ndarray:
+        return np.array(self._kept.points).reshape(-1, 3)
+
+    @property
+    def rosette_arrows(self) -> list[np.ndarray]:
+        """The rosette's arrows drawn now, weft then warp ((k, 3) each; empty when hidden)."""
+        return [np.array(poly.points).reshape(-1, 3) for poly, _actor in self._rosette]
 
     @property
     def handle_points(self) -> np.ndarray:

@@ -71,7 +71,8 @@ def changed_aspects(old: Project | None, new: Project) -> frozenset:
         out.add("surface")
     if not settings_equal(old.settings, new.settings):
         out.add("settings")
-    if not labels_equal(old.settings, new.settings):
+    if not labels_equal(old.settings, new.settings) or (old.region_name, old.candidates) != (
+            new.region_name, new.candidates):  # kept candidate regions are labels too (core.candidates)
         out.add("labels")
     if (old.units, old.shear_warning_deg, old.shear_limit_deg) != (
             new.units, new.shear_warning_deg, new.shear_limit_deg):

@@ -24,7 +24,8 @@ The file (``.flatweave``) is JSON::
                 "point": [x, y, z] (optional: the picked point; index is then as resolved)}],
      "display": {"units": "m", "shear_warning_deg": 15.0, "shear_limit_deg": 30.0},
      "result": a result document (core.pipeline.result_to_dict, its
-               "warnings" included) with "history": [EN after each iteration, ...], or null}
+               "warnings" included) with "history": [EN after each iteration, ...], or null,
+     "candidates": optional, the regions kept beside the active one (core.candidates)}
 
 Versions. Version 2 added the result's ``history`` (the energy trace, so the
 energy plot comes back with the project). Version 3 added the result's
@@ -124,6 +125,9 @@ class Project:
     shear_limit_deg: float = 30.0
     result: FlattenResult | None = None
     view: tuple = ()  # the window's view choices, ((key, value), ...): view state, not an edit
+    # candidate boundaries (core.candidates): the active region's name and the regions kept beside it (labels)
+    region_name: str = ""
+    candidates: tuple = ()
 
     def __post_init__(self):
         if not isinstance(self.surface, NurbsSurface):
@@ -399,7 +403,15 @@ def project_to_dict(project: Project) -> dict:
         "result": None if p.result is None else _result_doc(p.result, p.source),
         # a surface fitted to a mesh: which mesh and how closely (core.meshsurf.MeshFit); optional key
         **({"surface_fit": p.surface.fit.to_dict()} if getattr(p.surface, "fit", None) is not None else {}),
+        **_candidates_entry(p),
     }
+
+
+def _candidates_entry(p: Project) -> dict:
+    """The optional ``candidates`` key (core.candidates): absent when no region is kept or named."""
+    from core.candidates import candidates_to_dict
+    entry = candidates_to_dict(p)
+    return {} if entry is None else {"candidates": entry}
 
 
 def _result_doc(result: FlattenResult, source: str | None) -> dict:
@@ -545,6 +557,10 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
             shear_warning_deg=f.number(display.get("shear_warning_deg", 15.0), "display.shear_warning_deg"),
             shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"),
             view=tuple(sorted(view.items())))
+        if d.get("candidates") is not None:  # optional (core.candidates)
+            from core.candidates import candidates_from_dict
+            region_name, kept = candidates_from_dict(d["candidates"])
+            project = replace(project, region_name=region_name, candidates=kept)
     except SettingsError as exc:
         raise ProjectError(f"{where}: {exc}") from None
     if d.get("result") is not None:

@@ -850,3 +850,25 @@ def region_record(surface: NurbsSurface, region: Region) -> dict:
     return {"loops_uv": [p.tolist() for p in region.arrays()],
             "loops_xyz": [surface.points(p).tolist() for p in region.arrays()],
             "drawn": region.drawn.to_dict() if region.drawn is not None else None}
+
+
+def with_offset(surface: NurbsSurface, region: Region, distance: float, spacing: float,
+                spacing_warp: float | None = None, seed=None) -> tuple[Region, tuple[float, float]]:
+    """(region, seed) of a drawn ``region`` re-made with its boundary offset by ``distance``
+    in all (model units along the surface, positive outwards; replacing the drawing's own
+    offset, not added to it), checked as a drawn region is (:func:`check_region_size` at the
+    spacing); ``seed`` kept when it lies inside the new region, else its default seed. One-line
+    SettingsError when the region was not drawn or the offset cannot be made."""
+    from dataclasses import replace
+
+    if region is None or region.drawn is None:
+        raise SettingsError("only a drawn region (the region tool, or --region) can be offset")
+    d = float(distance)
+    if not math.isfinite(d):
+        raise SettingsError(f"the region offset must be a finite distance, got {distance!r}")
+    new = region_from_drawing(surface, replace(region.drawn, offset=d))
+    check_region_size(surface, new, spacing, spacing_warp)
+    cover = cover_for(surface, new)
+    if seed is not None and cover.contains(cover.seed_uv(seed)[None])[0]:
+        return new, tuple(seed)
+    return new, cover.default_seed

@@ -280,3 +280,29 @@ def test_the_cli_refuses_bad_regions_in_one_line(tmp_path):
     seed = cover_for(open_path("half_cylinder").surface, Region.from_dict(d["settings"]["region"])).default_seed
     assert d["settings"]["seed"] == pytest.approx(list(seed))  # the pole of inaccessibility
     assert d["region"]["drawn"] == {"uv": [[0.1, 0.1], [0.6, 0.1], [0.6, 0.6], [0.1, 0.6]]}
+
+
+def test_with_offset_replaces_the_drawn_offset_and_keeps_an_inside_seed():
+    """core.region.with_offset (the settings panel's Region offset): the offset is the
+    drawing's, not added to it; 0 gives the region as drawn; the seed stays while inside."""
+    from core.examples import load_example
+    from core.region import with_offset
+
+    s = load_example("octant")
+    spec = {"uv": [[0.2, 0.2], [0.8, 0.2], [0.8, 0.8], [0.2, 0.8]]}
+    drawn = region_from_spec(s, spec)
+    grown, seed = with_offset(s, drawn, 0.05, 0.05, None, (0.5, 0.5))
+    assert grown.drawn.offset == 0.05 and seed == (0.5, 0.5)
+    again, _ = with_offset(s, grown, 0.05, 0.05)
+    assert again.loops == grown.loops  # replaced, not 0.1
+    np.testing.assert_allclose(cover_for(s, grown).area, cover_for(s, region_from_spec(s, spec, 0.05)).area,
+                               rtol=1e-12)
+    back, _ = with_offset(s, grown, 0.0, 0.05)
+    assert back.loops == drawn.loops and back.drawn.offset == 0.0
+    # a seed left outside by an inward offset moves to the region's own default seed
+    shrunk, seed = with_offset(s, drawn, -0.1, 0.05, None, (0.21, 0.21))
+    assert seed == cover_for(s, shrunk).default_seed
+    with pytest.raises(SettingsError, match="only a drawn region"):
+        with_offset(s, Region.from_loops([[0.1, 0.1], [0.9, 0.1], [0.5, 0.9]]), 0.05, 0.05)
+    with pytest.raises(SettingsError, match="under 6 cells"):
+        with_offset(s, drawn, -0.1, 0.5)
