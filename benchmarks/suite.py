@@ -18,8 +18,9 @@ the case's own):
    (points and first derivatives) at the same (u, v);
 4. the re-solve after a dart is added to a converged 2,500-node octant
    (warm start), against a cold solve with the dart;
-5. the GUI's live-update frame rate, from ``benchmarks/gui_fps.py`` when it
-   has been run (it needs a display);
+5. the GUI's live-update frame rate, from ``benchmarks/gui_fps.py``, and the
+   window's dart answer (Enter to result, first live frame, the frames' cost),
+   from ``benchmarks/dart_tool.py``, when they have been run (they need a display);
 6. the planar energy method the paper compares against (its Table 3), by
    ``benchmarks/planar_compare.py``.
 
@@ -63,6 +64,8 @@ TARGETS = {
     "dart_resolve_s": 0.3, "gui_fps": 20.0,
     # issue 20: file to pattern (drape, solve, pattern, metrics), woven octant; isotropic at most 1.5x woven
     "pattern_s": {2_500: 0.5, 10_000: 1.5, 40_000: 8.0}, "iso_over_woven": 1.5,
+    # issue 20, the window (benchmarks/dart_tool.py)
+    "window_result_s": 0.5, "window_first_s": 0.15, "window_frames_share": 0.10,
 }
 README_START, README_END = "<!-- benchmarks:start -->", "<!-- benchmarks:end -->"
 
@@ -187,7 +190,7 @@ def _machine() -> str:
 
 
 def report(results: list[dict], dart: dict, budget: float, gui: str | None,
-           planar: str | None = None) -> tuple[str, str]:
+           planar: str | None = None, dart_tool: str | None = None) -> tuple[str, str]:
     """(full markdown report, headline table for the README)."""
     rows = []
     for r in results:
@@ -285,17 +288,28 @@ def report(results: list[dict], dart: dict, budget: float, gui: str | None,
             during = f" ({solve_fps:.1f} while solving, after the drape)" if solve_fps is not None else ""
             row("GUI live updates at ~2,500 nodes (software OpenGL), Run to result, median of the runs",
                 f"{run_fps:.1f} frames/s{during}", ">= 20", run_fps >= TARGETS["gui_fps"])
+    window = _dart_tool(dart_tool)
+    if window is not None:
+        row("window: Enter on a curve dart to the re-solved pattern, ~2,500 nodes (dart_tool.py)",
+            f"{window['result']:.2f} s", "< 0.5 s", window["result"] < TARGETS["window_result_s"])
+        row("window: Enter to the first live frame", f"{window['first']:.2f} s", "< 0.15 s",
+            window["first"] < TARGETS["window_first_s"])
+        if window.get("frames_share") is not None:
+            row("window: live frames' cost (Enter to result with frames against without)",
+                f"{100 * window['frames_share']:.0f} % of the run", "<= 10 %",
+                window["frames_share"] <= TARGETS["window_frames_share"])
     stamp = f"{_dt.date.today()}, {_machine()}"
-    headline = (f"Measured {stamp} by `python benchmarks/suite.py --readme`:\n\n"
+    sources = "`python benchmarks/suite.py --readme`" + (
+        f" (the window's rows from `benchmarks/results/dart_tool.md`, {window['stamp']})" if window else "")
+    headline = (f"Measured {stamp} by {sources}:\n\n"
                 + table(["measure", "flatweave", "target", "met"], hl))
     if planar:
         verdicts = [line for line in planar.splitlines() if line.startswith("- garment") and "against" in line]
         headline += ("\n\nAgainst the planar energy method (the paper's Table 3; full table in "
                      "`benchmarks/results/planar_compare.md`):\n\n" + "\n".join(verdicts))
         parts.append(planar.replace("# flatweave against", "## flatweave against", 1))
-    headline = table(["measure", "flatweave", "target", "met"], hl)
-    text = (f"# flatweave benchmarks\n\n{stamp}\n\n## Headline\n\n" + headline
-            + "\n\n" + "\n\n".join(parts) + "\n")
+    text = (f"# flatweave benchmarks\n\n{stamp}\n\n## Headline\n\n"
+            + table(["measure", "flatweave", "target", "met"], hl) + "\n\n" + "\n\n".join(parts) + "\n")
     return text, headline
 
 
@@ -320,6 +334,35 @@ def _gui_fps(text: str) -> tuple[float, float | None] | None:
     if not runs:
         return None
     return float(np.median(runs)), (float(np.median(solves)) if solves else None)
+
+
+def _dart_tool(text: str | None) -> dict | None:
+    """The window's numbers from benchmarks/results/dart_tool.md's medians table:
+    Enter to result and to the first live frame of the default window ("after
+    (nice 5)"), and the frames' cost, 1 - (without live frames) / (with them);
+    the first line's date and machine as ``stamp``. None without the file."""
+    if not text:
+        return None
+    head, medians, out = None, {}, {}
+    for line in text.splitlines():
+        if line.startswith("`benchmarks/dart_tool.py"):
+            out["stamp"] = line.split("`, ", 1)[1].split(". ", 1)[0] if "`, " in line else ""
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells and cells[0] == "variant":
+            head = cells
+        elif head and len(cells) == len(head) and cells[0] and not cells[0].startswith("-"):
+            medians[cells[0]] = dict(zip(head, cells))  # the medians table comes last: it wins
+    if "after (nice 5)" not in medians:
+        return None
+    with_frames = medians["after (nice 5)"]
+    try:
+        out["result"] = float(with_frames["Enter to result (s)"])
+        out["first"] = float(with_frames["Enter to first live frame (s)"])
+        without = float(medians["after (no live frames)"]["Enter to result (s)"])
+        out["frames_share"] = max(0.0, 1.0 - without / out["result"])
+    except (KeyError, ValueError):
+        out.setdefault("frames_share", None)
+    return out if "result" in out and "first" in out else None
 
 
 def _size_class(n: int) -> int:
@@ -379,7 +422,9 @@ def _write(args, results, dart, budget) -> None:
                         + (["--quick"] if args.quick else []), capture_output=True, text=True) \
         if not args.from_json else subprocess.CompletedProcess([], 0)
     planar = planar_file.read_text() if p2.returncode == 0 else None
-    text, headline = report(results, dart, budget, gui, planar)
+    tool_file = ROOT / "benchmarks" / "results" / "dart_tool.md"
+    text, headline = report(results, dart, budget, gui, planar,
+                            tool_file.read_text() if tool_file.exists() else None)
     print(text)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
