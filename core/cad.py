@@ -124,16 +124,17 @@ measured on the test faces: at most 2.4e-7 relative (a free-curve outer
 loop), 1.9e-7 for a disc. A circle across the face takes about 6,600 points,
 one of a fifth of it 2,500-5,000."""
 
-JOIN_ANGULAR_DEFLECTION = 0.02
+JOIN_ANGULAR_DEFLECTION = 0.08
 """Largest angle (radians) between the normals along a triangle of the
-tessellation of joined faces: an inscribed circle loses about a^2/24 of its
-area (2e-5 here)."""
+tessellation of joined faces. The nodes lie on the faces; the points
+:func:`core.meshsurf.densify` adds are lifted off the chords by the nodes'
+normals (a circle's sagitta to O(a^4))."""
 
 JOIN_LINEAR_DEFLECTION = 2e-4
 """Largest distance of the tessellation of joined faces from them, relative
 to the chosen faces' bounding-box diagonal."""
 
-JOIN_EDGE_LENGTH = 1.0 / 60.0
+JOIN_EDGE_LENGTH = 1.0 / 50.0
 """Longest triangle edge of joined faces' mesh, relative to their diagonal:
 Open CASCADE makes two triangles of a rectangle; the fit needs vertices
 inside it too."""
@@ -484,9 +485,10 @@ def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
         listed = "; ".join(", ".join(str(parts[k]["index"]) for k in g) for g in groups)
         raise SettingsError(f"faces {', '.join(map(str, indices))} of {name} do not make one piece: they fall "
                             f"into {len(groups)} parts that share no edge ({listed}); choose adjacent faces")
-    V, F = weld_parts([(p["nodes"], p["triangles"]) for p in parts],
-                      [[(e, nodes) for e, nodes in p["edges"]] for p in parts])
-    V, F = densify(V, F, JOIN_EDGE_LENGTH * size)
+    normals = None if any(p["normals"] is None for p in parts) else [p["normals"] for p in parts]
+    V, F, N = weld_parts([(p["nodes"], p["triangles"]) for p in parts],
+                         [[(e, nodes) for e, nodes in p["edges"]] for p in parts], normals)
+    V, F, _ = densify(V, F, JOIN_EDGE_LENGTH * size, normals=N)
     label = f"faces {', '.join(map(str, indices))} of {name}"
     V, F, repairs = clean_mesh(V, F, label)
     return mesh_surface(V, F, source=os.fspath(path), name=label, repairs=repairs, faces=indices)
@@ -1038,6 +1040,17 @@ def _occ_tessellate(path: str, fmt: str, indices: list, linear: float, angular: 
                 q = q.Transformed(trsf)
             nodes[k] = (q.X(), q.Y(), q.Z())
         tris = np.array([tri.Triangle(k + 1).Get() for k in range(tri.NbTriangles())], dtype=np.int64) - 1
+        normals = None
+        try:  # the surface's normals at the nodes: densify lifts new points off the chords with them
+            occ.static("BRepLib", "BRepLib_ToolTriangulatedShape", "ComputeNormals")(face, tri)
+            normals = np.empty((tri.NbNodes(), 3))
+            for k in range(tri.NbNodes()):
+                d = tri.Normal(k + 1)
+                if trsf is not None:
+                    d = d.Transformed(trsf)
+                normals[k] = (d.X(), d.Y(), d.Z())
+        except Exception:  # an OCCT without it: the new points stay on the chords
+            normals = None
         if face.Orientation() == reversed_:
             tris = tris[:, ::-1].copy()
         edges = []
@@ -1050,5 +1063,5 @@ def _occ_tessellate(path: str, fmt: str, indices: list, linear: float, angular: 
                               np.array([poly.Node(k + 1) for k in range(poly.NbNodes())], dtype=np.int64) - 1))
             ex.Next()
         out.append({"index": i, "kind": _surface_kind(occ, face), "area": _face_area(occ, face),
-                    "nodes": nodes, "triangles": tris, "edges": edges})
+                    "nodes": nodes, "triangles": tris, "normals": normals, "edges": edges})
     return {"units": units, "mm_per_unit": factor, "faces": out}

@@ -622,16 +622,27 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
 
 
 # --------------------------------------------------------------------------- meshes of several CAD faces
-def weld_parts(parts, shared) -> tuple[np.ndarray, np.ndarray]:
+def weld_parts(parts, shared, normals=None):
     """One mesh of several: ``parts`` a list of (vertices (n_k, 3), triangles
     (m_k, 3)); ``shared[k]`` part k's edges as (edge id, vertex indices along
-    it) pairs. Vertices at the same position of an edge with the same id are
+    it) pairs; ``normals`` None or per part (n_k, 3) unit normals at its
+    vertices. Vertices at the same position of an edge with the same id are
     one vertex (at their mean): the faces' tessellations meet there, whatever
-    their edges' tolerances. The caller still merges coincident vertices
-    (:func:`clean_mesh`)."""
+    their edges' tolerances. Returns (V, F, N): N the welded unit normals,
+    turned where needed to the side the triangles' winding says, or None.
+    The caller still merges coincident vertices (:func:`clean_mesh`)."""
     offsets = np.cumsum([0] + [len(v) for v, _ in parts])
     V = np.vstack([np.asarray(v, float).reshape(-1, 3) for v, _ in parts])
     F = np.vstack([np.asarray(f, np.int64).reshape(-1, 3) + offsets[k] for k, (_, f) in enumerate(parts)])
+    N = None
+    if normals is not None:
+        N = []
+        for (v, f), nk in zip(parts, normals):
+            v, f, nk = np.asarray(v, float), np.asarray(f, np.int64), np.asarray(nk, float)
+            tri_n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+            agree = np.sum(tri_n * nk[f].sum(axis=1))
+            N.append(nk if agree >= 0 else -nk)  # the file's normal convention or the winding's: the winding's
+        N = np.vstack(N)
     by_edge = {}
     for k, edges in enumerate(shared):
         for e, nodes in edges:
@@ -650,8 +661,12 @@ def weld_parts(parts, shared) -> tuple[np.ndarray, np.ndarray]:
         _, label = connected_components(G, directed=False)
         count = np.bincount(label)
         V = np.stack([np.bincount(label, V[:, d]) / count for d in range(3)], axis=1)
+        if N is not None:
+            N = np.stack([np.bincount(label, N[:, d]) for d in range(3)], axis=1)
         F = label[F]
-    return V, F
+    if N is not None:
+        N = N / np.maximum(np.linalg.norm(N, axis=1), 1e-300)[:, None]
+    return V, F, N
 
 
 def _zip(left, right, apex, P, out) -> None:
@@ -672,18 +687,25 @@ def _zip(left, right, apex, P, out) -> None:
     out.append((left[i], right[j], apex))
 
 
-def densify(V: np.ndarray, F: np.ndarray, h: float, max_triangles: int = MAX_TRIANGLES // 4, passes: int = 8):
+def densify(V: np.ndarray, F: np.ndarray, h: float, max_triangles: int = MAX_TRIANGLES // 4, passes: int = 8,
+            normals=None):
     """The mesh with its edges longer than ``h`` split into equal pieces no
     longer than ``h`` and the triangles along them made anew, so that the fit
     has vertices inside long flat triangles (Open CASCADE makes two triangles
     of a rectangle and needles along a cylinder). A triangle with split edges
     is filled by a strip from its edge with the fewest pieces to the opposite
     corner, choosing the shorter diagonal at each step; a few passes make its
-    long cross edges short too. The new vertices lie on the triangles: as
-    close to the shape as the tessellation is. (A loop per long triangle: a
-    tessellation has few; the short ones are kept as they are.)"""
+    long cross edges short too. Without ``normals`` the new vertices lie on
+    the triangles; with the (n, 3) unit normals of the surface at the
+    vertices, a point at t along an edge p0 p1 is lifted by 4 t (1 - t) s
+    along the mean normal, s = -(p1 - p0).(n0 - n1) / 8 (the sagitta of a
+    circle through p0, p1 with those normals, to O(angle^4)), and gets the
+    interpolated normal. (A loop per long triangle: a tessellation has few;
+    the short ones are kept as they are.) Returns (V, F, N), N None without
+    normals."""
     V = np.asarray(V, float)
     F = np.asarray(F, np.int64)
+    N = None if normals is None else np.asarray(normals, float)
     for _ in range(passes):
         uniq, inv, _ = _edge_table(F)
         length = np.linalg.norm(V[uniq[:, 0]] - V[uniq[:, 1]], axis=1)
@@ -693,7 +715,17 @@ def densify(V: np.ndarray, F: np.ndarray, h: float, max_triangles: int = MAX_TRI
         base = len(V) + np.r_[0, np.cumsum(k - 1)[:-1]]  # edge e's inner points: base[e] .. base[e] + k[e] - 2
         t = np.concatenate([np.arange(1, n) / n for n in k[k > 1]])
         e_of = np.repeat(np.nonzero(k > 1)[0], k[k > 1] - 1)
-        V = np.vstack([V, (1 - t)[:, None] * V[uniq[e_of, 0]] + t[:, None] * V[uniq[e_of, 1]]])
+        p0, p1 = V[uniq[e_of, 0]], V[uniq[e_of, 1]]
+        new = (1 - t)[:, None] * p0 + t[:, None] * p1
+        if N is not None:
+            n0, n1 = N[uniq[e_of, 0]], N[uniq[e_of, 1]]
+            mean = n0 + n1
+            mean /= np.maximum(np.linalg.norm(mean, axis=1), 1e-300)[:, None]
+            sag = -np.sum((p1 - p0) * (n0 - n1), axis=1) / 8
+            new += (4 * t * (1 - t) * sag)[:, None] * mean
+            n_new = (1 - t)[:, None] * n0 + t[:, None] * n1
+            N = np.vstack([N, n_new / np.maximum(np.linalg.norm(n_new, axis=1), 1e-300)[:, None]])
+        V = np.vstack([V, new])
         tri_edges = inv.reshape(-1, 3)
         busy = (k[tri_edges] > 1).any(axis=1)
         out = []
@@ -714,7 +746,7 @@ def densify(V: np.ndarray, F: np.ndarray, h: float, max_triangles: int = MAX_TRI
             else:
                 _zip(left, right, c, V, out)
         F = np.vstack([F[~busy], np.asarray(out, np.int64).reshape(-1, 3)])
-    return V, F
+    return V, F, N
 
 
 def _loop_area(p: np.ndarray) -> float:
