@@ -76,9 +76,6 @@ def resolve_piece(args):
     if args.region:
         from core.region import region_from_spec
 
-        if faces is not None:
-            raise SettingsError("the region of joined faces is their outline; --region is for untrimmed surfaces "
-                                "(drop --faces or --region)")
         if opened.region is not None and getattr(opened.surface, "fit", None) is not None:
             raise SettingsError(f"{Path(args.surface).name} is a mesh: its region is the mesh's boundary; "
                                 f"--region is for untrimmed surfaces")
@@ -109,6 +106,9 @@ def _face_list(args):
 
     if getattr(args, "face", None) is not None:
         raise SettingsError("give --face N for one face or --faces A,B,... to join several, not both")
+    if getattr(args, "region", None):
+        raise SettingsError("the region of joined faces is their outline; --region is for untrimmed surfaces "
+                            "(drop --faces or --region)")
     if not is_cad_path(args.surface):
         raise SettingsError(f"{Path(args.surface).name}: --faces is for STEP and IGES files")
     return parse_face_list(text)

@@ -261,27 +261,18 @@ def test_cli_refuses_faces_with_face_region_or_a_non_cad_file(fillet_file, tmp_p
 
 
 # ---------------------------------------------------------------------- projects
-def test_project_of_joined_faces_reopens_without_the_file(fillet_file, tmp_path):
-    import shutil
-
-    from core.cad import join_faces
+def test_project_of_joined_faces_reopens_without_the_file(fillet_piece, tmp_path):
     from core.meshsurf import FittedSurface
-    from core.project import load_project, project_to_dict, save_project
-    from core.readers import open_path
-    copy = tmp_path / "part.step"
-    shutil.copy(fillet_file, copy)
-    opened = open_path(copy)
-    piece = join_faces(opened.cad, (0, 1, 2))
-    import dataclasses
-    joined = dataclasses.replace(opened, surface=piece.surface, region=piece.region)
-    project = joined.as_project()
+    from core.project import load_project, new_project, project_to_dict, save_project
+    cad, piece = fillet_piece
+    project = new_project(piece.surface, "part faces 0,1,2", f"{cad.path}#faces=0,1,2", units="mm",
+                          region=piece.region)
     saved = save_project(project, tmp_path / "part.flatweave")
-    copy.unlink()  # the CAD file is gone: the project holds the fitted surface and the faces it joins
-    again = load_project(saved)
+    again = load_project(saved)  # the CAD file is not read: the project holds the fitted surface and its faces
     assert isinstance(again.surface, FittedSurface)
     assert again.surface.fit == piece.fit and again.surface.fit.faces == (0, 1, 2)
     assert np.array_equal(again.surface.ctrlpts, piece.surface.ctrlpts)
-    assert again.settings.region == piece.region
+    assert again.settings.region == piece.region and again.source == project.source
     assert project_to_dict(again)["surface_fit"]["faces"] == [0, 1, 2]
 
 
