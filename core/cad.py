@@ -455,10 +455,11 @@ def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
     (map, fit, region). Returns its :class:`core.meshsurf.MeshPiece`; the
     fit records the faces (``fit.faces``).
 
-    One-line SettingsError when an index is out of range or repeated, or the
-    faces do not make one connected piece; SurfaceError from the mesh checks
-    (three faces along one edge, a closed piece)."""
-    from core.meshsurf import densify, mesh_surface, weld_parts, clean_mesh
+    One-line SettingsError when an index is out of range or repeated, the
+    faces do not make one connected piece, or they close up (a closed
+    surface, a handle); SurfaceError from the mesh checks (three faces along
+    one edge)."""
+    from core.meshsurf import NeedsRegion, clean_mesh, densify, mesh_surface, weld_parts
 
     name = Path(cad_file.path).name
     indices = tuple(indices)
@@ -491,7 +492,11 @@ def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
     V, F, _ = densify(V, F, JOIN_EDGE_LENGTH * size, normals=N)
     label = f"faces {', '.join(map(str, indices))} of {name}"
     V, F, repairs = clean_mesh(V, F, label)
-    return mesh_surface(V, F, source=os.fspath(path), name=label, repairs=repairs, faces=indices)
+    try:
+        return mesh_surface(V, F, source=os.fspath(path), name=label, repairs=repairs, faces=indices)
+    except NeedsRegion:  # its own advice (a drawn region) is not for joined faces
+        raise SettingsError(f"{label} make a closed surface, or one with handles: it cannot be flattened "
+                            f"whole; leave some faces out") from None
 
 
 # ---------------------------------------------------------------------- faces from the child's data

@@ -239,6 +239,22 @@ def test_faces_that_do_not_make_one_piece_are_refused(box_cad):
         join_faces(box_cad, (top, top))
 
 
+def test_a_closed_choice_is_refused(box_cad):
+    from core.cad import join_faces
+    with pytest.raises(SettingsError, match="closed surface"):
+        join_faces(box_cad, tuple(range(len(box_cad.faces))))
+
+
+def test_an_iges_file_joins_too(tmp_path):
+    from core.cad import join_faces, read_cad_faces
+    from core.region import cover_for
+    from tests import cadfiles as cf
+    cad = read_cad_faces(cf.write_iges(fillet_shell(), tmp_path / "fillet.igs"))
+    piece = join_faces(cad, (0, 1, 2))
+    assert cover_for(piece.surface, piece.region).area == pytest.approx(W * (L1 + L2 + math.pi * R / 2), rel=1e-3)
+    assert piece.fit.max_deviation < 1e-3 * piece.fit.size
+
+
 @pytest.mark.parametrize("faces, words", [("0,2", "do not make one piece"), ("0,7", "out of range"),
                                           ("1,1", "given twice"), ("0,x", "separated by commas"),
                                           ("-1,0", "negative")])
