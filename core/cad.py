@@ -61,6 +61,17 @@ trim deviation)), the polygon regions' areas agree with ``BRepGProp`` to
 2.4e-7 relative, and a small file takes about 1.6-2 s to read, most of it
 the child's start and OCP's import.
 
+Several faces joined
+--------------------
+:func:`join_faces` (``--faces 2,5,7``, the face picker's shift-click) makes
+one surface of adjacent faces by the mesh route: a child tessellates them
+(``BRepMesh_IncrementalMesh``) and sends each face's nodes, triangles,
+normals and the node chains of its edges; the chains of shared edges are
+welded (:func:`core.meshsurf.weld_parts`), long triangles filled
+(:func:`core.meshsurf.densify`), and the mesh is repaired, mapped and fitted
+as a mesh file is (:func:`core.meshsurf.mesh_surface`). Faces that share no
+edge with the others, or that close up, are refused in one line.
+
 Errors
 ------
 Every problem is a one-line :class:`~core.errors.FlatweaveError`:
@@ -459,7 +470,7 @@ def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
     faces do not make one connected piece, or they close up (a closed
     surface, a handle); SurfaceError from the mesh checks (three faces along
     one edge)."""
-    from core.meshsurf import NeedsRegion, clean_mesh, densify, mesh_surface, weld_parts
+    from core.meshsurf import NeedsRegion, SeveralParts, clean_mesh, densify, mesh_surface, weld_parts
 
     name = Path(cad_file.path).name
     indices = tuple(indices)
@@ -491,7 +502,11 @@ def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
                          [[(e, nodes) for e, nodes in p["edges"]] for p in parts], normals)
     V, F, _ = densify(V, F, JOIN_EDGE_LENGTH * size, normals=N)
     label = f"faces {', '.join(map(str, indices))} of {name}"
-    V, F, repairs = clean_mesh(V, F, label)
+    try:
+        V, F, repairs = clean_mesh(V, F, label)
+    except SeveralParts:  # the faces share edges, but their triangles do not meet along one
+        raise SettingsError(f"{label} could not be welded into one piece: their tessellations do not meet "
+                            f"along the edges they share") from None
     try:
         return mesh_surface(V, F, source=os.fspath(path), name=label, repairs=repairs, faces=indices)
     except NeedsRegion:  # its own advice (a drawn region) is not for joined faces

@@ -245,6 +245,15 @@ def test_a_closed_choice_is_refused(box_cad):
         join_faces(box_cad, tuple(range(len(box_cad.faces))))
 
 
+def test_a_crash_while_tessellating_is_one_line(fillet_piece, monkeypatch):
+    from core.cad import CadFileError, join_faces
+    cad, _ = fillet_piece
+    monkeypatch.setenv("FLATWEAVE_CAD_FAULT", "abort")  # the child dies by SIGABRT, as OCCT can
+    with pytest.raises(CadFileError, match="crashed") as info:
+        join_faces(cad, (0, 1))
+    assert "\n" not in str(info.value)
+
+
 def test_an_iges_file_joins_too(tmp_path):
     from core.cad import join_faces, read_cad_faces
     from core.region import cover_for
