@@ -722,6 +722,9 @@ def densify(V: np.ndarray, F: np.ndarray, h: float, max_triangles: int = MAX_TRI
             mean = n0 + n1
             mean /= np.maximum(np.linalg.norm(mean, axis=1), 1e-300)[:, None]
             sag = -np.sum((p1 - p0) * (n0 - n1), axis=1) / 8
+            # an edge of the tessellation turns by its angle (0.08 rad) at most: normals further apart are a
+            # crease, or faces wound against each other; no lift there
+            sag[np.sum(n0 * n1, axis=1) < 0.866] = 0.0
             new += (4 * t * (1 - t) * sag)[:, None] * mean
             n_new = (1 - t)[:, None] * n0 + t[:, None] * n1
             N = np.vstack([N, n_new / np.maximum(np.linalg.norm(n_new, axis=1), 1e-300)[:, None]])

@@ -321,3 +321,23 @@ def test_densify_keeps_the_shape_and_bounds_the_edges():
     ring = V3[loops[0]]
     perimeter = np.linalg.norm(ring - np.roll(ring, -1, axis=0), axis=1).sum()
     assert perimeter == pytest.approx(40 + 1 + 1 + 2 * math.hypot(20, 29))
+
+
+def test_densify_lifts_new_points_onto_a_cylinder_by_the_normals():
+    """A strip of a cylinder of radius 8 in triangles 0.1 rad wide and 25 long: split
+    on the chords the new points sink by the sagitta (8 (1 - cos 0.05) = 0.01); lifted
+    by the exact normals they stay on the cylinder to the fourth order (< 1e-5)."""
+    from core.meshsurf import densify
+    a = np.linspace(0, 0.5, 6)
+    ring = np.stack([8 * np.cos(a), 8 * np.sin(a)], axis=1)
+    V = np.vstack([np.c_[ring, np.zeros(6)], np.c_[ring, np.full(6, 25.0)]])
+    N = np.vstack([np.c_[np.cos(a), np.sin(a), np.zeros(6)]] * 2)
+    F = np.array([t for k in range(5) for t in ((k, k + 1, k + 7), (k, k + 7, k + 6))])
+    for normals, worst in ((None, 8 * (1 - math.cos(0.05))), (N, 1e-5)):
+        V2, F2, N2 = densify(V, F, 0.3, normals=normals)
+        r = np.hypot(V2[:, 0], V2[:, 1])
+        assert len(V2) > 10 * len(V) and abs(r - 8).max() <= worst * (1 + 1e-9)
+    np.testing.assert_allclose(np.linalg.norm(N2, axis=1), 1.0)
+    np.testing.assert_allclose(N2[:, :2] / np.linalg.norm(N2[:, :2], axis=1)[:, None],
+                               V2[:, :2] / np.linalg.norm(V2[:, :2], axis=1)[:, None], atol=1e-4)
+    # (the new normals are interpolated, not the surface's: they agree to the order of the angle cubed)
