@@ -4,15 +4,19 @@ A non-modal dialog lists the file's faces (index, kind, area, trimmed) and
 shows them all in a 3D view of its own (:class:`app.view3d.FaceView`), each
 face's surface sampled on a (u, v) grid and cut to its trimmed region
 (:func:`face_mesh`). A click on a face in the view or a row of the list
-chooses it (the others are drawn faint); OK emits ``chosen(index)``.
+chooses it (the others are drawn faint); a shift-click (in the view or the
+list) adds a face to the choice, or takes it out again. OK emits
+``chosen(index)`` for one face, ``joined(indices)`` for several: the window
+joins them into one surface (:func:`core.cad.join_faces`), so that a piece
+can cross a fillet.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from PySide6.QtCore import Qt, Signal
-from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QHBoxLayout, QLabel, QListWidget,
-                               QListWidgetItem, QVBoxLayout)
+from PySide6.QtWidgets import (QAbstractItemView, QDialog, QDialogButtonBox, QHBoxLayout, QLabel,
+                               QListWidget, QListWidgetItem, QVBoxLayout)
 
 from core.region import region_from_cad_face
 
@@ -45,11 +49,13 @@ def face_label(face, units: str = "") -> str:
 
 
 class FacePicker(QDialog):
-    """Choose one face of ``opened`` (a :class:`core.readers.Opened` with
-    ``cad``). ``chosen(index)`` is emitted on OK with a face chosen; the dialog
-    deletes itself when it closes."""
+    """Choose a face of ``opened`` (a :class:`core.readers.Opened` with
+    ``cad``), or several to join. On OK ``chosen(index)`` is emitted with one
+    face chosen, ``joined(indices)`` (a tuple, in the order they were chosen)
+    with several; the dialog deletes itself when it closes."""
 
     chosen = Signal(int)
+    joined = Signal(tuple)
 
     def __init__(self, opened, parent=None):
         super().__init__(parent)
@@ -66,14 +72,17 @@ class FacePicker(QDialog):
             item = QListWidgetItem(face_label(face, cad.units))
             item.setData(Qt.ItemDataRole.UserRole, face.index)
             self.list.addItem(item)
-        self.list.currentRowChanged.connect(self._row_changed)
+        self.list.setSelectionMode(QAbstractItemView.SelectionMode.ExtendedSelection)
+        self.list.itemSelectionChanged.connect(self._rows_changed)
+        self._faces: list[int] = []
         self.buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
         self.buttons.accepted.connect(self.accept)
         self.buttons.rejected.connect(self.reject)
         self.ok_button = self.buttons.button(QDialogButtonBox.StandardButton.Ok)
         self.ok_button.setEnabled(False)
         side = QVBoxLayout()
-        side.addWidget(QLabel(f"{len(cad.faces)} faces: click one in the view or choose it here."))
+        side.addWidget(QLabel(f"{len(cad.faces)} faces: click one in the view or choose it here;\n"
+                              f"shift-click adds faces that join it into one piece."))
         side.addWidget(self.list)
         top = QHBoxLayout()
         top.addWidget(self.view.widget, 3)
@@ -81,33 +90,58 @@ class FacePicker(QDialog):
         layout = QVBoxLayout(self)
         layout.addLayout(top)
         layout.addWidget(self.buttons)
-        self.view.on_pick = self.select
+        self.view.on_pick = self._picked
         self.view.set_faces([face_mesh(f) for f in cad.faces])
 
     @property
     def face(self) -> int | None:
-        """The face chosen now (None before any)."""
-        return self.view.chosen
+        """The face chosen now (None before any; the first when there are several)."""
+        return self._faces[0] if self._faces else None
 
-    def select(self, index: int | None) -> None:
-        """Choose face ``index`` (a click in the view or the list does this)."""
-        self.view.select(index)
-        self.ok_button.setEnabled(index is not None)
-        row = -1 if index is None else int(index)
-        if self.list.currentRow() != row:
-            self.list.blockSignals(True)
-            self.list.setCurrentRow(row)
-            self.list.blockSignals(False)
+    @property
+    def faces(self) -> tuple[int, ...]:
+        """Every face chosen now, in the order they were chosen."""
+        return tuple(self._faces)
 
-    def _row_changed(self, row: int) -> None:
-        self.select(None if row < 0 else row)
+    def select(self, index: int | None, add: bool = False) -> None:
+        """Choose face ``index`` alone, or with ``add`` add it to the faces
+        chosen (take it out when it is one of them)."""
+        if add and index is not None:
+            faces = [k for k in self._faces if k != index] if index in self._faces else self._faces + [int(index)]
+        else:
+            faces = [] if index is None else [int(index)]
+        self._set_faces(faces)
+
+    def _set_faces(self, faces: list[int]) -> None:
+        self._faces = faces
+        self.view.select(faces[0] if faces else None, also=faces)
+        self.ok_button.setEnabled(bool(faces))
+        self.ok_button.setText("Join and open" if len(faces) > 1 else "OK")
+        self.list.blockSignals(True)
+        for row in range(self.list.count()):
+            self.list.item(row).setSelected(row in faces)
+        if faces:
+            self.list.setCurrentRow(faces[-1], self.list.selectionModel().SelectionFlag.NoUpdate)
+        self.list.blockSignals(False)
+        self.list.viewport().update()
+
+    def _picked(self, index: int) -> None:
+        self.select(index, add=self.view.shift_pick)
+
+    def _rows_changed(self) -> None:
+        rows = {self.list.row(item) for item in self.list.selectedItems()}
+        kept = [k for k in self._faces if k in rows]  # the order they were chosen in, then the new ones
+        self._set_faces(kept + sorted(rows - set(kept)))
 
     def accept(self) -> None:
-        index = self.face
-        if index is None:
+        faces = self.faces
+        if not faces:
             return
         super().accept()
-        self.chosen.emit(index)
+        if len(faces) == 1:
+            self.chosen.emit(faces[0])
+        else:
+            self.joined.emit(faces)
 
     def done(self, result: int) -> None:
         self.view.close()

@@ -122,6 +122,7 @@ class Files(QObject):
         asked_at = None if doc is None else doc.revision  # unsaved work was asked about at this revision
         picker = FacePicker(opened, self.window)
         picker.chosen.connect(lambda index: self.open_face(opened, index, asked_at))
+        picker.joined.connect(lambda faces: self.open_faces(opened, faces, asked_at))
         picker.finished.connect(lambda _result: self._picker_closed(picker))
         self.face_picker = picker
         picker.show()
@@ -183,6 +184,35 @@ class Files(QObject):
         project = replace(project, name=f"{project.name} face {face.face}", source=f"{opened.source}#face={face.face}")
         self.window.set_project(project)
         self._status(f"Opened face {face.face} of {opened.path}", 5000)
+        return True
+
+    def open_faces(self, opened, faces, asked_at: int | None = None) -> bool:
+        """Open faces ``faces`` of a CAD file joined into one surface
+        (:func:`core.cad.join_faces`: tessellated, welded, fitted as a mesh) as a
+        new document; ``source`` is ``"path#faces=2,5,7"``, and the project keeps
+        the fitted surface, so it reopens without the CAD file."""
+        from PySide6.QtWidgets import QApplication
+
+        from core.cad import join_faces
+
+        doc = self.window.document
+        if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
+            return False
+        listed = ",".join(str(int(i)) for i in faces)
+        self._status(f"Joining faces {listed} of {opened.path.name}...", 0)
+        QApplication.setOverrideCursor(Qt.CursorShape.WaitCursor)
+        try:
+            piece = join_faces(opened.cad, faces)
+            project = replace(opened, surface=piece.surface, region=piece.region, face=None).as_project()
+        except (FlatweaveError, OSError) as exc:
+            self.window.show_error(f"Cannot join faces {listed} of {opened.path.name}: {exc}")
+            self._status("", 1)
+            return False
+        finally:
+            QApplication.restoreOverrideCursor()
+        project = replace(project, name=f"{project.name} faces {listed}", source=f"{opened.source}#faces={listed}")
+        self.window.set_project(project)
+        self._status(f"Opened faces {listed} of {opened.path} joined: {piece.fit.describe()}", 10000)
         return True
 
     def open_example(self, name: str) -> bool:

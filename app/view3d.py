@@ -830,6 +830,7 @@ class FaceView(ViewBase):
         self._plotter.add_axes()
         self._actors: list = []
         self.chosen: int | None = None
+        self.shift_pick = False  # whether the last pick was a shift-click
         self.on_pick: Callable[[int], None] | None = None
         self._press: tuple[int, int] | None = None
         self._face_picker = vtkCellPicker()
@@ -857,12 +858,13 @@ class FaceView(ViewBase):
         p.reset_camera(render=False)
         self.render()
 
-    def select(self, index: int | None) -> None:
-        """Highlight face ``index`` (None: none); the others are drawn faint."""
+    def select(self, index: int | None, also=()) -> None:
+        """Highlight face ``index`` (None: none) and the faces ``also``; the others are drawn faint."""
         self.chosen = index
+        lit = set(also) | ({index} if index is not None else set())
         for k, actor in enumerate(self._actors):
-            actor.prop.color = CHOSEN_COLOR if k == index else FAINT_COLOR
-            actor.prop.opacity = 1.0 if k == index else 0.6
+            actor.prop.color = CHOSEN_COLOR if k in lit else FAINT_COLOR
+            actor.prop.opacity = 1.0 if k in lit else 0.6
         self.render()
 
     def face_at(self, x: float, y: float) -> int | None:
@@ -892,6 +894,7 @@ class FaceView(ViewBase):
         if abs(x - press[0]) > CLICK_SLOP or abs(y - press[1]) > CLICK_SLOP:
             return
         k = self.face_at(x, y)
+        self.shift_pick = bool(iren.GetShiftKey())  # the picker adds a face to its choice on a shift-click
         if k is not None and self.on_pick is not None:
             self.on_pick(k)
 

@@ -61,6 +61,17 @@ trim deviation)), the polygon regions' areas agree with ``BRepGProp`` to
 2.4e-7 relative, and a small file takes about 1.6-2 s to read, most of it
 the child's start and OCP's import.
 
+Several faces joined
+--------------------
+:func:`join_faces` (``--faces 2,5,7``, the face picker's shift-click) makes
+one surface of adjacent faces by the mesh route: a child tessellates them
+(``BRepMesh_IncrementalMesh``) and sends each face's nodes, triangles,
+normals and the node chains of its edges; the chains of shared edges are
+welded (:func:`core.meshsurf.weld_parts`), long triangles filled
+(:func:`core.meshsurf.densify`), and the mesh is repaired, mapped and fitted
+as a mesh file is (:func:`core.meshsurf.mesh_surface`). Faces that share no
+edge with the others, or that close up, are refused in one line.
+
 Errors
 ------
 Every problem is a one-line :class:`~core.errors.FlatweaveError`:
@@ -102,6 +113,8 @@ __all__ = [
     "INSTALL_HINT",
     "DEFAULT_TIMEOUT",
     "DEFAULT_CHORD_TOL",
+    "join_faces",
+    "parse_face_list",
 ]
 
 STEP_SUFFIXES = (".step", ".stp", ".p21")
@@ -121,6 +134,21 @@ region's area is off by about (2/3) chord_tol x perimeter / area (in (u, v));
 measured on the test faces: at most 2.4e-7 relative (a free-curve outer
 loop), 1.9e-7 for a disc. A circle across the face takes about 6,600 points,
 one of a fifth of it 2,500-5,000."""
+
+JOIN_ANGULAR_DEFLECTION = 0.08
+"""Largest angle (radians) between the normals along a triangle of the
+tessellation of joined faces. The nodes lie on the faces; the points
+:func:`core.meshsurf.densify` adds are lifted off the chords by the nodes'
+normals (a circle's sagitta to O(a^4))."""
+
+JOIN_LINEAR_DEFLECTION = 2e-4
+"""Largest distance of the tessellation of joined faces from them, relative
+to the chosen faces' bounding-box diagonal."""
+
+JOIN_EDGE_LENGTH = 1.0 / 50.0
+"""Longest triangle edge of joined faces' mesh, relative to their diagonal:
+Open CASCADE makes two triangles of a rectangle; the fit needs vertices
+inside it too."""
 
 FAULT_ENV = "FLATWEAVE_CAD_FAULT"
 """Testing hook read by the child: ``abort`` (die by SIGABRT), ``hang``
@@ -312,14 +340,17 @@ def _signal_name(code: int) -> str:
         return f"signal {-code}"
 
 
-def _run_child(path: Path, fmt: str, chord_tol: float, timeout: float) -> dict:
-    """Read path in a child Python process; its result dict (or a one-line error)."""
+def _run_child(path: Path, fmt: str, chord_tol: float, timeout: float, task: tuple = ()) -> dict:
+    """Read path in a child Python process; its result dict (or a one-line error).
+    ``task``: extra words for the child (``("tessellate", "2,5,7", lin, ang)``
+    tessellates those faces instead of reading them all)."""
     root = str(Path(__file__).resolve().parent.parent)
     code = ("import sys; sys.path.insert(0, sys.argv[1]); "
             "from core.cad import _child_main; _child_main(sys.argv[2:])")
     with tempfile.TemporaryDirectory(prefix="flatweave-cad-") as tmp:
         out = Path(tmp) / "result.pickle"
-        cmd = [sys.executable, "-I", "-c", code, root, str(path), fmt, repr(float(chord_tol)), str(out)]
+        cmd = [sys.executable, "-I", "-c", code, root, str(path), fmt, repr(float(chord_tol)), str(out),
+               *map(str, task)]
         try:
             proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                     stderr=subprocess.PIPE, cwd=tmp)
@@ -382,6 +413,105 @@ def read_cad_faces(path, *, timeout: float | None = None, chord_tol: float = DEF
     faces = tuple(_make_face(path.name, d) for d in result["faces"])
     return CadFile(path=str(path), format=fmt, units=result["units"], mm_per_unit=float(result["mm_per_unit"]),
                    faces=faces)
+
+
+# ---------------------------------------------------------------------- several faces joined
+def parse_face_list(text) -> tuple[int, ...]:
+    """``"2,5,7"`` -> (2, 5, 7); a one-line SettingsError for anything else
+    (not integers, a negative index, an index given twice)."""
+    words = [w.strip() for w in str(text).split(",")]
+    try:
+        indices = tuple(int(w) for w in words)
+    except ValueError:
+        raise SettingsError(f"--faces takes face indices separated by commas, like 2,5,7; got {text!r}") from None
+    for k, i in enumerate(indices):
+        if i < 0:
+            raise SettingsError(f"--faces: face index {i} is negative")
+        if i in indices[:k]:
+            raise SettingsError(f"--faces: face {i} is given twice in {text!r}")
+    if not indices:
+        raise SettingsError("--faces needs one face index or more")
+    return indices
+
+
+def _joined_pieces(faces: list[dict], edges_of) -> list[list[int]]:
+    """The chosen faces grouped into pieces joined through shared edges
+    (positions in ``faces``)."""
+    parent = list(range(len(faces)))
+
+    def root(k):
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+    owner = {}
+    for k, f in enumerate(faces):  # a face's few dozen edges: no hot loop
+        for e in edges_of(f):
+            if e in owner:
+                parent[root(k)] = root(owner[e])
+            else:
+                owner[e] = k
+    groups = {}
+    for k in range(len(faces)):
+        groups.setdefault(root(k), []).append(k)
+    return list(groups.values())
+
+
+def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
+               angular_deflection: float = JOIN_ANGULAR_DEFLECTION,
+               linear_deflection: float = JOIN_LINEAR_DEFLECTION):
+    """Faces ``indices`` of ``cad_file`` joined into one surface by the mesh
+    route: tessellated by Open CASCADE (in a child process), welded along
+    the edges they share, densified, then :func:`core.meshsurf.mesh_surface`
+    (map, fit, region). Returns its :class:`core.meshsurf.MeshPiece`; the
+    fit records the faces (``fit.faces``).
+
+    One-line SettingsError when an index is out of range or repeated, the
+    faces do not make one connected piece, or they close up (a closed
+    surface, a handle); SurfaceError from the mesh checks (three faces along
+    one edge)."""
+    from core.meshsurf import NeedsRegion, SeveralParts, clean_mesh, densify, mesh_surface, weld_parts
+
+    name = Path(cad_file.path).name
+    indices = tuple(indices)
+    if not indices:
+        raise SettingsError("--faces needs one face index or more")
+    seen = set()
+    for i in indices:
+        cad_file.face(i)  # out of range: one line
+        if int(i) in seen:
+            raise SettingsError(f"face {i} is given twice")
+        seen.add(int(i))
+    chosen = [cad_file.face(i) for i in indices]
+    box = np.array([f.bbox for f in chosen], float)
+    size = float(np.linalg.norm(box[:, 3:].max(axis=0) - box[:, :3].min(axis=0)))
+    if not size > 0:
+        raise SettingsError(f"faces {', '.join(map(str, indices))} of {name} have no extent")
+    task = ("tessellate", ",".join(str(int(i)) for i in indices), repr(linear_deflection * size),
+            repr(float(angular_deflection)))
+    path = Path(cad_file.path)
+    result = _run_child(path.resolve(), cad_file.format, DEFAULT_CHORD_TOL, _timeout(timeout), task)
+    parts = result["faces"]
+    groups = _joined_pieces(parts, lambda f: [e for e, _ in f["edges"]])
+    if len(groups) > 1:
+        listed = "; ".join(", ".join(str(parts[k]["index"]) for k in g) for g in groups)
+        raise SettingsError(f"faces {', '.join(map(str, indices))} of {name} do not make one piece: they fall "
+                            f"into {len(groups)} parts that share no edge ({listed}); choose adjacent faces")
+    normals = None if any(p["normals"] is None for p in parts) else [p["normals"] for p in parts]
+    V, F, N = weld_parts([(p["nodes"], p["triangles"]) for p in parts],
+                         [[(e, nodes) for e, nodes in p["edges"]] for p in parts], normals)
+    V, F, _ = densify(V, F, JOIN_EDGE_LENGTH * size, normals=N)
+    label = f"faces {', '.join(map(str, indices))} of {name}"
+    try:
+        V, F, repairs = clean_mesh(V, F, label)
+    except SeveralParts:  # the faces share edges, but their triangles do not meet along one
+        raise SettingsError(f"{label} could not be welded into one piece: their tessellations do not meet "
+                            f"along the edges they share") from None
+    try:
+        return mesh_surface(V, F, source=os.fspath(path), name=label, repairs=repairs, faces=indices)
+    except NeedsRegion:  # its own advice (a drawn region) is not for joined faces
+        raise SettingsError(f"{label} make a closed surface, or one with handles: it cannot be flattened "
+                            f"whole; leave some faces out") from None
 
 
 # ---------------------------------------------------------------------- faces from the child's data
@@ -485,6 +615,7 @@ def _child_main(argv: list[str]) -> None:
     """Entry point of the child: read argv = [path, format, chord_tol, out] and
     pickle {"ok": True, ...} or {"ok": False, "error": one line} to out."""
     path, fmt, chord_tol, out = argv[0], argv[1], float(argv[2]), argv[3]
+    task = argv[4:]
     fault = os.environ.get(FAULT_ENV, "")
     if fault == "abort":
         os.abort()
@@ -502,7 +633,11 @@ def _child_main(argv: list[str]) -> None:
                   "error": f"{name}: reading {fmt.upper()} files needs Open CASCADE: {INSTALL_HINT}"}
     else:
         try:
-            result = {"ok": True, **_occ_read(path, fmt, chord_tol)}
+            if task and task[0] == "tessellate":
+                indices = [int(x) for x in task[1].split(",")]
+                result = {"ok": True, **_occ_tessellate(path, fmt, indices, float(task[2]), float(task[3]))}
+            else:
+                result = {"ok": True, **_occ_read(path, fmt, chord_tol)}
         except CadFileError as exc:
             result = {"ok": False, "error": str(exc)}
         except Exception as exc:  # any OCCT failure is one line about the file
@@ -876,3 +1011,77 @@ def _face_data(occ: _Occ, index: int, orig, face, chord_tol: float) -> dict:
     return {"index": index, "kind": kind, "reversed": bool(reversed_), "area": _face_area(occ, orig),
             "tolerance": max_tol, "trim_deviation": max_dev, "loops": loops, "breaks": breaks,
             "uv_box": uv_box, **surface}
+
+
+def _occ_tessellate(path: str, fmt: str, indices: list, linear: float, angular: float) -> dict:
+    """Triangles of the faces ``indices`` (runs in the child): per face its
+    nodes (n, 3) with the placement applied, triangles (m, 3) wound along
+    the face's normal, and per edge its id in the whole shape with the
+    indices of the nodes on it, in the edge's parameter order (the faces
+    sharing an edge have as many nodes on it, at the same parameters)."""
+    occ = _Occ()
+    name = Path(path).name
+    shape, units, factor = _load_shape(occ, path, fmt)
+    originals = _faces(occ, shape)
+    for i in indices:
+        if not 0 <= i < len(originals):
+            raise CadFileError(f"{name}: face index {i} is out of range (0 to {len(originals) - 1})")
+    edge_type = occ.mod("TopAbs").TopAbs_ShapeEnum.TopAbs_EDGE
+    IndexedMap = occ.cls("collections.IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher",
+                         "collections.IndexedMap_TopoDS_Shape", "TopTools.TopTools_IndexedMapOfShape")
+    edge_ids = IndexedMap()
+    occ.static("TopExp", "TopExp", "MapShapes")(shape, edge_type, edge_ids)
+    builder = occ.mod("BRep").BRep_Builder()
+    compound = occ.mod("TopoDS").TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for i in indices:
+        builder.Add(compound, originals[i])
+    occ.static("BRepTools", "BRepTools", "Clean")(compound)  # a triangulation the file brought: made anew
+    mesher = occ.mod("BRepMesh").BRepMesh_IncrementalMesh(compound, float(linear), False, float(angular), False)
+    if not mesher.IsDone():
+        raise CadFileError(f"{name}: Open CASCADE could not tessellate faces {indices}")
+    triangulation = occ.static("BRep", "BRep_Tool", "Triangulation")
+    on_triangulation = occ.static("BRep", "BRep_Tool", "PolygonOnTriangulation")
+    as_edge = occ.static("TopoDS", "TopoDS", "Edge")
+    reversed_ = occ.mod("TopAbs").TopAbs_Orientation.TopAbs_REVERSED
+    Location = occ.mod("TopLoc").TopLoc_Location
+    out = []
+    for i in indices:
+        face = originals[i]
+        loc = Location()
+        tri = triangulation(face, loc)
+        if tri is None or tri.NbTriangles() == 0:
+            raise CadFileError(f"{name}: Open CASCADE made no triangles of face {i}")
+        trsf = None if loc.IsIdentity() else loc.Transformation()
+        nodes = np.empty((tri.NbNodes(), 3))
+        for k in range(tri.NbNodes()):
+            q = tri.Node(k + 1)
+            if trsf is not None:
+                q = q.Transformed(trsf)
+            nodes[k] = (q.X(), q.Y(), q.Z())
+        tris = np.array([tri.Triangle(k + 1).Get() for k in range(tri.NbTriangles())], dtype=np.int64) - 1
+        normals = None
+        try:  # the surface's normals at the nodes: densify lifts new points off the chords with them
+            occ.static("BRepLib", "BRepLib_ToolTriangulatedShape", "ComputeNormals")(face, tri)
+            normals = np.empty((tri.NbNodes(), 3))
+            for k in range(tri.NbNodes()):
+                d = tri.Normal(k + 1)
+                if trsf is not None:
+                    d = d.Transformed(trsf)
+                normals[k] = (d.X(), d.Y(), d.Z())
+        except Exception:  # an OCCT without it: the new points stay on the chords
+            normals = None
+        if face.Orientation() == reversed_:
+            tris = tris[:, ::-1].copy()
+        edges = []
+        ex = occ.mod("TopExp").TopExp_Explorer(face, edge_type)
+        while ex.More():
+            edge = as_edge(ex.Current())
+            poly = on_triangulation(edge, tri, loc)
+            if poly is not None:
+                edges.append((int(edge_ids.FindIndex(edge)),
+                              np.array([poly.Node(k + 1) for k in range(poly.NbNodes())], dtype=np.int64) - 1))
+            ex.Next()
+        out.append({"index": i, "kind": _surface_kind(occ, face), "area": _face_area(occ, face),
+                    "nodes": nodes, "triangles": tris, "normals": normals, "edges": edges})
+    return {"units": units, "mm_per_unit": factor, "faces": out}

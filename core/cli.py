@@ -58,6 +58,7 @@ def resolve_piece(args):
     region (a CAD face's trims, or ``--region FILE.json``) chosen."""
     from core.readers import open_path
 
+    faces = _face_list(args)  # before the file is read: a bad list is refused at once
     opened = open_path(args.surface, surface_only=True)
     if args.region and opened.mesh is not None and opened.surface is None:  # a loop drawn on a mesh
         data = _read_json(args.region, "region")
@@ -67,7 +68,10 @@ def resolve_piece(args):
         import dataclasses
         piece = opened.mesh.cut(data["loop3d"], args.face)
         return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=args.face)
-    opened = opened.choose_face(args.face)
+    if faces is not None:
+        opened = _join_faces(args, opened, faces)
+    else:
+        opened = opened.choose_face(args.face)
     offset = getattr(args, "region_offset", None)
     if args.region:
         from core.region import region_from_spec
@@ -91,6 +95,36 @@ def resolve_piece(args):
         from core.region import offset_region
         opened = dataclasses.replace(opened, region=offset_region(opened.surface, opened.region, offset))
     return opened
+
+
+def _face_list(args):
+    """``--faces 2,5,7`` as (2, 5, 7), or None without it; refused with ``--face``."""
+    text = getattr(args, "faces", None)
+    if text is None:
+        return None
+    from core.cad import is_cad_path, parse_face_list
+
+    if getattr(args, "face", None) is not None:
+        raise SettingsError("give --face N for one face or --faces A,B,... to join several, not both")
+    if getattr(args, "region", None):
+        raise SettingsError("the region of joined faces is their outline; --region is for untrimmed surfaces "
+                            "(drop --faces or --region)")
+    if not is_cad_path(args.surface):
+        raise SettingsError(f"{Path(args.surface).name}: --faces is for STEP and IGES files")
+    return parse_face_list(text)
+
+
+def _join_faces(args, opened, indices):
+    """``--faces 2,5,7``: those faces of a STEP or IGES file joined into one
+    surface by the mesh route (:func:`core.cad.join_faces`)."""
+    import dataclasses
+
+    from core.cad import join_faces
+
+    if opened.cad is None:
+        raise SettingsError(f"{Path(args.surface).name}: --faces is for STEP and IGES files")
+    piece = join_faces(opened.cad, indices)
+    return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=None)
 
 
 def _help(text: str) -> str:
@@ -137,6 +171,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--face", type=int, default=None, metavar="N",
                    help="the face of a STEP or IGES file to flatten (needed when it has several; "
                         "'info FILE' lists them)")
+    f.add_argument("--faces", default=None, metavar="A,B,...",
+                   help="join adjacent faces of a STEP or IGES file into one surface (tessellated, welded "
+                        "along their shared edges and fitted as a mesh), so that a piece can cross a fillet")
     f.add_argument("--region", default=None, metavar="REGION.json",
                    help='cover only a region of the surface: drawn, {"points": [[x, y, z], ...], '
                         '"view_direction": [dx, dy, dz]} (projected as curve darts are), or {"uv": [[s, t], '
@@ -200,6 +237,7 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--material", default="woven", metavar="NAME", help="as for flatten (default woven)")
     w.add_argument("--seed", default=None, metavar="U,V", help="the first seed (default as for flatten)")
     w.add_argument("--face", type=int, default=None, metavar="N", help="as for flatten")
+    w.add_argument("--faces", default=None, metavar="A,B,...", help="as for flatten")
     w.add_argument("--region", default=None, metavar="REGION.json", help="as for flatten")
     w.add_argument("--angles", type=int, default=12, metavar="K",
                    help="weft angles, evenly over a period (90 degrees when weft and warp are alike, else 180; "
@@ -224,6 +262,8 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("surface", metavar="SURFACE", help=_surface_help())
     i.add_argument("--json", action="store_true",
                    help="print JSON (a STEP or IGES file: {\"units\": ..., \"faces\": [...]})")
+    i.add_argument("--faces", default=None, metavar="A,B,...",
+                   help="a STEP or IGES file's faces joined as flatten --faces joins them: the piece and the fit")
 
     sub.add_parser("examples", help="list the bundled example surfaces")
     return p
@@ -299,7 +339,7 @@ def _cmd_flatten(args) -> int:
     from core.region import cover_for
 
     cover = cover_for(surface, region)
-    if opened.cad is not None:
+    if opened.cad is not None and opened.face is not None:
         _check_face_size(opened, args.spacing)
     if region is not None:
         from core.region import check_region_size
@@ -355,6 +395,8 @@ def _cmd_flatten(args) -> int:
             doc["suggested_darts"] = [p.to_dict() for p in suggested]
         if opened.cad is not None:  # which face of which file, in which units
             doc["settings"]["face"] = opened.face
+            if opened.face is None:  # several faces joined (--faces)
+                doc["settings"]["faces"] = list(surface.fit.faces)
             doc["settings"]["units"] = opened.cad.units
         write_json(out, doc)
     written = export_all(result, targets, options) if targets else []
@@ -424,6 +466,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
         ("--shear-angles", args.shear_angles, None),
         ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
         ("--region", args.region, None), ("--region-offset", args.region_offset, None), ("--face", args.face, None),
+        ("--faces", args.faces, None),
         ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None),
         ("--auto-darts", args.auto_darts, 0)) if value != default]
     if unused:
@@ -527,7 +570,11 @@ def _cmd_info(args) -> int:
     from core.quadrature import boundary_length, region_area
     from core.readers import open_path
 
+    faces = _face_list(args)
     opened = open_path(args.surface, surface_only=True)
+    if faces is not None:  # several faces joined: the piece and its fit, as for a mesh
+        opened = _join_faces(args, opened, faces)
+        return _info_mesh(opened, opened.surface.fit, args.json)
     if opened.cad is not None:
         from core.cad import cad_info
 
@@ -572,7 +619,8 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
                           "boundary_length": cover.boundary_length, "holes": opened.region.n_holes,
                           "fit": fit.to_dict(), **fit.metrics()}))
         return 0
-    print(f"{opened.source}: mesh of {fit.vertices} vertices and {fit.triangles} triangles"
+    what = f"faces {', '.join(map(str, fit.faces))} joined: " if fit.faces else ""
+    print(f"{opened.source}: {what}mesh of {fit.vertices} vertices and {fit.triangles} triangles"
           + (f" ({'; '.join(fit.repairs)})" if fit.repairs else ""))
     print(f"surface: {opened.surface!r}, {fit.describe()}")
     print(f"area {cover.area:.10g}, boundary length {cover.boundary_length:.10g}, "

@@ -44,7 +44,7 @@ from core.nurbs import NurbsSurface, basis_functions
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MESH_SUFFIXES", "MAX_TRIANGLES", "check_mesh_file",
            "read_mesh", "clean_mesh", "lscm", "fit_bspline", "mesh_surface", "load_mesh_piece",
            "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "MeshFile", "cut_mesh", "open_mesh",
-           "with_fit", "FitMesh", "fit_mesh", "vertex_deviation"]
+           "with_fit", "FitMesh", "fit_mesh", "vertex_deviation", "weld_parts", "densify"]
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off")
 
@@ -73,6 +73,7 @@ class MeshFit:
         to the surface point it maps to
     ctrl : (nu, nv), the fitted control net
     repairs : what was repaired, e.g. ``("merged 120 duplicate vertices",)``
+    faces : the CAD file's faces joined into this mesh (``--faces``), else ()
     """
 
     source: str
@@ -83,6 +84,7 @@ class MeshFit:
     mean_deviation: float
     ctrl: tuple = (0, 0)
     repairs: tuple = ()
+    faces: tuple = ()
 
     def metrics(self) -> dict:
         """The keys the result file's metrics get."""
@@ -91,19 +93,21 @@ class MeshFit:
     def to_dict(self) -> dict:
         return {"source": self.source, "vertices": self.vertices, "triangles": self.triangles, "size": self.size,
                 "max_deviation": self.max_deviation, "mean_deviation": self.mean_deviation,
-                "ctrl": list(self.ctrl), "repairs": list(self.repairs)}
+                "ctrl": list(self.ctrl), "repairs": list(self.repairs),
+                **({"faces": [int(i) for i in self.faces]} if self.faces else {})}
 
     @classmethod
     def from_dict(cls, d) -> "MeshFit":
         try:
             return cls(str(d["source"]), int(d["vertices"]), int(d["triangles"]), float(d["size"]),
                        float(d["max_deviation"]), float(d["mean_deviation"]), tuple(int(x) for x in d.get("ctrl", ())),
-                       tuple(str(x) for x in d.get("repairs", ())))
+                       tuple(str(x) for x in d.get("repairs", ())), tuple(int(x) for x in d.get("faces", ())))
         except (KeyError, TypeError, ValueError) as exc:
             raise SettingsError(f"a mesh fit record is malformed: {exc}") from None
 
     def describe(self) -> str:
-        return (f"fit to {self.triangles} triangles: max deviation {self.max_deviation:.4g} "
+        of = f" of faces {', '.join(map(str, self.faces))}" if self.faces else ""
+        return (f"fit to {self.triangles} triangles{of}: max deviation {self.max_deviation:.4g} "
                 f"({100 * self.max_deviation / self.size:.3g} % of the mesh's size {self.size:.4g}), "
                 f"mean {self.mean_deviation:.4g} ({100 * self.mean_deviation / self.size:.3g} %)")
 
@@ -586,7 +590,7 @@ def _normalise_map(uv: np.ndarray) -> tuple[np.ndarray, float]:
     return (q - lo) / ext, float(ext[1] / ext[0])
 
 
-def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple = ()) -> MeshPiece:
+def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple = (), faces: tuple = ()) -> MeshPiece:
     """A repaired, consistently wound, one-part mesh (:func:`clean_mesh`)
     made a :class:`MeshPiece`: surface, region, map and deviations.
 
@@ -623,7 +627,8 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
             break
         nu = min(int(nu * 1.5), MAX_CTRL)
         nv = min(max(int(round((nu - 3) * aspect)), 4), MAX_CTRL - 3) + 3
-    fit = MeshFit(str(source), len(V), len(F), size, float(dev.max()), float(dev.mean()), (nu, nv), tuple(repairs))
+    fit = MeshFit(str(source), len(V), len(F), size, float(dev.max()), float(dev.mean()), (nu, nv), tuple(repairs),
+                  tuple(int(i) for i in faces))
     surface = FittedSurface(3, 3, _clamped_knots(nu), _clamped_knots(nv), C, fit=fit, mesh=FitMesh(V, F, uv))
     loops_uv = [uv[lp] for lp in loops]
     areas = [abs(_loop_area(p)) for p in loops_uv]
@@ -632,6 +637,137 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     holes = [p for i, p in enumerate(loops_uv) if i != k and areas[i] > 1e-12]
     region = Region.from_loops(outer, holes)
     return MeshPiece(surface, region, V, F, uv, dev)
+
+
+# --------------------------------------------------------------------------- meshes of several CAD faces
+def weld_parts(parts, shared, normals=None):
+    """One mesh of several: ``parts`` a list of (vertices (n_k, 3), triangles
+    (m_k, 3)); ``shared[k]`` part k's edges as (edge id, vertex indices along
+    it) pairs; ``normals`` None or per part (n_k, 3) unit normals at its
+    vertices. Vertices at the same position of an edge with the same id are
+    one vertex (at their mean): the faces' tessellations meet there, whatever
+    their edges' tolerances. Returns (V, F, N): N the welded unit normals,
+    turned where needed to the side the triangles' winding says, or None.
+    The caller still merges coincident vertices (:func:`clean_mesh`)."""
+    offsets = np.cumsum([0] + [len(v) for v, _ in parts])
+    V = np.vstack([np.asarray(v, float).reshape(-1, 3) for v, _ in parts])
+    F = np.vstack([np.asarray(f, np.int64).reshape(-1, 3) + offsets[k] for k, (_, f) in enumerate(parts)])
+    N = None
+    if normals is not None:
+        N = []
+        for (v, f), nk in zip(parts, normals):
+            v, f, nk = np.asarray(v, float), np.asarray(f, np.int64), np.asarray(nk, float)
+            tri_n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+            agree = np.sum(tri_n * nk[f].sum(axis=1))
+            N.append(nk if agree >= 0 else -nk)  # the file's normal convention or the winding's: the winding's
+        N = np.vstack(N)
+    by_edge = {}
+    for k, edges in enumerate(shared):
+        for e, nodes in edges:
+            by_edge.setdefault(e, []).append(np.asarray(nodes, np.int64) + offsets[k])
+    a, b = [], []
+    for chains in by_edge.values():  # an edge's chains: same length when they come from one discretisation
+        first = chains[0]
+        for other in chains[1:]:
+            if len(other) == len(first):
+                a.append(first)
+                b.append(other)
+    n = len(V)
+    if a:
+        a, b = np.concatenate(a), np.concatenate(b)
+        G = sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
+        _, label = connected_components(G, directed=False)
+        count = np.bincount(label)
+        V = np.stack([np.bincount(label, V[:, d]) / count for d in range(3)], axis=1)
+        if N is not None:
+            N = np.stack([np.bincount(label, N[:, d]) for d in range(3)], axis=1)
+        F = label[F]
+    if N is not None:
+        N = N / np.maximum(np.linalg.norm(N, axis=1), 1e-300)[:, None]
+    return V, F, N
+
+
+def _zip(left, right, apex, P, out) -> None:
+    """Triangles between two chains of point indices that start at a
+    triangle's base corners (left at a, right at b) and run to its ``apex``
+    (neither holds it): each step joins the next point of the side whose new
+    cross edge is shorter, then the last points close on the apex."""
+    i = j = 0
+    while i < len(left) - 1 or j < len(right) - 1:
+        go_left = j == len(right) - 1 or (i < len(left) - 1 and np.sum((P[left[i + 1]] - P[right[j]]) ** 2)
+                                          <= np.sum((P[left[i]] - P[right[j + 1]]) ** 2))
+        if go_left:
+            out.append((left[i], right[j], left[i + 1]))
+            i += 1
+        else:
+            out.append((left[i], right[j], right[j + 1]))
+            j += 1
+    out.append((left[i], right[j], apex))
+
+
+def densify(V: np.ndarray, F: np.ndarray, h: float, max_triangles: int = MAX_TRIANGLES // 4, passes: int = 8,
+            normals=None):
+    """The mesh with its edges longer than ``h`` split into equal pieces no
+    longer than ``h`` and the triangles along them made anew, so that the fit
+    has vertices inside long flat triangles (Open CASCADE makes two triangles
+    of a rectangle and needles along a cylinder). A triangle with split edges
+    is filled by a strip from its edge with the fewest pieces to the opposite
+    corner, choosing the shorter diagonal at each step; a few passes make its
+    long cross edges short too. Without ``normals`` the new vertices lie on
+    the triangles; with the (n, 3) unit normals of the surface at the
+    vertices, a point at t along an edge p0 p1 is lifted by 4 t (1 - t) s
+    along the mean normal, s = -(p1 - p0).(n0 - n1) / 8 (the sagitta of a
+    circle through p0, p1 with those normals, to O(angle^4)), and gets the
+    interpolated normal. (A loop per long triangle: a tessellation has few;
+    the short ones are kept as they are.) Returns (V, F, N), N None without
+    normals."""
+    V = np.asarray(V, float)
+    F = np.asarray(F, np.int64)
+    N = None if normals is None else np.asarray(normals, float)
+    for _ in range(passes):
+        uniq, inv, _ = _edge_table(F)
+        length = np.linalg.norm(V[uniq[:, 0]] - V[uniq[:, 1]], axis=1)
+        k = np.maximum(np.ceil(length / h * (1 - 1e-9)), 1).astype(np.int64)
+        if k.max() == 1 or len(F) + 2 * int((k - 1).sum()) > max_triangles:
+            break
+        base = len(V) + np.r_[0, np.cumsum(k - 1)[:-1]]  # edge e's inner points: base[e] .. base[e] + k[e] - 2
+        t = np.concatenate([np.arange(1, n) / n for n in k[k > 1]])
+        e_of = np.repeat(np.nonzero(k > 1)[0], k[k > 1] - 1)
+        p0, p1 = V[uniq[e_of, 0]], V[uniq[e_of, 1]]
+        new = (1 - t)[:, None] * p0 + t[:, None] * p1
+        if N is not None:
+            n0, n1 = N[uniq[e_of, 0]], N[uniq[e_of, 1]]
+            mean = n0 + n1
+            mean /= np.maximum(np.linalg.norm(mean, axis=1), 1e-300)[:, None]
+            sag = -np.sum((p1 - p0) * (n0 - n1), axis=1) / 8
+            # an edge of the tessellation turns by its angle (0.08 rad) at most: normals further apart are a
+            # crease, or faces wound against each other; no lift there
+            sag[np.sum(n0 * n1, axis=1) < 0.866] = 0.0
+            new += (4 * t * (1 - t) * sag)[:, None] * mean
+            n_new = (1 - t)[:, None] * n0 + t[:, None] * n1
+            N = np.vstack([N, n_new / np.maximum(np.linalg.norm(n_new, axis=1), 1e-300)[:, None]])
+        V = np.vstack([V, new])
+        tri_edges = inv.reshape(-1, 3)
+        busy = (k[tri_edges] > 1).any(axis=1)
+        out = []
+
+        def chain(a, b, e):  # the points of edge e from corner a to corner b, both ends included
+            inner = list(range(base[e], base[e] + k[e] - 1))
+            return [a] + (inner if uniq[e, 0] == a else inner[::-1]) + [b]
+        for tri, eds in zip(F[busy].tolist(), tri_edges[busy].tolist()):
+            r = min(range(3), key=lambda q: (k[eds[q]], length[eds[q]]))  # its edge with the fewest pieces: the base
+            a, b, c = tri[r], tri[(r + 1) % 3], tri[(r + 2) % 3]
+            e0, e1, e2 = eds[r], eds[(r + 1) % 3], eds[(r + 2) % 3]
+            left, right = chain(a, c, e2)[:-1], chain(b, c, e1)[:-1]
+            bottom = chain(a, b, e0)
+            if len(bottom) > 2:  # every edge split: a fan from the base onto the left side's first point
+                for s in range(len(bottom) - 1):
+                    out.append((bottom[s], bottom[s + 1], left[1]))
+                _zip(left[1:], right, c, V, out)
+            else:
+                _zip(left, right, c, V, out)
+        F = np.vstack([F[~busy], np.asarray(out, np.int64).reshape(-1, 3)])
+    return V, F, N
 
 
 def _loop_area(p: np.ndarray) -> float:
