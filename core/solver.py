@@ -16,11 +16,11 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
   nothing. Once the population has settled and while no node is switched off,
   the last factorisation is tried first (a chord step) and a new one made only
   when its step is not accepted (``SolverOptions.reuse``; docs/decisions.md).
-  Newton is taken on the surface, not in its (u, v) chart
-  (``SolverOptions.surface_newton``): the Hessian's node term keeps only the
-  normal part of each node's 3D gradient (the Riemannian Hessian, which is
-  the exact one at a minimum) and each node's step follows the surface's
-  geodesic to second order. At the octant's pole the chart's Christoffel
+  With ``SolverOptions.surface_newton`` (not yet the default,
+  docs/decisions.md) Newton is taken on the surface, not in its (u, v) chart:
+  the Hessian's node term keeps only the normal part of each node's 3D
+  gradient (the Riemannian Hessian, which is the exact one at a minimum) and
+  each node's step follows the surface's geodesic to second order. At the octant's pole the chart's Christoffel
   terms made off-axis weft angles take 3-5x the on-axis iterations.
 
 Both are generators (:func:`iterate`) that yield a :class:`Snapshot` after every
@@ -107,7 +107,9 @@ class SolverOptions:
         the chart's Christoffel terms otherwise make the node blocks
         indefinite and the straight (u, v) step sag off the stiff threads:
         off-axis weft angles took 3-5x the iterations of the on-axis one.
-        Off: Newton in (u, v) as before (docs/decisions.md).
+        On, a round's convergence also drops springs that came to cross a
+        dart. Off (the default for now: docs/decisions.md says why): Newton
+        in (u, v) as before.
     """
 
     method: str = "fast"
@@ -118,7 +120,7 @@ class SolverOptions:
     refill: bool = True
     delete: bool = True
     reuse: bool = True
-    surface_newton: bool = True
+    surface_newton: bool = False
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -847,6 +849,15 @@ class _Round:
                                        rest=mesh.rest[on], k=mesh.k[on], cells=num[cells])
         run.uv = self.uv[idx]
 
+    def crossing(self, xyz: np.ndarray) -> bool:
+        """True if a live spring crosses a dart where its nodes are now (xyz : (n, 3))."""
+        cut = self.run.problem.cut
+        on = np.flatnonzero(self.spring_on)
+        if cut is None or not len(on):
+            return False
+        a, b = self.mesh.ends[on, 0], self.mesh.ends[on, 1]
+        return bool(cut(self.uv[a], self.uv[b], xyz[a], xyz[b]).any())
+
     def factorise(self, A, quick: bool = False):
         """Factorisation of A: SuperLU in the pattern's own order (nested
         dissection; no iterative solver or other ordering measured was
@@ -1097,6 +1108,15 @@ def _iterate_fast(run: _Run):
                 yield run.snapshot(E, ev.xyz[rnd.alive], False)
                 converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
         if converged:
+            # a spring that came to cross a dart without either end crossing it (swung round the
+            # dart's end) is not in the piece: drop it and go on (switch_off re-checks every spring)
+            if opts.surface_newton and opts.delete and run.problem.cut is not None and rnd.crossing(ev.xyz):
+                stale, held, quiet = None, None, False
+                rnd.switch_off(np.zeros(rnd.mesh.n_nodes, dtype=bool), ev.xyz)
+                rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
+                E = 0.5 * (rs @ rs + rd @ rd)
+                yield run.snapshot(E, ev.xyz[rnd.alive], True)
+                continue
             # a refill that found nothing finds nothing again while no node has left since
             if not (opts.reuse and quiet) and run.try_refill():
                 stale, held, quiet = None, None, False
