@@ -13,7 +13,14 @@ area errors and the node count. Cases:
   (``flatten(..., initial=)``); the time is that of the re-solve (the base
   solve is not timed);
 * ``woven2500`` ... ``iso10000``: file to pattern, ``flatten`` of the octant
-  example (drape, solve, pattern, metrics), woven or isotropic.
+  example (drape, solve, pattern, metrics), woven or isotropic; ``SURFACE-`` in
+  front takes another example (``saddle-woven2500``), ``@ANGLE`` behind sets the
+  weft angle (``woven2500@30``);
+* ``sweepK``: issue 23's orientation sweep of the woven octant at spacing 0.025,
+  K angles, 2 worker processes (``iterations`` is the sum over the solves,
+  ``rejected`` the most iterations of one solve).
+
+``rejected`` counts iterations whose step was rejected (EN unchanged).
 
 One process per run, so no tree sees the other's caches.
 
@@ -59,10 +66,15 @@ def child(case: str) -> dict:
         return factorise(*a, **k)
 
     solver._Round.factorise = counted
-    s = load_example("octant")
-    material = "isotropic" if case.startswith("iso") else "woven"
-    nodes = 2500 if case == "dart" else int(case.lstrip("wovenis"))
-    settings = FlattenSettings(float(np.sqrt(region_area(s) / nodes)), material=MATERIALS[material])
+    if case.startswith("sweep"):
+        return sweep_child(int(case[5:]))
+    name, _, rest = case.rpartition("-")
+    rest, _, angle = rest.partition("@")
+    s = load_example(name or "octant")
+    material = "isotropic" if rest.startswith("iso") else "woven"
+    nodes = 2500 if rest == "dart" else int(rest.lstrip("wovenis"))
+    settings = FlattenSettings(float(np.sqrt(region_area(s) / nodes)), material=MATERIALS[material],
+                               angle_deg=float(angle or 0.0))
     initial = None
     if case == "dart":
         initial = flatten(s, settings).state()
@@ -74,8 +86,32 @@ def child(case: str) -> dict:
     seconds = time.perf_counter() - t
     m = r.metrics
     return {"seconds": seconds, "solve": m["solve_seconds"], "F": count[0], "it": m["iterations"],
-            "EN": m["energy"], "boundary": m["boundary_error_pct"], "area": m["area_error_pct"],
-            "nodes": m["nodes"]}
+            "rejected": _rejected(r.history), "EN": m["energy"], "boundary": m["boundary_error_pct"],
+            "area": m["area_error_pct"], "nodes": m["nodes"]}
+
+
+def _rejected(history) -> int:
+    """Iterations whose step was rejected: EN unchanged from the iteration before."""
+    return sum(1 for a, b in zip(history, history[1:]) if a == b)
+
+
+def sweep_child(angles: int) -> dict:
+    """issue 23's target: ``python -m core sweep octant --spacing 0.025 --angles K``, 2 workers."""
+    from core.examples import load_example
+    from core.mesh import MATERIALS
+    from core.pipeline import FlattenSettings
+    from core.sweep import sweep
+
+    settings = FlattenSettings(0.025, material=MATERIALS["woven"])
+    s = load_example("octant")
+    t = time.perf_counter()
+    r = sweep(s, settings, angles=angles, workers=2)
+    seconds = time.perf_counter() - t
+    its = [int(x.get("iterations", 0)) for x in r.rows]
+    b = r.best
+    return {"seconds": seconds, "solve": seconds, "F": 0, "it": sum(its), "rejected": max(its),
+            "EN": b["energy"], "boundary": b["boundary_error_pct"], "area": b["area_error_pct"],
+            "nodes": b["nodes"], "best_angle": b["angle_deg"]}
 
 
 SAME_CURVE = [[1.0, 0.5], [0.75, 0.52], [0.45, 0.5]]  # tests/test_solver_speed.py's curve dart
@@ -216,8 +252,8 @@ def main(argv=None) -> int:
     load = "load {:.2f} {:.2f} {:.2f}".format(*os.getloadavg())
     lines = [f"{time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores, Python {sys.version.split()[0]}, "
              f"{load} at the start; {args.repeat} runs per tree, alternating, medians", "",
-             "| case | tree | total s | solve s | factorisations | iterations | EN | boundary % | area % | nodes |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| case | tree | total s | solve s | factorisations | iterations | rejected | EN | boundary % | area % "
+             "| nodes |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for case in args.cases.split(","):
         runs = {"old": [], "new": []}
         for _ in range(args.repeat):
@@ -227,6 +263,7 @@ def main(argv=None) -> int:
             rs, last = runs[name], runs[name][-1]
             lines.append(f"| {case} | {name} | {statistics.median(r['seconds'] for r in rs):.3f} | "
                          f"{statistics.median(r['solve'] for r in rs):.3f} | {last['F']} | {last['it']} | "
+                         f"{last.get('rejected', '')} | "
                          f"{last['EN']:.10g} | {last['boundary']:.4f} | {last['area']:.4f} | {last['nodes']} |")
         print("\n".join(lines[-2:]), flush=True)
     lines.append("")
