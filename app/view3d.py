@@ -891,8 +891,10 @@ class FaceView(ViewBase):
         if press is None or self._closed:
             return
         x, y = iren.GetEventPosition()
-        if abs(x - press[0]) > CLICK_SLOP or abs(y - press[1]) > CLICK_SLOP:
-            return
+        if abs(x - press[0]) <= CLICK_SLOP and abs(y - press[1]) <= CLICK_SLOP:  # a click, not a camera drag
+            self._clicked(iren, x, y)
+
+    def _clicked(self, iren, x: int, y: int) -> None:
         k = self.face_at(x, y)
         self.shift_pick = bool(iren.GetShiftKey())  # the picker adds a face to its choice on a shift-click
         if k is not None and self.on_pick is not None:
@@ -940,13 +942,7 @@ class MeshLoopView(FaceView):
         replace_geometry(self._loop_points, P, verts=True)
         self.render()
 
-    def _on_release(self, iren, _event) -> None:
-        press, self._press = self._press, None
-        if press is None or self._closed:
-            return
-        x, y = iren.GetEventPosition()
-        if abs(x - press[0]) > CLICK_SLOP or abs(y - press[1]) > CLICK_SLOP:
-            return
+    def _clicked(self, iren, x: int, y: int) -> None:
         p = self.point_at(x, y)
         if p is not None and self.on_point is not None:
             self.on_point(p)
