@@ -220,18 +220,22 @@ class Runner(QObject):
         self.last_history = list(t.history)
         self.last_pattern_seconds = t.pattern_seconds
         self._cleanup()
-        if error is not None:
+        if abandoned:
+            # a replaced or cancelled run answers nobody, even if it ended just before it was abandoned
+            # (its result would be set aside, and a late `finished` reads as the answer to a newer run)
+            pass
+        elif error is not None:
             self.failed.emit(error)
         elif outcome is not None:
             self.finished.emit(outcome)
-        elif not abandoned:  # the thread died without a word (not an Exception): still say so
+        else:  # the thread died without a word (not an Exception): still say so
             self.failed.emit("the solve ended without a result or an error message (an internal error)")
         if self._pending is not None:
             project, initial = self._pending
             self._pending = None
             self._launch(project, initial)
         else:
-            if abandoned and error is None and outcome is None:
+            if abandoned:
                 self.cancelled.emit()
             self.state_changed.emit(self.state)
 
