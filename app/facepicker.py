@@ -48,7 +48,24 @@ def face_label(face, units: str = "") -> str:
     return f"{face.index}  {face.kind}  area {face.area:.4g}{unit}  {'trimmed' if face.trimmed else 'untrimmed'}"
 
 
-class FacePicker(QDialog):
+class ViewDialog(QDialog):
+    """A dialog that owns a render view (``self.view``): the view closes with it,
+    however it ends (OK, Cancel, the window's close button)."""
+
+    view = None
+
+    def done(self, result: int) -> None:
+        if self.view is not None:
+            self.view.close()
+        super().done(result)
+
+    def closeEvent(self, event) -> None:
+        if self.view is not None:
+            self.view.close()
+        super().closeEvent(event)
+
+
+class FacePicker(ViewDialog):
     """Choose a face of ``opened`` (a :class:`core.readers.Opened` with
     ``cad``), or several to join. On OK ``chosen(index)`` is emitted with one
     face chosen, ``joined(indices)`` (a tuple, in the order they were chosen)
@@ -142,11 +159,3 @@ class FacePicker(QDialog):
             self.chosen.emit(faces[0])
         else:
             self.joined.emit(faces)
-
-    def done(self, result: int) -> None:
-        self.view.close()
-        super().done(result)
-
-    def closeEvent(self, event) -> None:
-        self.view.close()
-        super().closeEvent(event)

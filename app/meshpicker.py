@@ -12,14 +12,15 @@ from __future__ import annotations
 import numpy as np
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QKeySequence, QShortcut
-from PySide6.QtWidgets import QDialog, QDialogButtonBox, QLabel, QPushButton, QVBoxLayout
+from PySide6.QtWidgets import QDialogButtonBox, QLabel, QPushButton, QVBoxLayout
 
+from app.facepicker import ViewDialog
 from app.view3d import MeshLoopView
 
 __all__ = ["MeshLoopPicker"]
 
 
-class MeshLoopPicker(QDialog):
+class MeshLoopPicker(ViewDialog):
     """Draw the piece's outline on ``opened``'s closed mesh (a
     :class:`core.readers.Opened` with ``mesh``); the dialog deletes itself
     when it closes."""
@@ -76,11 +77,3 @@ class MeshLoopPicker(QDialog):
         loop = np.array(self.points)
         super().accept()
         self.chosen.emit(loop)
-
-    def done(self, result: int) -> None:
-        self.view.close()
-        super().done(result)
-
-    def closeEvent(self, event) -> None:
-        self.view.close()
-        super().closeEvent(event)

@@ -1,10 +1,12 @@
 """Shared helpers for the numeric tests (not a test module)."""
 
 import errno
+import importlib.util
 import os
 import threading
 
 import numpy as np
+import pytest
 from scipy.spatial import cKDTree
 
 
@@ -167,3 +169,11 @@ class FullDisk:
 
         monkeypatch.setattr(os, "fdopen", fdopen)
         monkeypatch.setattr(os, "fsync", fsync)
+
+
+try:
+    HAVE_OCP = importlib.util.find_spec("OCP") is not None
+except (ImportError, ValueError):
+    HAVE_OCP = False
+# Open CASCADE is a dev dependency (pyproject.toml), so CI always has it; a user's core-only install may not
+needs_ocp = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")

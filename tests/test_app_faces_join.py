@@ -5,18 +5,14 @@ faces it joins, so it reopens without the CAD file."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
 
 import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, Qt
+from tests.helpers import needs_ocp
 
-try:
-    HAVE_OCP = importlib.util.find_spec("OCP") is not None
-except (ImportError, ValueError):
-    HAVE_OCP = False
-pytestmark = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
+pytestmark = needs_ocp  # Open CASCADE makes and reads the STEP files (a dev dependency)
 
 RUN_TIMEOUT_MS = 90000
 

@@ -10,7 +10,6 @@ is doubly curved: its fitted surface must keep the faces' area and outline.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import subprocess
@@ -21,12 +20,9 @@ import numpy as np
 import pytest
 
 from core.errors import SettingsError
+from tests.helpers import needs_ocp
 
-try:
-    HAVE_OCP = importlib.util.find_spec("OCP") is not None
-except (ImportError, ValueError):
-    HAVE_OCP = False
-pytestmark = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
+pytestmark = needs_ocp  # Open CASCADE makes and reads the STEP files (a dev dependency)
 
 ROOT = Path(__file__).resolve().parent.parent
 L1, R, L2, W = 40.0, 8.0, 30.0, 25.0  # plate, fillet radius, plate, width (mm)
