@@ -17,13 +17,13 @@ per population and cached by the caller.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from core.errors import SettingsError
 
-__all__ = ["Material", "MATERIALS", "parse_material", "SpringMesh", "build_mesh",
+__all__ = ["Material", "MATERIALS", "parse_material", "SpringMesh", "build_mesh", "only_springs",
            "WEFT", "WARP", "DIAG", "KIND_NAMES"]
 
 WEFT, WARP, DIAG = 0, 1, 2
@@ -193,6 +193,28 @@ def build_mesh(ij: np.ndarray, r_weft: float, r_warp: float, material: Material,
         cells = cells[_cells_with_edges(cells, ends, kind, ij.shape[0])]
     return SpringMesh(ij=ij, ends=ends, kind=kind, rest=rest, k=k, cells=cells,
                       r_weft=float(r_weft), r_warp=float(r_warp), material=material)
+
+
+def only_springs(mesh: SpringMesh, ends: np.ndarray) -> SpringMesh:
+    """``mesh`` keeping only the springs whose node pairs are among ``ends``
+    (m, 2), in either order; cells lose the ones whose edges went.
+
+    A result file lists its springs: a solve can end with a lattice spring
+    missing that a build at the same (u, v) would form (one a dart cut earlier
+    that no longer crosses it), and the reopened result must be the saved one.
+    """
+    ends = np.asarray(ends, dtype=np.int64).reshape(-1, 2)
+    n = mesh.n_nodes
+    if len(ends) and (ends.min() < 0 or ends.max() >= n):
+        raise SettingsError("the listed springs refer to missing nodes")
+    e = np.sort(mesh.ends, axis=1)
+    s = np.sort(ends, axis=1)
+    keep = np.isin(e[:, 0] * n + e[:, 1], s[:, 0] * n + s[:, 1])
+    if keep.all():
+        return mesh
+    ends_k, kind_k = mesh.ends[keep], mesh.kind[keep]
+    cells = mesh.cells[_cells_with_edges(mesh.cells, ends_k, kind_k, n)] if len(mesh.cells) else mesh.cells
+    return replace(mesh, ends=ends_k, kind=kind_k, rest=mesh.rest[keep], k=mesh.k[keep], cells=cells)
 
 
 def _cells_with_edges(cells: np.ndarray, ends: np.ndarray, kind: np.ndarray, n: int) -> np.ndarray:

@@ -23,7 +23,7 @@ from core.drape import DrapeResult, DrapeSettings, drape, refill
 from core.energy import Energy, YarnConstraint, resolve_yarns
 from core.geom import outline_errors, require_finite
 from core.errors import SettingsError, SolverError
-from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh
+from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh, only_springs
 from core.metrics import (area_beyond_lock_pct, cell_areas, cell_shear_deg, deformation_summary, metric_limits,
                           result_warnings, spring_lengths)
 from core.nurbs import NurbsSurface
@@ -466,7 +466,11 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         state, stats = State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
     else:
         uv = np.asarray(initial.uv, dtype=float)
-        state, stats = State(problem.build(initial.mesh.ij, uv), uv), {"warm_start": True, "seconds": 0.0}
+        mesh = problem.build(initial.mesh.ij, uv)
+        if not solver_entry(settings.solver).iterative:
+            # not solved again: the springs stay the ones solved (a build can add one a dart cut earlier)
+            mesh = only_springs(mesh, initial.mesh.ends)
+        state, stats = State(mesh, uv), {"warm_start": True, "seconds": 0.0}
     if any(y.point is not None for y in settings.yarns):
         # a picked yarn is the thread through its point on this lattice (after every drape and warm start)
         yarns = resolve_yarns(settings.yarns, state.mesh, surface.points(state.uv))
@@ -569,7 +573,15 @@ def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -
         raise SettingsError("the warm-start file's nodes.ij and nodes.uv differ in length or are empty")
     if not surface.in_domain(uv).all():
         raise SettingsError("the warm-start file's nodes lie outside this surface's domain")
-    return State(make_problem(surface, settings).build(ij, uv), uv)
+    mesh = make_problem(surface, settings).build(ij, uv)
+    ends = d.get("springs", {}).get("ends") if isinstance(d.get("springs"), dict) else None
+    if ends is not None:  # the solved springs, which a build at the same (u, v) may exceed by one a dart cut
+        try:
+            ends = np.asarray(ends, dtype=np.int64).reshape(-1, 2)
+        except (TypeError, ValueError):
+            raise SettingsError("the warm-start file's springs.ends must be pairs of node indices") from None
+        mesh = only_springs(mesh, ends)
+    return State(mesh, uv)
 
 
 def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> dict:

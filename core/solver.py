@@ -16,8 +16,8 @@ Two solvers minimise the same EN (equation 4, :mod:`core.energy`):
   nothing. Once the population has settled and while no node is switched off,
   the last factorisation is tried first (a chord step) and a new one made only
   when its step is not accepted (``SolverOptions.reuse``; docs/decisions.md).
-  With ``SolverOptions.surface_newton`` (not yet the default,
-  docs/decisions.md) Newton is taken on the surface, not in its (u, v) chart:
+  With ``SolverOptions.surface_newton`` (the default; docs/decisions.md)
+  Newton is taken on the surface, not in its (u, v) chart:
   the Hessian's node term keeps only the normal part of each node's 3D
   gradient (the Riemannian Hessian, which is the exact one at a minimum) and
   each node's step follows the surface's geodesic to second order. At the octant's pole the chart's Christoffel
@@ -107,9 +107,9 @@ class SolverOptions:
         the chart's Christoffel terms otherwise make the node blocks
         indefinite and the straight (u, v) step sag off the stiff threads:
         off-axis weft angles took 3-5x the iterations of the on-axis one.
-        On, a round's convergence also drops springs that came to cross a
-        dart. Off (the default for now: docs/decisions.md says why): Newton
-        in (u, v) as before.
+        On (the default), a round's convergence also drops springs that
+        came to cross a dart. Off: Newton in (u, v), the chart's exact
+        Hessian and straight steps (the solver before 2026-12-02).
     """
 
     method: str = "fast"
@@ -120,7 +120,7 @@ class SolverOptions:
     refill: bool = True
     delete: bool = True
     reuse: bool = True
-    surface_newton: bool = False
+    surface_newton: bool = True
 
     def __post_init__(self):
         if self.method not in METHODS:

@@ -47,7 +47,7 @@ def _seed_row_yarn(surface, settings: FlattenSettings) -> YarnConstraint:
     return YarnConstraint("weft", 0, yarn_plane(d.xyz[[row[0], row[-1]]], normal), 1000.0)
 
 
-def _flatten(surface, settings, reuse: bool, monkeypatch, initial=None):
+def _flatten(surface, settings, reuse: bool, monkeypatch, initial=None, surface_newton: bool = True):
     made = FlattenSettings.solver_options
     count = [0]
     factorise = solver._Round.factorise
@@ -57,9 +57,9 @@ def _flatten(surface, settings, reuse: bool, monkeypatch, initial=None):
         return factorise(*a, **k)
 
     with monkeypatch.context() as m:
-        # the surface's Newton (SolverOptions.surface_newton; the 33 cases before it pass on the chart's too)
+        # the surface's Newton by default (SolverOptions.surface_newton; the 33 cases before it pass on the chart's too)
         m.setattr(FlattenSettings, "solver_options",
-                  lambda self: dataclasses.replace(made(self), reuse=reuse, surface_newton=True))
+                  lambda self: dataclasses.replace(made(self), reuse=reuse, surface_newton=surface_newton))
         m.setattr(solver._Round, "factorise", counted)
         r = flatten(surface, settings, initial=initial)
     return r, count[0]
@@ -179,3 +179,37 @@ def test_assemble_exact_is_the_blocks_assembled(name, yarn, off, surface_newton)
 def test_reuse_is_an_option_with_a_default():
     assert solver.SolverOptions().reuse is True
     assert solver.SolverOptions(reuse=False).reuse is False
+
+
+@pytest.mark.parametrize("name, material, dart, yarn, angle", [c if len(c) == 5 else c + (0.0,) for c in CASES])
+def test_newton_on_the_surface_matches_newton_in_the_chart(name, material, dart, yarn, angle, monkeypatch):
+    """The default solver (on the surface, quick path) against the solver before it (the chart's
+    Newton, a factorisation every iteration): the same results within the issue's tolerances."""
+    s, settings = _settings(name, 700, material)
+    settings = dataclasses.replace(settings, angle_deg=angle)
+    if dart:
+        settings = dataclasses.replace(settings, darts=(CURVE if dart == "curve" else DART,))
+    if yarn:
+        settings = dataclasses.replace(settings, yarns=(_seed_row_yarn(s, settings),))
+    new, _ = _flatten(s, settings, True, monkeypatch)
+    old, _ = _flatten(s, settings, False, monkeypatch, surface_newton=False)
+    if (name, material, dart, yarn) in POPULATION_SPLITS:
+        # A cold solve with the curve dart deletes 150-250 of these 700 nodes and refills most; the two
+        # Newton models take other steps, so other nodes leave, and each ends at the minimum of another
+        # population (docs/decisions.md, 2026-12-02: at 2,500 nodes the woven dome agrees within 0.02
+        # points). Each must still be a converged, covering piece of about the same quality.
+        for r in (new, old):
+            assert r.metrics["solver_status"] == "converged"
+        assert abs(new.metrics["nodes"] - old.metrics["nodes"]) <= 0.05 * old.metrics["nodes"]
+        assert abs(new.metrics["uncovered_pct"] - old.metrics["uncovered_pct"]) <= 0.5
+        assert abs(new.metrics["boundary_error_pct"] - old.metrics["boundary_error_pct"]) <= 1.5
+        assert abs(new.metrics["area_error_pct"] - old.metrics["area_error_pct"]) <= 0.5
+        return
+    _agree(new, old)
+    assert new.metrics["iterations"] <= old.metrics["iterations"] + 10
+
+
+# the cases whose cold curve-dart solve ends on another population under the two models (see above)
+POPULATION_SPLITS = {("saddle", "woven", "curve", False), ("saddle", "woven", "curve", True),
+                     ("saddle", "isotropic", "curve", False), ("dome", "woven", "curve", False),
+                     ("dome", "isotropic", "curve", False)}

@@ -123,6 +123,6 @@ def test_off_axis_weft_converges_like_the_on_axis_one_on_the_octant():
         assert old.nit >= 2 * new.nit  # the chart's Newton crawls there: what this fixes
 
 
-def test_surface_newton_is_an_option_off_by_default():
-    assert SolverOptions().surface_newton is False
-    assert dataclasses.replace(SolverOptions(), surface_newton=True).surface_newton is True
+def test_surface_newton_is_the_default_and_the_chart_an_option():
+    assert SolverOptions().surface_newton is True
+    assert dataclasses.replace(SolverOptions(), surface_newton=False).surface_newton is False
