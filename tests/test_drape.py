@@ -159,7 +159,7 @@ def test_slow_progress_reports_come_less_often():
     from core.drape import REPORT_SHARE
 
     surface = load_example("octant")
-    s = DrapeSettings(0.03, 0.03)
+    s = DrapeSettings(0.015, 0.015)  # ~7,000 nodes: a drape long enough for several 45 ms waits on a quick machine
     pause = 0.005
     spans = []
 
