@@ -370,7 +370,9 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
         for sgn in (1, -1):
             def valid_side(rows, nn, sgn=sgn, dart=dart, others=others, cuv=cuv):
                 nodes = nn.ravel()
-                ok = dart.side(uv[nodes], xyz[nodes]) == sgn
+                # each node's side once (a node is a candidate of many curve points)
+                each, back = np.unique(nodes, return_inverse=True)
+                ok = dart.side(uv[each], xyz[each])[back] == sgn
                 ok &= ~others.crossing(cuv[rows.ravel()], uv[nodes])
                 return ok.reshape(rows.shape)
             legs[sgn] = map_points(c3, mesh, xyz, xy, valid=valid_side, frames=frames)
