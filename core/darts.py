@@ -180,6 +180,7 @@ class SegmentGrid:
         # cells no smaller than a typical dart segment (nor than a 4096th of the dart)
         self._floor = self._exp(max(seg, ext / 4096, 1e-300))
         self._tables: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._shapes: dict[float, tuple[int, int]] = {}
 
     @staticmethod
     def _exp(x: float) -> int:
@@ -190,14 +191,21 @@ class SegmentGrid:
         return max(self._floor, self._exp(size) if size > 0 else self._floor)
 
     def shape(self, c: float) -> tuple[int, int]:
-        n = np.floor((self.hi - self.lo) / c).astype(np.int64) + 1
-        return int(n[0]), int(n[1])
+        """(nx, ny): the grid's cells along u and v at cell size c (a power of two)."""
+        hit = self._shapes.get(c)
+        if hit is None:
+            n = np.floor((self.hi - self.lo) / c).astype(np.int64) + 1
+            hit = self._shapes[c] = (int(n[0]), int(n[1]))
+        return hit
 
     def cell(self, x: np.ndarray, c: float) -> np.ndarray:
         """(n, 2) int: the cells of points x (n, 2), clamped to the grid (a box
         reaching beyond the dart's box keeps every cell it shares with it)."""
-        n = np.array(self.shape(c)) - 1
-        return np.clip(np.floor((x - self.lo) / c), 0, n).astype(np.int64)
+        nx, ny = self.shape(c)
+        i = np.floor((x - self.lo) / c)
+        np.clip(i[:, 0], 0, nx - 1, out=i[:, 0])
+        np.clip(i[:, 1], 0, ny - 1, out=i[:, 1])
+        return i.astype(np.int64)
 
     def table(self, e: int) -> tuple[np.ndarray, np.ndarray]:
         """(keys, segments): every (cell, segment) of grid e, sorted by cell."""
