@@ -45,7 +45,8 @@ from core.geom import cumulative_length, interp_rows, nearest_segment, polyline_
 from core.nurbs import NurbsSurface
 
 __all__ = ["Dart", "DART_KINDS", "RESULT_DART_KEYS", "CUT_DART_KEYS", "dart_from_dict", "PlaneDart", "CurveDart",
-           "segments_cross", "DartSet", "curve_dart", "curve_dart_from_file", "curve_dart_through", "dart_handles"]
+           "segments_cross", "segments_cross_brute", "SegmentGrid", "DartSet", "curve_dart", "curve_dart_from_file",
+           "curve_dart_through", "dart_handles"]
 
 
 def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -53,7 +54,8 @@ def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     return (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
 
 
-def segments_cross(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+def segments_cross(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray,
+                   grid: "SegmentGrid | None" = None) -> np.ndarray:
     """(m,) bool: does segment p (m, 2) cross the polyline of segments q (k, 2)?
 
     A crossing needs the ends of p strictly on opposite sides of a dart
@@ -61,29 +63,160 @@ def segments_cross(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarra
     side, so the spring is cut on one side only) and the dart segment to
     reach p (its end points touching p count: a dart ending exactly on a
     spring cuts it).
+
+    Only the pairs whose bounding boxes touch are tested (two segments that
+    meet share a point of both boxes), found through a uniform grid over the
+    dart (``grid``, a :class:`SegmentGrid` of q, kept by a dart between
+    calls; built here if not given). :func:`segments_cross_brute` tests
+    every pair; the two agree wherever the orientation signs are those of
+    exact arithmetic (rounding can make colinear, disjoint segments "cross"
+    in the brute force; their boxes do not touch).
     """
     m = len(p0)
     out = np.zeros(m, dtype=bool)
     if m == 0 or len(q0) == 0:
         return out
-    # bounding-box prefilter: only springs near the dart's extent
-    lo = np.minimum(q0, q1).min(axis=0)
-    hi = np.maximum(q0, q1).max(axis=0)
-    near = np.flatnonzero(np.all(np.maximum(p0, p1) >= lo, axis=1) & np.all(np.minimum(p0, p1) <= hi, axis=1))
+    g = grid if grid is not None else SegmentGrid(q0, q1)
+    # only springs near the dart's extent (a NaN end is never near); column by column, as
+    # np.all(axis=1) over (m, 2) costs 6x more
+    (x0, y0), (x1, y1), (lx, ly), (hx, hy) = p0.T, p1.T, g.lo, g.hi
+    near = np.flatnonzero(((x0 >= lx) | (x1 >= lx)) & ((y0 >= ly) | (y1 >= ly))
+                          & ((x0 <= hx) | (x1 <= hx)) & ((y0 <= hy) | (y1 <= hy)))
     if near.size == 0:
         return out
-    step = max(1, 2_000_000 // max(len(q0), 1))
-    for s in range(0, near.size, step):
-        idx = near[s:s + step]
-        a, b = p0[idx][:, None, :], p1[idx][:, None, :]
-        c, d = q0[None, :, :], q1[None, :, :]
-        sa = _orient(c, d, a) >= 0
-        sb = _orient(c, d, b) >= 0
-        oc = _orient(a, b, c)
-        od = _orient(a, b, d)
-        hit = (sa != sb) & (oc * od <= 0) & ~((oc == 0) & (od == 0))
-        out[idx] = hit.any(axis=1)
+    if near.size * len(q0) <= _DENSE_PAIRS:
+        out[near] = _cross_dense(p0[near], p1[near], q0, q1)
+        return out
+    a, b = p0[near], p1[near]
+    plo, phi = np.minimum(a, b), np.maximum(a, b)
+    size = np.max(phi - plo, axis=1)
+    e = g.level(float(np.median(size)))
+    c = 2.0 ** e
+    i0, i1 = g.cell(plo, c), g.cell(phi, c)
+    w = i1 - i0 + 1
+    many = w[:, 0] * w[:, 1] > _MAX_CELLS  # a spring as long as the dart: every segment, as before
+    if many.any():
+        idx = near[many]
+        out[idx] = _cross_dense(p0[idx], p1[idx], q0, q1)
+    few = np.flatnonzero(~many)
+    item, key = _expand(i0[few], w[few], g.shape(c)[1])
+    skey, sseg = g.table(e)
+    left = np.searchsorted(skey, key, "left")
+    cnt = np.searchsorted(skey, key, "right") - left
+    spr = few[np.repeat(item, cnt)]
+    seg = sseg[np.repeat(left, cnt) + _ramp(cnt)]
+    key = np.repeat(key, cnt)
+    # each touching pair once: in the cell of its boxes' common lower corner
+    slo, shi, qlo, qhi = plo[spr], phi[spr], g.qlo[seg], g.qhi[seg]
+    corner = g.cell(np.maximum(slo, qlo), c)
+    ny = g.shape(c)[1]
+    touch = ((corner[:, 0] * ny + corner[:, 1]) == key) & (slo[:, 0] <= qhi[:, 0]) & (slo[:, 1] <= qhi[:, 1]) \
+        & (shi[:, 0] >= qlo[:, 0]) & (shi[:, 1] >= qlo[:, 1])
+    spr, seg = spr[touch], seg[touch]
+    hit = _cross_pairs(a[spr], b[spr], q0[seg], q1[seg])
+    out[near[spr[hit]]] = True
     return out
+
+
+_DENSE_PAIRS = 20_000  # below this many (spring, segment) pairs the grid costs more than it saves
+_MAX_CELLS = 64
+
+
+def _cross_pairs(a, b, c, d) -> np.ndarray:
+    """The crossing test of segment pairs (a, b) x (c, d), row by row (broadcasting)."""
+    sa = _orient(c, d, a) >= 0
+    sb = _orient(c, d, b) >= 0
+    oc = _orient(a, b, c)
+    od = _orient(a, b, d)
+    return (sa != sb) & (oc * od <= 0) & ~((oc == 0) & (od == 0))
+
+
+def _cross_dense(p0, p1, q0, q1) -> np.ndarray:
+    """(m,) every segment p against every segment q, in chunks of bounded memory."""
+    out = np.zeros(len(p0), dtype=bool)
+    step = max(1, 2_000_000 // max(len(q0), 1))
+    for s in range(0, len(p0), step):
+        hit = _cross_pairs(p0[s:s + step, None, :], p1[s:s + step, None, :], q0[None], q1[None])
+        out[s:s + step] = hit.any(axis=1)
+    return out
+
+
+def segments_cross_brute(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """:func:`segments_cross` testing every pair (within the dart's bounding box): the reference."""
+    out = np.zeros(len(p0), dtype=bool)
+    if len(p0) == 0 or len(q0) == 0:
+        return out
+    lo, hi = np.minimum(q0, q1).min(axis=0), np.maximum(q0, q1).max(axis=0)
+    near = np.flatnonzero(np.all(np.maximum(p0, p1) >= lo, axis=1) & np.all(np.minimum(p0, p1) <= hi, axis=1))
+    out[near] = _cross_dense(p0[near], p1[near], q0, q1)
+    return out
+
+
+def _ramp(cnt: np.ndarray) -> np.ndarray:
+    """0, 1, .., cnt[0] - 1, 0, 1, .., cnt[1] - 1, ...: positions within runs of lengths cnt."""
+    total = int(cnt.sum())
+    return np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+
+
+def _expand(i0: np.ndarray, w: np.ndarray, ny: int) -> tuple[np.ndarray, np.ndarray]:
+    """(item, key): every cell of the boxes from cell i0 (n, 2) spanning w (n, 2) cells, keyed ix * ny + iy."""
+    cnt = w[:, 0] * w[:, 1]
+    item = np.repeat(np.arange(len(i0)), cnt)
+    r = _ramp(cnt)
+    wy = w[item, 1]
+    return item, (i0[item, 0] + r // wy) * ny + i0[item, 1] + r % wy
+
+
+class SegmentGrid:
+    """The segments q0 -> q1 (k, 2) of a dart, binned in uniform grids of
+    cell size 2**e over their bounding box (one table per e, made when first
+    asked): the candidates of :func:`segments_cross`."""
+
+    def __init__(self, q0: np.ndarray, q1: np.ndarray):
+        self.qlo, self.qhi = np.minimum(q0, q1), np.maximum(q0, q1)
+        self.lo, self.hi = self.qlo.min(axis=0), self.qhi.max(axis=0)
+        ext = float(np.max(self.hi - self.lo))
+        seg = float(np.median(np.max(self.qhi - self.qlo, axis=1)))
+        # cells no smaller than a typical dart segment (nor than a 4096th of the dart)
+        self._floor = self._exp(max(seg, ext / 4096, 1e-300))
+        self._tables: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._shapes: dict[float, tuple[int, int]] = {}
+
+    @staticmethod
+    def _exp(x: float) -> int:
+        return int(np.ceil(np.log2(x))) if x > 0 and np.isfinite(x) else -1074
+
+    def level(self, size: float) -> int:
+        """The grid (its exponent) for items of typical extent ``size``."""
+        return max(self._floor, self._exp(size) if size > 0 else self._floor)
+
+    def shape(self, c: float) -> tuple[int, int]:
+        """(nx, ny): the grid's cells along u and v at cell size c (a power of two)."""
+        hit = self._shapes.get(c)
+        if hit is None:
+            n = np.floor((self.hi - self.lo) / c).astype(np.int64) + 1
+            hit = self._shapes[c] = (int(n[0]), int(n[1]))
+        return hit
+
+    def cell(self, x: np.ndarray, c: float) -> np.ndarray:
+        """(n, 2) int: the cells of points x (n, 2), clamped to the grid (a box
+        reaching beyond the dart's box keeps every cell it shares with it)."""
+        nx, ny = self.shape(c)
+        i = np.floor((x - self.lo) / c)
+        np.clip(i[:, 0], 0, nx - 1, out=i[:, 0])
+        np.clip(i[:, 1], 0, ny - 1, out=i[:, 1])
+        return i.astype(np.int64)
+
+    def table(self, e: int) -> tuple[np.ndarray, np.ndarray]:
+        """(keys, segments): every (cell, segment) of grid e, sorted by cell."""
+        hit = self._tables.get(e)
+        if hit is None:
+            c = 2.0 ** e
+            i0 = self.cell(self.qlo, c)
+            seg, key = _expand(i0, self.cell(self.qhi, c) - i0 + 1, self.shape(c)[1])
+            order = np.argsort(key, kind="stable")
+            hit = self._tables[e] = (key[order], seg[order])
+        return hit
 
 
 class Dart:
@@ -180,8 +313,9 @@ class PlaneDart(Dart):
     def in_box(self, xyz: np.ndarray) -> np.ndarray:
         if self.box is None:
             return np.ones(len(xyz), dtype=bool)
-        b = np.asarray(self.box, dtype=float)
-        return np.all((xyz >= b[0::2]) & (xyz <= b[1::2]), axis=1)
+        b = self.box  # column by column: np.all(axis=1) over (m, 3) costs several times more
+        x, y, z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+        return (x >= b[0]) & (x <= b[1]) & (y >= b[2]) & (y <= b[3]) & (z >= b[4]) & (z <= b[5])
 
     def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
         """(m,) bool: springs from a to b crossing the dart: one end in the box
@@ -366,7 +500,15 @@ class CurveDart(Dart):
                    auto=item.get("auto", False) is True)
 
     def crosses(self, uva, uvb, xa, xb) -> np.ndarray:
-        return segments_cross(uva, uvb, self.uv[:-1], self.uv[1:])
+        return segments_cross(uva, uvb, self.uv[:-1], self.uv[1:], self._grid())
+
+    def _grid(self) -> SegmentGrid:
+        """The dart's segments binned for :func:`segments_cross`, made once (the dart is frozen)."""
+        g = self.__dict__.get("_segment_grid")
+        if g is None:
+            g = SegmentGrid(self.uv[:-1], self.uv[1:])
+            object.__setattr__(self, "_segment_grid", g)
+        return g
 
     def side(self, uv, xyz) -> np.ndarray:
         """(n,) +1 / -1: left or right of the nearest dart segment in (u, v)."""

@@ -13,7 +13,7 @@ import numpy as np
 
 from core.errors import SolverError
 
-__all__ = ["rowdot", "unit_rows", "polyline_sq_distances", "polyline_distance", "nearest_segment",
+__all__ = ["rowdot", "unit_rows", "polyline_sq_distances", "polyline_distance", "nearest_segment", "nearest_segments",
            "cumulative_length", "interp_rows", "resample_at_lengths", "nonfinite_rows", "nan_word",
            "require_finite", "outline_errors"]
 
@@ -34,26 +34,78 @@ def unit_rows(v: np.ndarray) -> np.ndarray:
     return v / np.where(n > 0, n, 1.0)
 
 
+def _seg_sq_distances(p, a, ab, abab):
+    """Squared distances of points p to segments a -> a + ab (abab = |ab|^2),
+    broadcast, component by component (one arithmetic for the brute force and
+    the candidates of :func:`nearest_segments`, so both give the same bits)."""
+    d = p - a
+    t = np.clip(rowdot(d, ab) / np.maximum(abab, 1e-300), 0, 1)
+    r = d - t[..., None] * ab
+    return rowdot(r, r)
+
+
 def polyline_sq_distances(p: np.ndarray, line: np.ndarray) -> np.ndarray:
     """(n, k - 1) squared distances of points p (n, d) to each segment of the
     polyline ``line`` (k, d) (the foot clamped to the segment; a segment of
     zero length is its first point)."""
-    a, b = line[:-1], line[1:]
-    ab = b - a
-    t = np.clip(np.einsum("nkj,kj->nk", p[:, None, :] - a[None], ab)
-                / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-300), 0, 1)
-    foot = a[None] + t[..., None] * ab[None]
-    return np.einsum("nkj,nkj->nk", p[:, None, :] - foot, p[:, None, :] - foot)
+    a = line[:-1]
+    ab = line[1:] - a
+    return _seg_sq_distances(p[:, None, :], a[None], ab[None], rowdot(ab, ab)[None])
+
+
+def nearest_segments(p: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(index, squared distance), both (n,): the segment of ``line`` (k, d)
+    nearest to each point of p (n, d), the first of equals, as the argmin of
+    :func:`polyline_sq_distances` gives it.
+
+    Long inputs go through a k-d tree of the segments' midpoints: a point's
+    few nearest midpoints give a best distance, and a segment whose midpoint
+    is farther than that plus the longest half segment cannot be nearer; a
+    point for which that does not rule out every segment beyond the few is
+    measured against all of them.
+    """
+    p = np.asarray(p, dtype=float)
+    line = np.asarray(line, dtype=float)
+    k = len(line) - 1
+    few = min(k, _FEW)
+    if len(p) * k <= _BRUTE_PAIRS or few == k or not (np.all(np.isfinite(line)) and np.all(np.isfinite(p))):
+        d2 = polyline_sq_distances(p, line)
+        i = np.argmin(d2, axis=1)
+        return i, d2[np.arange(len(p)), i]
+    from scipy.spatial import cKDTree
+
+    a = line[:-1]
+    ab = line[1:] - a
+    abab = rowdot(ab, ab)
+    half = 0.5 * float(np.sqrt(abab.max()))
+    dist, cand = cKDTree(a + 0.5 * ab).query(p, k=few)
+    cand = np.sort(cand, axis=1)  # the first of equals is the lowest index, as argmin's
+    d2 = _seg_sq_distances(p[:, None, :], a[cand], ab[cand], abab[cand])
+    j = np.argmin(d2, axis=1)
+    rows = np.arange(len(p))
+    i, best = cand[rows, j], d2[rows, j]
+    # every segment beyond the few has its midpoint at least dist[:, -1] away
+    margin = 1e-9 * (np.sqrt(best) + half) + 1e-300
+    unsure = np.flatnonzero(~(dist[:, -1] - half > np.sqrt(best) + margin))
+    if unsure.size:
+        d2 = polyline_sq_distances(p[unsure], line)
+        ju = np.argmin(d2, axis=1)
+        i[unsure], best[unsure] = ju, d2[np.arange(unsure.size), ju]
+    return i, best
+
+
+_FEW = 12
+_BRUTE_PAIRS = 50_000
 
 
 def polyline_distance(p: np.ndarray, line: np.ndarray) -> np.ndarray:
     """(n,) distance of points p (n, d) to the polyline ``line`` (k, d)."""
-    return np.sqrt(polyline_sq_distances(p, line).min(axis=1))
+    return np.sqrt(nearest_segments(p, line)[1])
 
 
 def nearest_segment(p: np.ndarray, line: np.ndarray) -> np.ndarray:
     """(n,) index of the segment of ``line`` nearest to each point of p."""
-    return np.argmin(polyline_sq_distances(p, line), axis=1)
+    return nearest_segments(p, line)[0]
 
 
 def cumulative_length(P: np.ndarray) -> np.ndarray:

@@ -370,7 +370,9 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
         for sgn in (1, -1):
             def valid_side(rows, nn, sgn=sgn, dart=dart, others=others, cuv=cuv):
                 nodes = nn.ravel()
-                ok = dart.side(uv[nodes], xyz[nodes]) == sgn
+                # each node's side once (a node is a candidate of many curve points)
+                each, back = np.unique(nodes, return_inverse=True)
+                ok = dart.side(uv[each], xyz[each])[back] == sgn
                 ok &= ~others.crossing(cuv[rows.ravel()], uv[nodes])
                 return ok.reshape(rows.shape)
             legs[sgn] = map_points(c3, mesh, xyz, xy, valid=valid_side, frames=frames)
@@ -386,8 +388,14 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
 
     sheet = _same_sheet(surface, mesh, xyz, uv, buv, spacing)
 
+    # plane darts test the points on the surface: each boundary point and node put there once, not
+    # once per (point, candidate node) pair (a point's evaluation does not depend on its batch)
+    bxyz, nxyz = _on_surface(surface, darts, buv), _on_surface(surface, darts, uv)
+
     def visible(rows, nn):  # the node is on the point's side of every dart, and on its sheet
-        return ~darts.crossing(buv[rows.ravel()], uv[nn.ravel()]).reshape(rows.shape) & sheet(rows, nn)
+        r, n_ = rows.ravel(), nn.ravel()
+        xa, xb = (bxyz[r], nxyz[n_]) if bxyz is not None else (None, None)
+        return ~darts.crossing(buv[r], uv[n_], xa, xb).reshape(rows.shape) & sheet(rows, nn)
 
     B2, near = map_points(Q, mesh, xyz, xy, valid=visible, frames=frames, nearest=True)
     comp = _components(mesh)
@@ -576,6 +584,11 @@ def _components(mesh: SpringMesh) -> np.ndarray:
     n = mesh.n_nodes
     g = coo_matrix((np.ones(mesh.n_springs), (mesh.ends[:, 0], mesh.ends[:, 1])), shape=(n, n))
     return connected_components(g, directed=False)[1]
+
+
+def _on_surface(surface: NurbsSurface, darts, uv: np.ndarray) -> np.ndarray | None:
+    """S(uv) (n, 3) if a dart of ``darts`` tests points on the surface (a plane dart), else None."""
+    return surface.points(uv) if any(d.needs_xyz for d in darts.darts) else None
 
 
 def _nearest_segment_t(poly: np.ndarray, p: np.ndarray) -> tuple[int, float]:

@@ -237,6 +237,10 @@ class _Population:
             self.counts[key] = self.counts.get(key, 0) + 1
         self.deleted += len(ij)
 
+    def all_dead(self, ij: np.ndarray) -> bool:
+        """True if every position ij (k, 2) was deleted twice or more (is never refilled)."""
+        return all(self.counts.get(key, 0) >= 2 for key in map(tuple, ij.tolist()))
+
     def dead(self) -> np.ndarray:
         """(k, 2) positions deleted twice or more: never refilled."""
         dead = [k for k, c in self.counts.items() if c >= 2]
@@ -802,9 +806,10 @@ class _Round:
         self._corners, self._cell_edges = _round_topology(self.mesh)
         self._ldl = None  # the round's QDLDL factorisation (quick path)
 
-    def switch_off(self, bad: np.ndarray, xyz: np.ndarray) -> None:
+    def switch_off(self, bad: np.ndarray, xyz: np.ndarray) -> np.ndarray:
         """Delete nodes ``bad`` (and nodes left without springs); xyz : (n, 3)
-        the round's nodes on the surface now.
+        the round's nodes on the surface now. Returns the lattice positions
+        (k, 2) of the nodes switched off.
 
         The springs left are the round's springs that the population's own
         build would still form: both ends alive, a diagonal only while one of
@@ -838,7 +843,8 @@ class _Round:
             if not lonely.any():
                 break
             alive &= ~lonely
-        run.pop.record(mesh.ij[self.alive & ~alive])
+        gone = mesh.ij[self.alive & ~alive]
+        run.pop.record(gone)
         self.alive, self.spring_on = alive, on
         self.energy = self.full.masked(on, alive)
         idx = np.flatnonzero(alive)
@@ -848,6 +854,7 @@ class _Round:
         run.mesh = dataclasses.replace(mesh, ij=mesh.ij[idx], ends=num[mesh.ends[on]], kind=mesh.kind[on],
                                        rest=mesh.rest[on], k=mesh.k[on], cells=num[cells])
         run.uv = self.uv[idx]
+        return gone
 
     def crossing(self, xyz: np.ndarray) -> bool:
         """True if a live spring crosses a dart where its nodes are now (xyz : (n, 3))."""
@@ -972,7 +979,9 @@ def _iterate_fast(run: _Run):
     # factorisation the settled round would start with
     held = None
     last_decrease = math.inf
-    quiet = False  # a refill found nothing and no node was switched off since
+    # a refill found nothing and no node was switched off since, but at positions never refilled (deleted
+    # twice): taking a node away gives no empty position two neighbours, so that refill would find nothing again
+    quiet = False
 
     def start():
         rd_ = _Round(run)
@@ -1082,8 +1091,9 @@ def _iterate_fast(run: _Run):
                 run.uv = uv_try[rnd.alive]
                 ev = ev2
                 if bad.any():
-                    stale, held, quiet = None, None, False
-                    rnd.switch_off(bad, ev.xyz)
+                    stale, held = None, None
+                    gone = rnd.switch_off(bad, ev.xyz)
+                    quiet = quiet and opts.reuse and run.pop.all_dead(gone)
                     rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
                     E = 0.5 * (rs @ rs + rd @ rd)
                     if not math.isfinite(E):
@@ -1111,8 +1121,9 @@ def _iterate_fast(run: _Run):
             # a spring that came to cross a dart without either end crossing it (swung round the
             # dart's end) is not in the piece: drop it and go on (switch_off re-checks every spring)
             if opts.surface_newton and opts.delete and run.problem.cut is not None and rnd.crossing(ev.xyz):
-                stale, held, quiet = None, None, False
-                rnd.switch_off(np.zeros(rnd.mesh.n_nodes, dtype=bool), ev.xyz)
+                stale, held = None, None
+                gone = rnd.switch_off(np.zeros(rnd.mesh.n_nodes, dtype=bool), ev.xyz)
+                quiet = quiet and opts.reuse and run.pop.all_dead(gone)
                 rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
                 E = 0.5 * (rs @ rs + rd @ rd)
                 yield run.snapshot(E, ev.xyz[rnd.alive], True)
