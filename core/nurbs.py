@@ -362,6 +362,12 @@ class NurbsSurface:
         S, Su, Sv, Suu, Suv, Svv = self._rational(uv, second)
         return SurfaceEval(S, Su, Sv, self._normals(uv, Su, Sv) if normals else None, Suu, Suv, Svv)
 
+    def normals(self, uv, su: np.ndarray, sv: np.ndarray) -> np.ndarray:
+        """(n, 3) unit normals at uv : (n, 2) from the first derivatives su, sv
+        (n, 3) there (as :meth:`derivatives` gives them): the normals
+        :meth:`evaluate` gives, for a caller that has the derivatives already."""
+        return self._normals(np.asarray(uv, dtype=float).reshape(-1, 2), su, sv)
+
     def _normals(self, uv: np.ndarray, Su: np.ndarray, Sv: np.ndarray) -> np.ndarray:
         n = np.cross(Su, Sv)
         ln = np.linalg.norm(n, axis=1)

@@ -159,8 +159,8 @@ def test_slow_progress_reports_come_less_often():
     from core.drape import REPORT_SHARE
 
     surface = load_example("octant")
-    s = DrapeSettings(0.03, 0.03)
-    pause = 0.005
+    s = DrapeSettings(0.02, 0.02)  # ~4,000 nodes: a drape long enough for several reports
+    pause = 0.003
     spans = []
 
     def slow(ij, uv, xyz):
