@@ -184,15 +184,25 @@ def _newton(surface: NurbsSurface, uv0: np.ndarray, residual, tol: np.ndarray):
             break
         S, Su, Sv = surface.derivatives(uv[active])
         F, J = residual(S, Su, Sv, active)
-        finite = np.all(np.isfinite(F), axis=1) & np.all(np.isfinite(J), axis=(1, 2))
-        done = finite & (np.max(np.abs(F), axis=1) <= tol[active])
-        conv[active[done]] = True
-        for o, a in zip(out, (S, Su, Sv)):
-            o[active[done]] = a[done]
+        finite = np.isfinite(F).all(axis=1) & np.isfinite(J).reshape(-1, 4).all(axis=1)
+        done = finite & (np.abs(F).max(axis=1) <= tol[active])
+        if done.all():  # the usual last round: no step to take (a front's Newton ends here)
+            conv[active] = True
+            out[0][active], out[1][active], out[2][active] = S, Su, Sv
+            break
+        if done.any():
+            conv[active[done]] = True
+            for o, a in zip(out, (S, Su, Sv)):
+                o[active[done]] = a[done]
         go = finite & ~done
-        step, ok = _solve2(J[go], F[go])
-        idx = active[go][ok]
-        step = step[ok]
+        if go.all():  # no copies of the whole batch when every row goes on
+            step, ok = _solve2(J, F)
+            idx = active
+        else:
+            step, ok = _solve2(J[go], F[go])
+            idx = active[go]
+        if not ok.all():
+            idx, step = idx[ok], step[ok]
         factor = np.min(max_step / np.maximum(np.abs(step), 1e-300), axis=1, initial=1.0)
         uv[idx] += step * np.minimum(1.0, factor)[:, None]
         inside = np.all((uv[idx] >= lo) & (uv[idx] <= hi), axis=1)
@@ -222,16 +232,15 @@ def _one_neighbour(surface, P0, radius, normal, uv_guess):
 def _two_neighbour(surface, A, ra, B, rb, uv_guess):
     """Two-Neighbour mapping: |S - A| = ra, |S - B| = rb, S on the surface."""
 
+    centres = np.stack([A, B], axis=1)  # (k, 2, 3)
+    radii = np.column_stack([ra, rb])
+
     def residual(S, Su, Sv, idx):
-        da, db = S - A[idx], S - B[idx]
-        a, b = ra[idx], rb[idx]
-        F = np.column_stack([(np.einsum("ij,ij->i", da, da) - a ** 2) / (2 * a),
-                             (np.einsum("ij,ij->i", db, db) - b ** 2) / (2 * b)])
-        J = np.empty((len(idx), 2, 2))
-        J[:, 0, 0] = np.einsum("ij,ij->i", da, Su) / a
-        J[:, 0, 1] = np.einsum("ij,ij->i", da, Sv) / a
-        J[:, 1, 0] = np.einsum("ij,ij->i", db, Su) / b
-        J[:, 1, 1] = np.einsum("ij,ij->i", db, Sv) / b
+        # both spheres at once: a front's Newton is a few hundred of these calls, each a few rows
+        d = S[:, None, :] - centres[idx]  # (k', 2, 3)
+        r = radii[idx]
+        F = (np.einsum("kic,kic->ki", d, d) - r ** 2) / (2 * r)
+        J = np.einsum("kic,kjc->kij", d, np.stack([Su, Sv], axis=1)) / r[:, :, None]
         return F, J
 
     return _newton(surface, uv_guess, residual, 1e-12 * np.minimum(ra, rb))
