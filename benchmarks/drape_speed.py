@@ -103,7 +103,7 @@ def main() -> None:
              "", f"{_dt.date.today().isoformat()}, {platform.node()} ({platform.processor() or platform.machine()}, "
              f"{os.cpu_count()} cores), Python {platform.python_version()}, numpy {np.__version__}; "
              f"woven octant; medians of {args.repeat} alternating runs; load {load()} at the start", "",
-             "| nodes | stage | reference s | now s | speed-up | same result |", "|---:|---|---:|---:|---:|---|"]
+             "| nodes | stage | reference ms | now ms | speed-up | same result |", "|---:|---|---:|---:|---:|---|"]
     for n in [int(x) for x in args.sizes.split(",")]:
         spacing = float(np.sqrt(region_area(s) / n))
         ds = drape_now.DrapeSettings(spacing)
@@ -140,15 +140,18 @@ def main() -> None:
         rows.append((f"refill x{len(calls)} ({added} nodes added)", med,
                      "same positions and (u, v)" if same else "DIFFERENT"))
         uv = result.uv
-        for what in ("derivatives", "evaluate"):
-            med = alternate({"ref": lambda w=what: getattr(s_ref, w)(uv), "now": lambda w=what: getattr(s, w)(uv)},
-                            args.repeat)
-            a, b = getattr(s_ref, what)(uv), getattr(s, what)(uv)
-            pairs = zip(a, b) if what == "derivatives" else ((a.xyz, b.xyz), (a.normal, b.normal))
-            rows.append((f"surface {what} at {len(uv)} points", med,
-                         "bit for bit" if all(np.array_equal(x, y) for x, y in pairs) else "DIFFERENT"))
+        # the drape's call, the full evaluation, and the solver's (second derivatives, no normals)
+        for what, kw in (("derivatives", {}), ("evaluate", {}), ("evaluate", {"second": True, "normals": False})):
+            med = alternate({"ref": lambda w=what, kw=kw: getattr(s_ref, w)(uv, **kw),
+                             "now": lambda w=what, kw=kw: getattr(s, w)(uv, **kw)}, args.repeat)
+            a, b = getattr(s_ref, what)(uv, **kw), getattr(s, what)(uv, **kw)
+            fields = ("xyz", "su", "sv", "normal", "suu", "suv", "svv")
+            pairs = zip(a, b) if what == "derivatives" else ((getattr(a, f), getattr(b, f)) for f in fields)
+            same = all((x is None and y is None) or np.array_equal(x, y) for x, y in pairs)
+            label = "evaluate(second=True, normals=False)" if kw else what
+            rows.append((f"surface {label} at {len(uv)} points", med, "bit for bit" if same else "DIFFERENT"))
         for stage, m, same_text in rows:
-            lines.append(f"| {nodes:,} | {stage} | {m['ref']:.3f} | {m['now']:.3f} | "
+            lines.append(f"| {nodes:,} | {stage} | {1e3 * m['ref']:.1f} | {1e3 * m['now']:.1f} | "
                          f"{m['ref'] / m['now']:.2f}x | {same_text} |")
         print("\n".join(lines[-len(rows):]), flush=True)
     lines += ["", f"Load {load()} at the end. Current code: `core/drape.py`, `core/nurbs.py` of this checkout "
