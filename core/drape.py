@@ -162,8 +162,11 @@ def _newton(surface: NurbsSurface, uv0: np.ndarray, residual, tol: np.ndarray):
     """Vectorised Newton for k independent 2x2 systems on the surface.
 
     residual(S, Su, Sv, idx) -> (F (k', 2), J (k', 2, 2)) for the rows idx.
-    Returns (uv (k, 2), converged (k,)). Iterates may step outside the domain
-    by up to half its size (the surface is extended polynomially there).
+    Returns (uv (k, 2), converged (k,), S, Su, Sv (k, 3) each): the surface at
+    the converged rows' uv (the evaluation that found them converged, so the
+    caller need not evaluate them again; other rows hold zeros). Iterates may
+    step outside the domain by up to half its size (the surface is extended
+    polynomially there).
     """
     dom = surface.domain
     size = dom[:, 1] - dom[:, 0]
@@ -173,6 +176,7 @@ def _newton(surface: NurbsSurface, uv0: np.ndarray, residual, tol: np.ndarray):
     # residuals are lengths: they cannot fall below the rounding of the coordinates
     tol = np.maximum(tol, 16 * np.finfo(float).eps * float(np.abs(surface.ctrlpts).max()))
     conv = np.zeros(k, dtype=bool)
+    out = np.zeros((3, k, 3))
     active = np.arange(k)
     max_step = 0.25 * size
     for _ in range(_NEWTON_MAXIT):
@@ -180,18 +184,30 @@ def _newton(surface: NurbsSurface, uv0: np.ndarray, residual, tol: np.ndarray):
             break
         S, Su, Sv = surface.derivatives(uv[active])
         F, J = residual(S, Su, Sv, active)
-        finite = np.all(np.isfinite(F), axis=1) & np.all(np.isfinite(J), axis=(1, 2))
-        done = finite & (np.max(np.abs(F), axis=1) <= tol[active])
-        conv[active[done]] = True
+        finite = np.isfinite(F).all(axis=1) & np.isfinite(J).reshape(-1, 4).all(axis=1)
+        done = finite & (np.abs(F).max(axis=1) <= tol[active])
+        if done.all():  # the usual last round: no step to take (a front's Newton ends here)
+            conv[active] = True
+            out[0][active], out[1][active], out[2][active] = S, Su, Sv
+            break
+        if done.any():
+            conv[active[done]] = True
+            for o, a in zip(out, (S, Su, Sv)):
+                o[active[done]] = a[done]
         go = finite & ~done
-        step, ok = _solve2(J[go], F[go])
-        idx = active[go][ok]
-        step = step[ok]
+        if go.all():  # no copies of the whole batch when every row goes on
+            step, ok = _solve2(J, F)
+            idx = active
+        else:
+            step, ok = _solve2(J[go], F[go])
+            idx = active[go]
+        if not ok.all():
+            idx, step = idx[ok], step[ok]
         factor = np.min(max_step / np.maximum(np.abs(step), 1e-300), axis=1, initial=1.0)
         uv[idx] += step * np.minimum(1.0, factor)[:, None]
         inside = np.all((uv[idx] >= lo) & (uv[idx] <= hi), axis=1)
         active = idx[inside]
-    return uv, conv
+    return uv, conv, out[0], out[1], out[2]
 
 
 def _one_neighbour(surface, P0, radius, normal, uv_guess):
@@ -216,16 +232,15 @@ def _one_neighbour(surface, P0, radius, normal, uv_guess):
 def _two_neighbour(surface, A, ra, B, rb, uv_guess):
     """Two-Neighbour mapping: |S - A| = ra, |S - B| = rb, S on the surface."""
 
+    centres = np.stack([A, B], axis=1)  # (k, 2, 3)
+    radii = np.column_stack([ra, rb])
+
     def residual(S, Su, Sv, idx):
-        da, db = S - A[idx], S - B[idx]
-        a, b = ra[idx], rb[idx]
-        F = np.column_stack([(np.einsum("ij,ij->i", da, da) - a ** 2) / (2 * a),
-                             (np.einsum("ij,ij->i", db, db) - b ** 2) / (2 * b)])
-        J = np.empty((len(idx), 2, 2))
-        J[:, 0, 0] = np.einsum("ij,ij->i", da, Su) / a
-        J[:, 0, 1] = np.einsum("ij,ij->i", da, Sv) / a
-        J[:, 1, 0] = np.einsum("ij,ij->i", db, Su) / b
-        J[:, 1, 1] = np.einsum("ij,ij->i", db, Sv) / b
+        # both spheres at once: a front's Newton is a few hundred of these calls, each a few rows
+        d = S[:, None, :] - centres[idx]  # (k', 2, 3)
+        r = radii[idx]
+        F = (np.einsum("kic,kic->ki", d, d) - r ** 2) / (2 * r)
+        J = np.einsum("kic,kjc->kij", d, np.stack([Su, Sv], axis=1)) / r[:, :, None]
         return F, J
 
     return _newton(surface, uv_guess, residual, 1e-12 * np.minimum(ra, rb))
@@ -303,6 +318,16 @@ def _shift(a: np.ndarray, di: int, dj: int, fill=False) -> np.ndarray:
 
 
 # ---------------------------------------------------------------- the drape
+_CONFIGS = np.array([[1, 1], [1, -1], [-1, 1], [-1, -1]])
+"""Two-Neighbour configurations (a, b): A = (i-a, j), B = (i, j-b), C = (i-a, j-b)."""
+_EIGHT = np.array([[di, dj] for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj])
+_BEHIND = [(a, 0) for a in (1, -1)] + [(0, b) for b in (1, -1)] + [(a, b) for a in (1, -1) for b in (1, -1)]
+"""Offsets d of the neighbours p - d a configuration needs occupied."""
+_CONFIG_NEIGHBOURS = [(_BEHIND.index((a, 0)), _BEHIND.index((0, b)), _BEHIND.index((a, b))) for a, b in _CONFIGS]
+"""For each of ``_CONFIGS``: the indices into ``_BEHIND`` of its A, B and C."""
+_BEHIND = np.array(_BEHIND)
+
+
 class _Builder:
     """Mutable state of one drape: nodes so far and the lattice."""
 
@@ -316,7 +341,7 @@ class _Builder:
         self.normal = np.zeros((0, 3))
         self.how = np.zeros(0, dtype=np.int8)  # 0 seed, 1 path, 2 two-neighbour, 3 filling
         self._cap, self._buf = 0, {}
-        self.tree, self.tree_n = None, 0
+        self.trees = {}  # tier name -> (first node, end, k-d tree); see far_from_mesh
         self.separated = None  # callable(uv_a, uv_b) -> bool: a dart lies between
         self.on_add = None  # callable() after every batch of new nodes (progress reports)
         self.inside = None  # callable(uv) -> (k,) bool: in the piece's region (a trimmed face), else the domain
@@ -326,9 +351,16 @@ class _Builder:
         self.tol_uv = 1e-10 * (dom[:, 1] - dom[:, 0])
 
     # -- bookkeeping
-    def add(self, ij, uv, how) -> None:
-        ev = self.surface.evaluate(uv)
-        bad = nonfinite_rows(ev.xyz) | nonfinite_rows(ev.normal)
+    def add(self, ij, uv, how, xyz=None, su=None, sv=None) -> None:
+        """Append nodes at lattice positions ij (k, 2) and parameters uv (k, 2);
+        xyz, su, sv (k, 3), if given, are the surface and its derivatives there
+        (from the Newton iteration that placed them: not evaluated again)."""
+        if xyz is None:
+            ev = self.surface.evaluate(uv)
+            xyz, normal = ev.xyz, ev.normal
+        else:
+            normal = self.surface.normals(uv, su, sv)
+        bad = nonfinite_rows(xyz) | nonfinite_rows(normal)
         if bad.any():  # a NaN in the k-d trees would fail obscurely later
             n = int(bad.sum())
             raise SolverError(f"the surface evaluation returned a non-finite point or normal at {n:,} "
@@ -345,7 +377,7 @@ class _Builder:
                 buf = np.empty((self._cap,) + old.shape[1:], dtype=old.dtype)
                 buf[:n0] = old
                 self._buf[name] = buf
-        for name, new in zip(names, (uv, ev.xyz, ev.normal, ij, how)):
+        for name, new in zip(names, (uv, xyz, normal, ij, how)):
             buf = self._buf[name]
             buf[n0:n1] = new
             setattr(self, name, buf[:n1])
@@ -353,36 +385,66 @@ class _Builder:
         if self.on_add is not None:
             self.on_add()
 
-    def accept_uv(self, uv: np.ndarray, conv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Converged and inside the domain (to round-off); returns (ok, clipped uv)."""
+    def accept_uv(self, uv: np.ndarray, conv: np.ndarray, S: np.ndarray, Su: np.ndarray,
+                  Sv: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Converged and inside the domain (to round-off); returns (ok, clipped uv,
+        S, Su, Sv): the surface at the clipped uv of the converged rows (S, Su, Sv
+        from :func:`_newton`, evaluated again only where the clip moved a node)."""
         inside = np.all((uv >= self.dom[:, 0] - self.tol_uv) & (uv <= self.dom[:, 1] + self.tol_uv), axis=1)
-        uv = np.clip(uv, self.dom[:, 0], self.dom[:, 1])
+        clipped = np.clip(uv, self.dom[:, 0], self.dom[:, 1])
         ok = conv & inside
+        moved = np.flatnonzero(ok & np.any(clipped != uv, axis=1))
+        if moved.size:
+            S, Su, Sv = S.copy(), Su.copy(), Sv.copy()
+            S[moved], Su[moved], Sv[moved] = self.surface.derivatives(clipped[moved])
         if self.inside is not None and ok.any():
-            ok[ok] = self.inside(uv[ok])
-        return ok, uv
+            ok[ok] = self.inside(clipped[ok])
+        return ok, clipped, S, Su, Sv
+
+    def _tree(self, lo: int, hi: int):
+        # unbalanced and not compacted: built in half the time, the same answers
+        return lo, hi, cKDTree(self.xyz[lo:hi], balanced_tree=False, compact_nodes=False)
 
     def far_from_mesh(self, P: np.ndarray) -> np.ndarray:
         """(k,) bool: points at least half a spacing from every node and from each other.
 
-        Old nodes sit in a k-d tree rebuilt only when the nodes added since
-        outnumber half of it; the recent ones are searched in a small tree.
+        The nodes sit in three k-d trees: the old ones, rebuilt when the nodes
+        added since outnumber an eighth of them; the middle ones, rebuilt when
+        the newest outnumber an eighth of those; the newest, in a small tree
+        built at every call. A front of a few nodes then costs a few small
+        builds, not one of thousands (the Node Filling rounds are hundreds of
+        such fronts).
         """
         n = len(self.xyz)
-        if self.tree is None or n - self.tree_n > max(256, self.tree_n // 8):
-            self.tree, self.tree_n = cKDTree(self.xyz), n
+        t = self.trees
+        if "old" not in t or n - t["old"][1] > max(256, t["old"][1] // 8):
+            t.clear()
+            t["old"] = self._tree(0, n)
+        a = t["old"][1]
+        b = t["mid"][1] if "mid" in t else a
+        if n - b > max(32, (b - a) // 8):
+            t["mid"] = self._tree(a, n)
+            b = n
+        if n == b:
+            t.pop("new", None)
+        elif "new" not in t or t["new"][:2] != (b, n):
+            t["new"] = self._tree(b, n)
         ok = np.ones(len(P), dtype=bool)
         if len(P) == 0:
             return ok
         r = 0.5 * self.rmin
-        d, _ = self.tree.query(P, k=1, distance_upper_bound=r)
-        ok &= d >= r
-        if n > self.tree_n:
-            d, _ = cKDTree(self.xyz[self.tree_n:]).query(P, k=1, distance_upper_bound=r)
+        for _, _, tree in t.values():
+            d, _ = tree.query(P, k=1, distance_upper_bound=r)
             ok &= d >= r
         if ok.sum() > 1:
             idx = np.flatnonzero(ok)
-            pairs = cKDTree(P[idx]).query_pairs(r, output_type="ndarray")
+            if len(idx) <= 32:  # a few points: every pair, cheaper than a tree
+                Q = P[idx]
+                d2 = np.sum((Q[:, None, :] - Q[None, :, :]) ** 2, axis=2)
+                i, j = np.nonzero(np.triu(d2 <= r * r, 1))
+                pairs = np.column_stack([i, j])
+            else:
+                pairs = cKDTree(P[idx]).query_pairs(r, output_type="ndarray")
             if len(pairs):
                 # keep the first of every close pair
                 drop = np.unique(np.maximum(pairs[:, 0], pairs[:, 1]))
@@ -432,9 +494,8 @@ class _Builder:
                 normal = np.cross(nrm[lanes], chord / np.linalg.norm(chord, axis=1, keepdims=True))
             else:
                 normal = fixed_normal[lanes]
-            uv_new, conv = _one_neighbour(self.surface, P[lanes], radius[lanes], normal, guess[lanes])
-            ok, uv_new = self.accept_uv(uv_new, conv)
-            xyz_new = self.surface.points(uv_new)
+            ok, uv_new, xyz_new, su_new, sv_new = self.accept_uv(
+                *_one_neighbour(self.surface, P[lanes], radius[lanes], normal, guess[lanes]))
             ok &= np.einsum("ij,ij->i", xyz_new - P[lanes], P[lanes] - prev[lanes]) > 0
             ok[ok] = self.far_from_mesh(xyz_new[ok])
             alive[lanes[~ok]] = False
@@ -447,28 +508,49 @@ class _Builder:
             guess[good] = 2 * uv_new[ok] - uv_old
             prev[good] = P[good]
             P[good] = xyz_new[ok]
-            self.add(pos[good].copy(), uv_new[ok], 1)
+            self.add(pos[good].copy(), uv_new[ok], 1, xyz_new[ok], su_new[ok], sv_new[ok])
             nrm[good] = self.normal[-len(good):]
 
     # -- step 2: two-neighbour fronts
-    def two_neighbour_fill(self) -> int:
-        """Fill every position reachable by Two-Neighbour mapping; returns nodes added."""
+    def _valid_everywhere(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every position Two-Neighbour mapping can fill now: (pos (k, 2) in
+        row-major order, V (k, 4) bool: which of ``_CONFIGS`` serve it)."""
+        occ = self.lat.occupied()
+        free = self.lat.free()
+        # A = (i-a, j), B = (i, j-b), C = (i-a, j-b)
+        valid = [free & _shift(occ, -a, 0) & _shift(occ, 0, -b) & _shift(occ, -a, -b) for a, b in _CONFIGS]
+        pos = self.lat.positions(np.logical_or.reduce(valid))
+        g = pos + self.lat.off
+        return pos, np.stack([v[g[:, 0], g[:, 1]] for v in valid], axis=1).reshape(-1, 4)
+
+    def _valid_near(self, new: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The same as :meth:`_valid_everywhere` after a front that placed nodes
+        at ``new`` (k, 2) and tried every position valid before it: a position
+        can only have become valid through one of its eight neighbours, so only
+        those are looked at (O(front), not O(lattice), per front)."""
+        lat = self.lat
+        g = (new[:, None, :] + _EIGHT[None, :, :]).reshape(-1, 2) + lat.off
+        width = lat.grid.shape[1]
+        key = np.unique(g[:, 0] * width + g[:, 1])  # row-major, as np.argwhere
+        key = key[(lat.grid.ravel()[key] < 0) & ~lat.dead.ravel()[key]]
+        cand = np.column_stack([key // width, key % width]) - lat.off
+        occ = [lat.at(cand - d) >= 0 for d in _BEHIND]  # (i-1, j), (i+1, j), (i, j-1), (i, j+1), 4 diagonals
+        V = np.stack([occ[ia] & occ[ib] & occ[ic] for ia, ib, ic in _CONFIG_NEIGHBOURS], axis=1)
+        keep = V.any(axis=1)
+        return cand[keep], V[keep]
+
+    def two_neighbour_fill(self, start: np.ndarray | None = None) -> int:
+        """Fill every position reachable by Two-Neighbour mapping; returns nodes added.
+
+        start : (k, 2) positions of the only nodes placed since the last fill
+        (the filling seeds), or None to look at the whole lattice.
+        """
         added = 0
-        configs = np.array([[1, 1], [1, -1], [-1, 1], [-1, -1]])
+        configs = _CONFIGS
+        pos, V = self._valid_everywhere() if start is None else self._valid_near(start)
         while True:
-            occ = self.lat.occupied()
-            free = self.lat.free()
-            valid = []
-            for a, b in configs:
-                # A = (i-a, j), B = (i, j-b), C = (i-a, j-b)
-                v = free & _shift(occ, -a, 0) & _shift(occ, 0, -b) & _shift(occ, -a, -b)
-                valid.append(v)
-            anyv = np.logical_or.reduce(valid)
-            if not anyv.any():
+            if len(pos) == 0:
                 return added
-            pos = self.lat.positions(anyv)
-            g = pos + self.lat.off
-            V = np.stack([v[g[:, 0], g[:, 1]] for v in valid], axis=1)  # (k, 4)
             C = pos[:, None, :] - configs[None, :, :]
             score = np.where(V, np.abs(C).sum(axis=2), np.iinfo(np.int64).max)
             cfg = configs[np.argmin(score, axis=1)]
@@ -478,10 +560,8 @@ class _Builder:
             A, B, Cx = self.xyz[iA], self.xyz[iB], self.xyz[iC]
             guess = self.uv[iA] + self.uv[iB] - self.uv[iC]
             k = len(pos)
-            uv_new, conv = _two_neighbour(self.surface, A, np.full(k, self.s.r_warp),
-                                          B, np.full(k, self.s.r_weft), guess)
-            ok, uv_new = self.accept_uv(uv_new, conv)
-            P = self.surface.points(uv_new)
+            ok, uv_new, P, Pu, Pv = self.accept_uv(*_two_neighbour(self.surface, A, np.full(k, self.s.r_warp),
+                                                                   B, np.full(k, self.s.r_weft), guess))
             ok &= np.einsum("ij,ij->i", P - Cx, A + B - 2 * Cx) > 0
             ok &= np.linalg.norm(P - Cx, axis=1) > 0.5 * self.rmin
             ok &= np.linalg.norm(P - (A + B - Cx), axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
@@ -489,13 +569,25 @@ class _Builder:
                 ok &= ~self.separated(self.uv[iA], uv_new) & ~self.separated(self.uv[iB], uv_new)
             ok[ok] = self.far_from_mesh(P[ok])
             self.lat.kill(pos[~ok])
-            if ok.any():
-                self.add(pos[ok], uv_new[ok], 2)
-                added += int(ok.sum())
+            if not ok.any():
+                return added
+            self.add(pos[ok], uv_new[ok], 2, P[ok], Pu[ok], Pv[ok])
+            added += int(ok.sum())
+            pos, V = self._valid_near(pos[ok])
+
+    def fill(self) -> None:
+        """Two-Neighbour fronts and Node Filling seeds in turn until neither adds a node."""
+        start = None  # the first fill looks at the whole lattice; a later one only near the new seeds
+        while True:
+            self.two_neighbour_fill(start)
+            start = self.filling_seeds()
+            if len(start) == 0:
+                return
 
     # -- step 3: node filling seeds
-    def filling_seeds(self) -> int:
-        """Extend threads into unmapped gaps: at most one new node per gap."""
+    def filling_seeds(self) -> np.ndarray:
+        """Extend threads into unmapped gaps: at most one new node per gap.
+        Returns the new nodes' positions (k, 2) (none: the drape is done)."""
         occ = self.lat.occupied()
         free = self.lat.free()
         dirs = np.array([[0, 1], [0, -1], [1, 0], [-1, 0]])
@@ -509,7 +601,7 @@ class _Builder:
                 cand_prev.append(self.lat.at(p - 2 * d))
                 cand_dir.append(np.repeat(d[None, :], len(p), axis=0))
         if not cand_pos:
-            return 0
+            return np.zeros((0, 2), dtype=np.int64)
         pos = np.concatenate(cand_pos)
         src = np.concatenate(cand_src)
         prv = np.concatenate(cand_prev)
@@ -519,9 +611,7 @@ class _Builder:
         chord /= np.linalg.norm(chord, axis=1, keepdims=True)
         normal = np.cross(self.normal[src], chord)
         guess = 2 * self.uv[src] - self.uv[prv]
-        uv_new, conv = _one_neighbour(self.surface, self.xyz[src], radius, normal, guess)
-        ok, uv_new = self.accept_uv(uv_new, conv)
-        P = self.surface.points(uv_new)
+        ok, uv_new, P, Pu, Pv = self.accept_uv(*_one_neighbour(self.surface, self.xyz[src], radius, normal, guess))
         ok &= np.einsum("ij,ij->i", P - self.xyz[src], chord) > 0
         if self.separated is not None:
             ok &= ~self.separated(self.uv[src], uv_new)
@@ -533,7 +623,7 @@ class _Builder:
         failed = pos[~reach[g[:, 0], g[:, 1]]]
         self.lat.kill(failed)
         if not ok.any():
-            return 0
+            return np.zeros((0, 2), dtype=np.int64)
         # one seed per connected gap: the candidate farthest from the domain boundary
         mask = np.zeros(self.lat.grid.shape, dtype=bool)
         mask[g[ok, 0], g[ok, 1]] = True
@@ -543,11 +633,12 @@ class _Builder:
         inner = np.min(np.column_stack([u01, 1 - u01]), axis=1)
         order = np.lexsort((-inner, lab))
         first = order[np.r_[True, lab[order][1:] != lab[order][:-1]]]
-        keep_pos, keep_uv = pos[ok][first], uv_new[ok][first]
+        keep = np.flatnonzero(ok)[first]
         # two candidates may name the same position from different sources
-        _, uniq = np.unique(keep_pos, axis=0, return_index=True)
-        self.add(keep_pos[uniq], keep_uv[uniq], 3)
-        return len(uniq)
+        _, uniq = np.unique(pos[keep], axis=0, return_index=True)
+        keep = keep[uniq]
+        self.add(pos[keep], uv_new[keep], 3, P[keep], Pu[keep], Pv[keep])
+        return pos[keep]
 
 
 def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
@@ -603,10 +694,7 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
                 wait[0] = max(progress_interval, REPORT_SHARE * (last[0] - now))
         b.on_add = on_add
     b.seed_and_paths()
-    while True:
-        b.two_neighbour_fill()
-        if b.filling_seeds() == 0:
-            break
+    b.fill()
     # sort nodes by lattice row, then column
     order = np.lexsort((b.ij[:, 1], b.ij[:, 0]))
     ij, uv, xyz, how = b.ij[order], b.uv[order], b.xyz[order], b.how[order]
@@ -648,8 +736,5 @@ def refill(surface: NurbsSurface, settings: DrapeSettings, ij: np.ndarray, uv: n
     if len(dead):
         b.lat.ensure(dead)
         b.lat.kill(dead)
-    while True:
-        b.two_neighbour_fill()
-        if b.filling_seeds() == 0:
-            break
+    b.fill()
     return b.ij[n0:], b.uv[n0:]

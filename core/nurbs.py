@@ -273,9 +273,12 @@ class NurbsSurface:
         self.weights = W
         # homogeneous control net (w x, w y, w z, w)
         self._pw = np.concatenate([P * W[..., None], W[..., None]], axis=2)
+        self._pw_rows = self._pw.reshape(-1, 4)
+        # flat offsets of a point's (p+1) x (q+1) support from its first control point
+        self._support = (np.arange(self.degree_u + 1)[:, None] * nv + np.arange(self.degree_v + 1)[None, :]).ravel()
         self._basis_u = _Basis(ku, self.degree_u, nu)
         self._basis_v = _Basis(kv, self.degree_v, nv)
-        for a in (self.knots_u, self.knots_v, self.ctrlpts, self.weights, self._pw):
+        for a in (self.knots_u, self.knots_v, self.ctrlpts, self.weights, self._pw, self._support):
             a.setflags(write=False)
 
     # ------------------------------------------------------------------ basic facts
@@ -313,9 +316,10 @@ class NurbsSurface:
         sv = self._basis_v.spans(v)
         Nu = self._basis_u(su, u, order)
         Nv = self._basis_v(sv, v, order)
-        iu = su[:, None] - p + np.arange(p + 1)[None, :]
-        iv = sv[:, None] - q + np.arange(q + 1)[None, :]
-        G = self._pw[iu[:, :, None], iv[:, None, :]]  # (n, p+1, q+1, 4)
+        # the support's control points by flat index: np.take of rows is ~8x faster than indexing the
+        # (nu, nv, 4) net with two broadcast index arrays
+        first = (su - p) * nv + (sv - q)
+        G = np.take(self._pw_rows, first[:, None] + self._support, axis=0).reshape(-1, p + 1, q + 1, 4)
         out = {}
         for a in range(order + 1):
             # contract over the u-support once per a, then over v for each b
@@ -361,6 +365,12 @@ class NurbsSurface:
         uv = np.asarray(uv, dtype=float).reshape(-1, 2)
         S, Su, Sv, Suu, Suv, Svv = self._rational(uv, second)
         return SurfaceEval(S, Su, Sv, self._normals(uv, Su, Sv) if normals else None, Suu, Suv, Svv)
+
+    def normals(self, uv, su: np.ndarray, sv: np.ndarray) -> np.ndarray:
+        """(n, 3) unit normals at uv : (n, 2) from the first derivatives su, sv
+        (n, 3) there (as :meth:`derivatives` gives them): the normals
+        :meth:`evaluate` gives, for a caller that has the derivatives already."""
+        return self._normals(np.asarray(uv, dtype=float).reshape(-1, 2), su, sv)
 
     def _normals(self, uv: np.ndarray, Su: np.ndarray, Sv: np.ndarray) -> np.ndarray:
         n = np.cross(Su, Sv)

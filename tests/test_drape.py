@@ -159,8 +159,8 @@ def test_slow_progress_reports_come_less_often():
     from core.drape import REPORT_SHARE
 
     surface = load_example("octant")
-    s = DrapeSettings(0.015, 0.015)  # ~7,000 nodes: a drape long enough for several 45 ms waits on a quick machine
-    pause = 0.005
+    s = DrapeSettings(0.02, 0.02)  # ~4,000 nodes: a drape long enough for several reports
+    pause = 0.003
     spans = []
 
     def slow(ij, uv, xyz):
@@ -196,3 +196,81 @@ def test_the_pipeline_shows_the_drape_as_the_solver_will_build_it():
         np.testing.assert_array_equal(mesh.ends, built.ends)
         cut += build_mesh(mesh.ij, mesh.r_weft, mesh.r_warp, s.material).n_springs - mesh.n_springs
     assert cut > 0  # the dart did cut springs in what was shown
+
+
+@pytest.mark.parametrize("name, angle", [("octant", 0.0), ("garment", 30.0), ("saddle", 45.0)])
+def test_fronts_found_near_the_last_front_are_those_of_the_whole_lattice(monkeypatch, name, angle):
+    """Every front is looked for only around the nodes the last one placed: it
+    must be the front a scan of the whole lattice finds, positions, order and
+    configurations."""
+    import core.drape as D
+
+    near = D._Builder._valid_near
+    fronts = []
+
+    def checked(self, new):
+        pos, V = near(self, new)
+        every, V_every = self._valid_everywhere()
+        np.testing.assert_array_equal(pos, every)
+        np.testing.assert_array_equal(V, V_every)
+        fronts.append(len(pos))
+        return pos, V
+
+    monkeypatch.setattr(D._Builder, "_valid_near", checked)
+    s = load_example(name)
+    spacing = np.sqrt(region_area(s)) / 40
+    r = drape(s, DrapeSettings(spacing, angle_deg=angle), MATERIALS["woven"])
+    check_drape(s, r, spacing)
+    assert len(fronts) > 20
+
+
+def _brute_far(xyz, P, r):
+    """At least r from every node and, for the later of every close pair, from each other."""
+    want = cKDTree(xyz).query(P, distance_upper_bound=r)[0] >= r if len(P) else np.ones(0, bool)
+    idx = np.flatnonzero(want)
+    for i, j in sorted(cKDTree(P[idx]).query_pairs(r)) if len(idx) > 1 else []:
+        want[idx[max(i, j)]] = False
+    return want
+
+
+def test_the_near_node_test_is_the_brute_force_one():
+    """The drape's k-d tiers (old, middle, newest nodes) answer "at least half a
+    spacing from every node and from each other" as a search over all nodes
+    does, whatever the sizes of the batches added between the questions."""
+    from core.drape import _Builder
+
+    s = load_example("octant")
+    b = _Builder(s, DrapeSettings(0.02))
+    rng = np.random.default_rng(3)
+    dom = s.domain
+    placed, refused = 0, 0
+    for step, size in enumerate(rng.choice([1, 2, 3, 40, 300], size=60)):
+        uv = dom[:, 0] + rng.random((size, 2)) * np.ptp(dom, axis=1)
+        b.add(np.column_stack([np.full(size, step), np.arange(size)]), uv, 2)
+        placed += size
+        P = s.points(dom[:, 0] + rng.random((50, 2)) * np.ptp(dom, axis=1))
+        P[:10] = b.xyz[rng.integers(0, placed, 10)] + 0.003 * rng.normal(size=(10, 3))  # near nodes
+        P[10:14] = P[14:18] + 0.002  # near each other
+        got = b.far_from_mesh(P)
+        np.testing.assert_array_equal(got, _brute_far(b.xyz, P, 0.01))
+        refused += int((~got).sum())
+    assert {"old", "mid", "new"} <= set(b.trees) or len(b.trees) >= 2
+    assert refused > 100
+
+
+def test_a_drape_asks_the_near_node_test_as_brute_force_answers(monkeypatch):
+    import core.drape as D
+
+    tiered = D._Builder.far_from_mesh
+    calls = []
+
+    def checked(self, P):
+        got = tiered(self, P)
+        np.testing.assert_array_equal(got, _brute_far(self.xyz, P, 0.5 * self.rmin))
+        calls.append(len(P))
+        return got
+
+    monkeypatch.setattr(D._Builder, "far_from_mesh", checked)
+    s = load_example("octant")
+    drape(s, DrapeSettings(np.sqrt(region_area(s)) / 40), MATERIALS["woven"])
+    assert len(calls) > 100

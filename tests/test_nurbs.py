@@ -124,6 +124,15 @@ def test_random_rational_surface_matches_geomdl(seed):
     assert_matches_geomdl(s, to_geomdl(s), sample_params(s, np.random.default_rng(seed + 1000)))
 
 
+@pytest.mark.parametrize("seed", range(10))
+def test_normals_from_derivatives_are_those_of_evaluate(seed):
+    s = random_surface(seed)
+    uv = sample_params(s, np.random.default_rng(seed + 2000))
+    ev = s.evaluate(uv)
+    _, su, sv = s.derivatives(uv)
+    np.testing.assert_array_equal(s.normals(uv, su, sv), ev.normal)
+
+
 def test_random_surfaces_cover_the_cases():
     """The random family really has every degree, free ends, clamped ends and repeated knots."""
     surfaces = [random_surface(seed) for seed in range(40)]
