@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 
-from PySide6.QtCore import QTimer
+from PySide6.QtCore import QCoreApplication, QEvent, QObject, QTimer
 
 from core.project import Project, settings_equal, warm_start
 
@@ -59,6 +59,40 @@ def status_text(project: Project | None) -> str:
     return result_text(r.metrics)
 
 
+class _Soon(QObject):
+    """A zero-delay single shot (``start``, ``stop``, ``isActive``) that runs ``callback`` from a posted event
+    rather than a timer: Qt delivers posted events before timers, and a repaint (a low-priority posted event)
+    after them, so an edit's re-run starts before the views repaint for the edit (its first iteration runs
+    while they do; a zero timer waited for the repaint, 40-70 ms with software OpenGL; docs/decisions.md,
+    "Window latency, session 9")."""
+
+    _TYPE = QEvent.Type(QEvent.registerEventType())
+
+    def __init__(self, parent, callback):
+        super().__init__(parent)
+        self._callback = callback
+        self._active = False
+
+    def start(self) -> None:
+        # a start after a stop may be answered by the event the stopped one posted: as soon, so the same
+        self._active = True
+        QCoreApplication.postEvent(self, QEvent(self._TYPE))
+
+    def stop(self) -> None:
+        self._active = False
+
+    def isActive(self) -> bool:
+        return self._active
+
+    def event(self, ev) -> bool:
+        if ev.type() != self._TYPE:
+            return super().event(ev)
+        if self._active:
+            self._active = False
+            self._callback()
+        return True
+
+
 class RunControl:
     """Solves for the window: ``runner`` (one worker thread at a time) and the
     re-run timer. ``window`` gives the document, the presenter, the progress
@@ -71,8 +105,7 @@ class RunControl:
         self.last_outcome: RunOutcome | None = None
         self.rerun_timer = QTimer(window, singleShot=True, interval=RERUN_DELAY_MS)
         self.rerun_timer.timeout.connect(self.rerun)
-        self.now_timer = QTimer(window, singleShot=True, interval=0)  # an edit's re-run at once, after its listeners
-        self.now_timer.timeout.connect(self.rerun)
+        self.now_timer = _Soon(window, self.rerun)  # an edit's re-run at once, after its listeners
         # previews: the newest requested (None: none), the one the runner was given, its finished outcome
         self._preview_wanted: Project | None = None
         self._preview_started: Project | None = None
