@@ -199,7 +199,9 @@ class RunControl:
         result when the drape is unchanged, else from a new drape; as
         :meth:`preview_dart` otherwise (the newest wins, the release's edit adopts it).
         False with no result on screen to replace, "auto re-run" off, or a run that is not a
-        preview in flight."""
+        preview in flight. Settings equal to the document's, its result current (a point
+        dragged back onto its spot), start no solve: a preview in flight is dropped and the
+        views show the document's result."""
         doc = self.window.document
         if doc is None or not self.window.settings_panel.auto_rerun.isChecked():
             return False
@@ -208,7 +210,14 @@ class RunControl:
             return False
         if self.runner.active and self._preview_started is None and self.runner.last_start[1] is None:
             return False  # a new drape the designer asked for goes on (a warm re-run gives way)
-        self._preview_wanted = project.with_settings(**changes)
+        wanted = project.with_settings(**changes)
+        if project.result_is_current and settings_equal(wanted.settings, project.settings):
+            # back where the document is (a point dragged back onto its own spot): its result is the answer;
+            # a solve of it would take 0 iterations and show no iteration's frame
+            if self.previewing:
+                self.end_preview()
+            return True
+        self._preview_wanted = wanted
         self._preview_outcome = None
         if self._preview_started is None or self._preview_frames or \
                 time.perf_counter() - self._preview_started_at >= PREVIEW_INTERVAL_MS / 1000:
