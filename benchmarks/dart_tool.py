@@ -27,8 +27,10 @@ the run, live patterns up to a seventh of it, every frame drawn), "after" is
 this one's (an edit with no run in flight re-runs at once, the first snapshot
 gets a pattern, live patterns up to 4 % and drawing up to 6 % of the run),
 each with the solve thread at the app's lower OS priority
-(``app.worker.SOLVE_NICENESS``) or at normal priority; "no live frames" draws
-only the result (what the frames cost). Then a drag of the dart's middle point
+(``app.worker.SOLVE_NICENESS``) or at normal priority; "no live frames" makes
+and draws no live frame and no live pattern, only the result (what the frames
+cost). A result is waited for on ``run_finished`` (no timer of the benchmark's
+wakes the GUI thread then but the 10 ms tick that measures its gaps). Then a drag of the dart's middle point
 across four positions: from each move to the first frame of that position's
 preview, and from the release to the result in the document. Not a test:
 numbers depend on the machine (software OpenGL under Xvfb here) and its load
@@ -268,8 +270,10 @@ def main() -> int:
     lines += ["", "Load: the one-minute load average when the re-solve ended (this benchmark included; the "
               "rest is other work on the shared machine). The V: the first frame whose pattern has the dart's "
               "legs. Live frames' share: the solve thread's time in live patterns plus the GUI thread's time "
-              "drawing frames, over Enter to result. The same re-solve in core alone (`core.pipeline.flatten` "
-              "warm-started, no window) takes about 1.9-2.1 s on a quiet machine."]
+              "drawing frames (the result's own frame included, the only one in the \"no live frames\" rows), over "
+              "Enter to result. The same re-solve in core alone (`core.pipeline.flatten` from the "
+              "window's warm start, the same dart, in the same process with no event loop running) took "
+              "0.73-0.77 s, 12 iterations (docs/decisions.md, \"Window latency, session 9\")."]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.out:
