@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 
-from PySide6.QtCore import QTimer
+from PySide6.QtCore import QCoreApplication, QEvent, QObject, QTimer
 
 from core.project import Project, settings_equal, warm_start
 
@@ -59,6 +59,40 @@ def status_text(project: Project | None) -> str:
     return result_text(r.metrics)
 
 
+class _Soon(QObject):
+    """A zero-delay single shot (``start``, ``stop``, ``isActive``) that runs ``callback`` from a posted event
+    rather than a timer: Qt delivers posted events before timers, and a repaint (a low-priority posted event)
+    after them, so an edit's re-run starts before the views repaint for the edit (its first iteration runs
+    while they do; a zero timer waited for the repaint, 40-70 ms with software OpenGL; docs/decisions.md,
+    "Window latency, session 9")."""
+
+    _TYPE = QEvent.Type(QEvent.registerEventType())
+
+    def __init__(self, parent, callback):
+        super().__init__(parent)
+        self._callback = callback
+        self._active = False
+
+    def start(self) -> None:
+        # a start after a stop may be answered by the event the stopped one posted: as soon, so the same
+        self._active = True
+        QCoreApplication.postEvent(self, QEvent(self._TYPE))
+
+    def stop(self) -> None:
+        self._active = False
+
+    def isActive(self) -> bool:
+        return self._active
+
+    def event(self, ev) -> bool:
+        if ev.type() != self._TYPE:
+            return super().event(ev)
+        if self._active:
+            self._active = False
+            self._callback()
+        return True
+
+
 class RunControl:
     """Solves for the window: ``runner`` (one worker thread at a time) and the
     re-run timer. ``window`` gives the document, the presenter, the progress
@@ -71,8 +105,7 @@ class RunControl:
         self.last_outcome: RunOutcome | None = None
         self.rerun_timer = QTimer(window, singleShot=True, interval=RERUN_DELAY_MS)
         self.rerun_timer.timeout.connect(self.rerun)
-        self.now_timer = QTimer(window, singleShot=True, interval=0)  # an edit's re-run at once, after its listeners
-        self.now_timer.timeout.connect(self.rerun)
+        self.now_timer = _Soon(window, self.rerun)  # an edit's re-run at once, after its listeners
         # previews: the newest requested (None: none), the one the runner was given, its finished outcome
         self._preview_wanted: Project | None = None
         self._preview_started: Project | None = None
@@ -166,7 +199,9 @@ class RunControl:
         result when the drape is unchanged, else from a new drape; as
         :meth:`preview_dart` otherwise (the newest wins, the release's edit adopts it).
         False with no result on screen to replace, "auto re-run" off, or a run that is not a
-        preview in flight."""
+        preview in flight. Settings equal to the document's, its result current (a point
+        dragged back onto its spot), start no solve: a preview in flight is dropped and the
+        views show the document's result."""
         doc = self.window.document
         if doc is None or not self.window.settings_panel.auto_rerun.isChecked():
             return False
@@ -175,7 +210,14 @@ class RunControl:
             return False
         if self.runner.active and self._preview_started is None and self.runner.last_start[1] is None:
             return False  # a new drape the designer asked for goes on (a warm re-run gives way)
-        self._preview_wanted = project.with_settings(**changes)
+        wanted = project.with_settings(**changes)
+        if project.result_is_current and settings_equal(wanted.settings, project.settings):
+            # back where the document is (a point dragged back onto its own spot): its result is the answer;
+            # a solve of it would take 0 iterations and show no iteration's frame
+            if self.previewing:
+                self.end_preview()
+            return True
+        self._preview_wanted = wanted
         self._preview_outcome = None
         if self._preview_started is None or self._preview_frames or \
                 time.perf_counter() - self._preview_started_at >= PREVIEW_INTERVAL_MS / 1000:

@@ -9,6 +9,7 @@ new one starts as soon as its thread has ended, so two solves never run at once.
 
 from __future__ import annotations
 
+import math
 import time
 
 from PySide6.QtCore import QObject, QTimer, Signal
@@ -190,18 +191,20 @@ class Runner(QObject):
                 and (t0 < self._next_frame or self._drawing):
             return  # the frames' share of the run is spent for now (the newest frame waits in its slot)
         self._seen = seq
+        t.frames_from = math.inf  # no live frame is wanted while this one is drawn
         self.frame.emit(frame)
         self.frames_shown += 1
         self._drawing = True
         # the views repaint when the event loop next runs: a zero timer fires after that repaint
-        QTimer.singleShot(0, lambda: self._drawn(t0))
+        QTimer.singleShot(0, lambda: self._drawn(t0, t))
 
-    def _drawn(self, t0: float) -> None:
+    def _drawn(self, t0: float, t: SolveThread) -> None:
         now = time.perf_counter()
         cost = now - t0
         self.frame_seconds.append(cost)
         self._drawing = False
         self._next_frame = now + (0.0 if FRAME_SHARE is None else cost * (1 / FRAME_SHARE - 1))
+        t.frames_from = self._next_frame  # the solve thread makes the next frame for then
 
     def _on_succeeded(self, outcome: RunOutcome) -> None:
         self._outcome = outcome

@@ -134,6 +134,13 @@ class SolveThread(QThread):
         self.history: list[tuple[int, float, bool]] = []  # (iteration, energy, population changed)
         self.stage = "starting"
         self.pattern_seconds = 0.0
+        self.frames_from = -math.inf
+        """The GUI takes the next live frame from this time on (perf_counter seconds; inf while it draws
+        one): the runner's frame budget (``app.runner.FRAME_SHARE``). A snapshot's frame is made only when
+        the GUI will take it before the next snapshot comes (a frame costs about 5 ms of a 35 ms iteration
+        at 2,500 nodes, and most were never drawn; docs/decisions.md, "Window latency, session 9")."""
+        self._unframed = None  # the newest snapshot whose frame was not made (made if the run pauses)
+        self.frames_made = 0  # live frames made (for the tests and the benchmark)
 
     # ------------------------------------------------------------------ control (GUI thread)
     def request_stop(self) -> None:
@@ -197,8 +204,11 @@ class SolveThread(QThread):
         if outcome is not None and not self._abandon.is_set():
             self.succeeded.emit(outcome)
 
-    def _wait_if_paused(self) -> None:
+    def _wait_if_paused(self, maker: FrameMaker | None = None) -> None:
         if not self._running.is_set():
+            snap, self._unframed = self._unframed, None
+            if snap is not None and maker is not None:  # a paused run shows its newest state
+                self._publish(self._live_frame(maker, snap))
             self._waiting = True
             self.paused_changed.emit(True)
             self._running.wait()
@@ -224,11 +234,13 @@ class SolveThread(QThread):
         last = pattern = None
         pattern_stats: dict = {}
         next_pattern = -math.inf if FIRST_PATTERN_AT_ONCE else time.perf_counter() + PATTERN_INTERVAL
+        step = 0.0  # the last snapshot's wait (how soon the next one comes)
         try:
             while True:
-                self._wait_if_paused()
+                self._wait_if_paused(maker)
                 if self._stop.is_set():
                     break
+                t_next = time.perf_counter()
                 try:
                     snap = next(gen)
                 except _DrapeStopped:
@@ -241,16 +253,23 @@ class SolveThread(QThread):
                 self.stage = "solving"
                 last = snap
                 self.history.append((snap.iteration, snap.energy, snap.population_changed))
-                frame = maker.from_snapshot(snap)
                 now = time.perf_counter()
-                if now >= next_pattern:
+                step = now - t_next
+                new_pattern = now >= next_pattern
+                if not new_pattern and now + step < self.frames_from:
+                    self._unframed = snap  # the GUI would not take its frame before the next snapshot's
+                    continue
+                self._unframed = None
+                frame = self._live_frame(maker, snap)
+                if new_pattern:
                     # the frame goes out first (the views need not wait for its pattern), then again with it
                     self._publish(frame)
+                    t_pattern = time.perf_counter()
                     pattern = maker.pattern(snap.mesh, snap.uv, snap.xyz)
                     pattern_stats = maker.pattern_stats(pattern)
-                    cost = time.perf_counter() - now
+                    cost = time.perf_counter() - t_pattern
                     self.pattern_seconds += cost
-                    next_pattern = now + max(PATTERN_INTERVAL, cost * (1 / PATTERN_SHARE - 1))
+                    next_pattern = t_pattern + max(PATTERN_INTERVAL, cost * (1 / PATTERN_SHARE - 1))
                 if pattern is not None:  # the newest pattern rides on later frames (the GUI may skip frames)
                     frame = replace(frame, pattern=pattern, stats={**frame.stats, **pattern_stats})
                 self._publish(frame)
@@ -261,6 +280,10 @@ class SolveThread(QThread):
         if last is None:
             return RunOutcome(None, p, stopped=True)
         return RunOutcome(self._stopped_result(maker, last), p, stopped=True)
+
+    def _live_frame(self, maker: FrameMaker, snap) -> Frame:
+        self.frames_made += 1
+        return maker.from_snapshot(snap)
 
     def _stopped_result(self, maker: FrameMaker, snap) -> FlattenResult:
         """The last iterate as a result (:func:`core.pipeline.stopped_result`):

@@ -27,8 +27,10 @@ the run, live patterns up to a seventh of it, every frame drawn), "after" is
 this one's (an edit with no run in flight re-runs at once, the first snapshot
 gets a pattern, live patterns up to 4 % and drawing up to 6 % of the run),
 each with the solve thread at the app's lower OS priority
-(``app.worker.SOLVE_NICENESS``) or at normal priority; "no live frames" draws
-only the result (what the frames cost). Then a drag of the dart's middle point
+(``app.worker.SOLVE_NICENESS``) or at normal priority; "no live frames" makes
+and draws no live frame and no live pattern, only the result (what the frames
+cost). A result is waited for on ``run_finished`` (no timer of the benchmark's
+wakes the GUI thread then but the 10 ms tick that measures its gaps). Then a drag of the dart's middle point
 across four positions: from each move to the first frame of that position's
 preview, and from the release to the result in the document. Not a test:
 numbers depend on the machine (software OpenGL under Xvfb here) and its load
@@ -72,12 +74,30 @@ TARGETS /= np.linalg.norm(TARGETS, axis=1, keepdims=True)
 POLL = False  # --poll: session 6's polling wait (to measure what it cost)
 
 
-def wait(app, condition, timeout=600.0):
+def wait(app, condition, timeout=600.0, signal=None):
     """Run the event loop until ``condition()``. It sleeps between events as the window's
-    own loop does (a 10 ms timer wakes it to check): a loop that polls instead keeps the
-    GUI thread busy, and its Python holds the GIL the solve thread needs (session 6's
-    version did, and its times were up to twice the window's)."""
+    own loop does (a 10 ms timer wakes it to check; with ``signal``, only that signal
+    does, as nothing of the benchmark's then runs Python on the GUI thread but its tick
+    timer): a loop that polls instead keeps the GUI thread busy, and its Python holds the
+    GIL the solve thread needs (session 6's version did, and its times were up to twice
+    the window's)."""
     t0 = time.perf_counter()
+    if signal is not None and not POLL:
+        loop = QEventLoop()
+        check = lambda *_a: loop.quit() if condition() else None  # noqa: E731
+        signal.connect(check)
+        give_up = QTimer(singleShot=True, interval=int(1000 * timeout))
+        give_up.timeout.connect(loop.quit)
+        give_up.start()
+        try:
+            while not condition():
+                loop.exec()
+                if not condition() and time.perf_counter() - t0 > timeout:
+                    raise TimeoutError("gave up waiting")
+        finally:
+            give_up.stop()
+            signal.disconnect(check)
+        return
     if POLL:
         while not condition():
             app.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 10)
@@ -108,11 +128,23 @@ def set_variant(win, name, lower_priority):
     at_once, first, share, drawing, nice, live = VARIANTS[name]
     runcontrol.RERUN_AT_ONCE = at_once
     runner.FRAME_SHARE = drawing
-    solve_worker.FIRST_PATTERN_AT_ONCE = first
+    solve_worker.FIRST_PATTERN_AT_ONCE = first and live
     solve_worker.PATTERN_SHARE = share
     solve_worker.PATTERN_INTERVAL = 0.25 if live else 1e9
+    global LIVE
+    LIVE = live
     solve_worker._lower_priority = lower_priority if nice else (lambda *a: None)
     win.runner._timer.setInterval(30 if live else 10 ** 8)  # the pump (the final frame is drawn at the end)
+
+
+LIVE = True
+
+
+def no_frames_wanted(win):
+    """Without live frames the solve thread is told no frame is wanted (the pump that would say so is off)."""
+    t = win.runner.thread
+    if not LIVE and t is not None and hasattr(t, "frames_from"):
+        t.frames_from = math.inf
 
 
 def qt_point(widget, xy):
@@ -141,8 +173,9 @@ def main() -> int:
     wait(app, lambda: win.view.is_ready() and win.pattern_view.is_ready())
     done = []
     win.run_finished.connect(lambda outcome: done.append(outcome))
+    win.runner.started.connect(lambda _p: no_frames_wanted(win))
     win.run()
-    wait(app, lambda: done)
+    wait(app, lambda: done, signal=win.run_finished)
     base = win.project
     win.view.look(*CAMERA)
     win.view.render_now()
@@ -173,7 +206,7 @@ def main() -> int:
             timer.start()
             t0 = time.perf_counter()
             QTest.keyClick(widget, Qt.Key.Key_Return)
-            wait(app, lambda: done)
+            wait(app, lambda: done, signal=win.run_finished)
             total = time.perf_counter() - t0
             timer.stop()
             live = [(t, f) for t, f in seen if not f.final]
@@ -237,8 +270,10 @@ def main() -> int:
     lines += ["", "Load: the one-minute load average when the re-solve ended (this benchmark included; the "
               "rest is other work on the shared machine). The V: the first frame whose pattern has the dart's "
               "legs. Live frames' share: the solve thread's time in live patterns plus the GUI thread's time "
-              "drawing frames, over Enter to result. The same re-solve in core alone (`core.pipeline.flatten` "
-              "warm-started, no window) takes about 1.9-2.1 s on a quiet machine."]
+              "drawing frames (the result's own frame included, the only one in the \"no live frames\" rows), over "
+              "Enter to result. The same re-solve in core alone (`core.pipeline.flatten` from the "
+              "window's warm start, the same dart, in the same process with no event loop running) took "
+              "0.73-0.77 s, 12 iterations (docs/decisions.md, \"Window latency, session 9\")."]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.out:
@@ -257,20 +292,24 @@ def drag_rows(app, win, done, seen, lower_priority, repeat) -> dict:
                          qt_point(widget, win.view.display_point(t)))
     done.clear()
     QTest.keyClick(widget, Qt.Key.Key_Return)
-    wait(app, lambda: done)
+    wait(app, lambda: done, signal=win.run_finished)
     win.actions["tool_curve_dart"].setChecked(False)
     win.dart_panel.dart_list.setCurrentRow(0)
     wait(app, lambda: win.tool is not None, 10)
     s = win.surface
     out = {"move": [], "release": [], "previews": []}
     spots = [np.array(p) / np.linalg.norm(p) for p in ([0.55, 0.5, 0.67], [0.72, 0.42, 0.55],
-                                                       [0.5, 0.62, 0.6], [0.6, 0.52, 0.6])]
-    for _ in range(repeat):
+                                                       [0.5, 0.62, 0.6], [0.6, 0.52, 0.6], [0.66, 0.47, 0.58])]
+    for k in range(repeat):
+        # four of the five spots, never the one the drag starts from (where the last drag ended): a position
+        # back at the document's dart re-solves in 0 iterations (no frame with iteration >= 1 comes), and a
+        # release there is no edit (no result comes); session 8's second drag waited for those
+        path = [spots[(4 * k + j) % len(spots)] for j in range(4)]
         dart = win.project.settings.darts[0]
         here = win.view.display_point(s.points(dart.handles[1:2])[0])
         previews = win.runs.previews_started
         QTest.mousePress(widget, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, qt_point(widget, here))
-        for p in spots:
+        for p in path:
             there = win.view.display_point(p)
             seen.clear()
             t0 = time.perf_counter()
@@ -285,7 +324,7 @@ def drag_rows(app, win, done, seen, lower_priority, repeat) -> dict:
         done.clear()
         t0 = time.perf_counter()
         QTest.mouseRelease(widget, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, qt_point(widget, here))
-        wait(app, lambda: done)
+        wait(app, lambda: done, 120, signal=win.run_finished)
         out["release"].append(time.perf_counter() - t0)
         out["previews"].append(win.runs.previews_started - previews)
         print("drag", out, win.runs.previews_adopted, win.runner.runs_started, flush=True)

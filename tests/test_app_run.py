@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QTimer
 
+from app import runner as runner_module
 from app.colours import ramp, strain_range, strain_stops
 from app.view2d import nice_length
 from app.viewbase import SCALE_TITLES, THREAD
@@ -152,6 +153,26 @@ def test_pause_and_resume(make_window, qtbot):
     win.actions["pause"].trigger()
     qtbot.waitUntil(lambda: len(win.runner.history) > n + 3, timeout=10000)
     assert win.runner.state == "running" and win.actions["pause"].text() == "&Pause"
+    with qtbot.waitSignal(win.run_finished, timeout=10000):
+        win.stop()
+
+
+def test_a_paused_run_shows_its_newest_iteration(make_window, qtbot, monkeypatch):
+    """Live frames are made only when the GUI takes them, so most iterations get none; a
+    pause still shows the iteration it stopped at, and a GUI that takes few frames has few
+    made (not one an iteration)."""
+    monkeypatch.setattr(runner_module, "FRAME_SHARE", 1e-4)  # the GUI takes a live frame seldom
+    win = make_window(small_project(0.05, solver="paper", max_iter=100000))
+    win.run()
+    qtbot.waitUntil(lambda: len(win.runner.history) >= 8, timeout=RUN_TIMEOUT_MS)
+    win.actions["pause"].trigger()
+    qtbot.waitUntil(lambda: win.runner.thread.paused, timeout=5000)
+    last = win.runner.history[-1][0]
+    qtbot.waitUntil(lambda: win.presenter.frame is not None and not win.presenter.frame.draping
+                    and win.presenter.frame.iteration == last, timeout=5000)
+    t = win.runner.thread
+    assert 1 <= t.frames_made <= len(win.runner.history) // 2  # the pattern frames, the first and the pause's
+    win.actions["pause"].trigger()
     with qtbot.waitSignal(win.run_finished, timeout=10000):
         win.stop()
 

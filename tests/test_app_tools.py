@@ -434,6 +434,46 @@ def test_a_dragged_dart_point_re_solves_as_it_moves(solved, qtbot):
     assert win.project is before and len(doc.history) == steps
 
 
+def test_a_dart_point_dragged_back_onto_its_spot_shows_the_document(solved, qtbot):
+    """A point dragged away and back onto the spot the document's dart has
+    starts no solve there (its answer is the document's result, which the views
+    show again), and the release there is no edit."""
+    win = solved
+    view, doc = win.view, win.document
+    draw_dart(qtbot, win)
+    win.dart_panel.dart_list.setCurrentRow(0)
+    qtbot.waitUntil(lambda: win.tool is not None, timeout=5000)
+    before, steps = win.project, len(doc.history)
+    w = view.widget
+    to_qt = lambda p: QPoint(int(p[0]), w.height() - 1 - int(p[1]))  # noqa: E731
+    start = pixel(view, win.surface.points(before.settings.darts[0].handles[1:2])[0])
+    away = pixel(view, np.array([0.55, 0.5, 0.67]) / np.linalg.norm([0.55, 0.5, 0.67]))
+    qtbot.mousePress(w, Qt.MouseButton.LeftButton, pos=to_qt(start))
+    # the pick at the press's own pixel: the dart through it is the document's only if the press hit the handle
+    # exactly, so the spot to come back to is the one a first move there makes the document's (released below)
+    qtbot.mouseMove(w, to_qt(away))
+    qtbot.waitUntil(lambda: win.runs.previews_started > 0 and win.runner.busy, timeout=RUN_TIMEOUT_MS)
+    with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
+        qtbot.mouseRelease(w, Qt.MouseButton.LeftButton, pos=to_qt(away))
+    moved, steps = win.project, steps + 1
+    assert len(doc.history) == steps and moved.result_is_current
+    qtbot.waitUntil(lambda: win.tool is not None and not win.runner.busy, timeout=RUN_TIMEOUT_MS)
+    frames = []
+    win.runner.frame.connect(frames.append)
+    qtbot.mousePress(w, Qt.MouseButton.LeftButton, pos=to_qt(away))
+    qtbot.mouseMove(w, to_qt(start))  # away from the document's spot: a preview solves there
+    qtbot.waitUntil(lambda: win.runs.previewing and win.runner.busy, timeout=RUN_TIMEOUT_MS)
+    started = win.runs.previews_started
+    qtbot.mouseMove(w, to_qt(away))  # back onto it: no solve, the preview in flight is dropped
+    assert win.runs.previews_started == started and not win.runs.previewing
+    qtbot.waitUntil(lambda: not win.runner.busy, timeout=RUN_TIMEOUT_MS)
+    assert win.presenter.frame.final and win.presenter.frame.mesh is moved.result.mesh
+    qtbot.mouseRelease(w, Qt.MouseButton.LeftButton, pos=to_qt(away))
+    qtbot.wait(100)
+    assert win.project is moved and len(doc.history) == steps and win.runs.previews_started == started
+    assert not win.runner.busy and not win.runs.previewing
+
+
 def test_undo_and_redo_restore_the_exact_documents(solved, qtbot):
     win = solved
     doc = win.document
