@@ -509,6 +509,13 @@ class _Normal:
                               shape=(self.nvar, self.nvar)).tocsc()
         self.csc_take = probe.data.astype(np.int64) - 1
         self.csc_indices, self.csc_indptr = probe.indices, probe.indptr
+        # the upper triangle's entries of that CSC data, for QDLDL (which otherwise takes it by scipy's triu)
+        col = np.repeat(np.arange(self.nvar), np.diff(probe.indptr))
+        up = probe.indices <= col
+        self.up_take = np.flatnonzero(up)
+        self.up_indices = probe.indices[up]
+        self.up_indptr = np.concatenate([[0], np.cumsum(np.bincount(col[up], minlength=self.nvar))]).astype(
+            probe.indptr.dtype)
         # both ends of every spring, for one bincount per entry of the diagonal blocks
         self.ends_num = np.concatenate([a, b])
         self.ends_all = np.concatenate([energy.a, energy.b])
@@ -540,7 +547,7 @@ class _Normal:
         return A, damp.ravel()
 
     def assemble_exact(self, energy: Energy, ev, Q: np.ndarray, Jd: np.ndarray, damp_rel: float, fix=None,
-                       surface_newton: bool = False):
+                       surface_newton: bool = False, kept: _Gathered | None = None):
         """What ``_hessian_blocks`` then ``assemble`` give (A + damping as CSC, the damping
         vector), plus G (n, 3) and the scale ``big``, without the (m, 4, 4) spring blocks:
         a node's diagonal block is its Gram matrix times the sum of k c over its springs
@@ -548,14 +555,17 @@ class _Normal:
         numbers per spring. ``fix(D, big, G)`` may change the node blocks D (n, 2, 2)
         before the damping is taken from them (switched-off nodes, the pin).
         ``surface_newton``: the curvature term with the normal part of G only
-        (:func:`_curvature_force`), as ``_hessian_blocks(..., surface_newton=True)``."""
+        (:func:`_curvature_force`), as ``_hessian_blocks(..., surface_newton=True)``.
+        ``kept``: the springs' surface data at ``ev`` that :func:`_residuals` gathered
+        (the same arithmetic; gathered again when not given)."""
         S, Su, Sv = ev.xyz, ev.su, ev.sv
         a, b, n = energy.a, energy.b, energy.n
-        d = S[a] - S[b]
-        kc = energy.k * (1.0 - energy.rest / np.maximum(np.sqrt(_dot(d, d)), 1e-300))
+        if kept is None:
+            kept = _Gathered(S, Su, Sv, a, b)
+        kc = energy.k * (1.0 - energy.rest / np.maximum(kept.length, 1e-300))
         ax = energy.k - kc
         q0, q1, q2, q3 = (np.ascontiguousarray(Q[:, i]) for i in range(4))
-        Sua, Sva, Sub, Svb = Su[a], Sv[a], Su[b], Sv[b]
+        Sua, Sva, Sub, Svb = kept.sua, kept.sva, kept.sub, kept.svb
         cross = np.empty((len(a), 2, 2))
         cross[:, 0, 0] = ax * q0 * q2 - kc * _dot(Sua, Sub)
         cross[:, 0, 1] = ax * q0 * q3 - kc * _dot(Sua, Svb)
@@ -608,6 +618,10 @@ class _Normal:
                 g[:, c] += np.bincount(energy.dir_nodes, Jd[:, c] * rd, minlength=n)
         return g[self.order].ravel()
 
+    def upper(self, A) -> sp.csc_matrix:
+        """The upper triangle (diagonal included) of a matrix ``assemble`` made, as CSC."""
+        return sp.csc_matrix((A.data[self.up_take], self.up_indices, self.up_indptr), shape=A.shape)
+
     def scatter(self, step: np.ndarray, n: int) -> np.ndarray:
         """(n, 2) node steps from the block-ordered variable vector."""
         out = np.zeros((n, 2))
@@ -615,20 +629,37 @@ class _Normal:
         return out
 
 
-def _residuals(energy: Energy, S, Su, Sv):
+class _Gathered:
+    """The springs' surface data at one evaluation: both ends' S_u and S_v
+    and the springs' lengths, gathered once for the residuals and the Newton
+    assembly at the same point (an accepted trial step's residuals are the
+    next assembly's)."""
+
+    __slots__ = ("length", "sua", "sva", "sub", "svb", "d")
+
+    def __init__(self, S, Su, Sv, a, b):
+        self.d = S[a] - S[b]
+        self.length = np.sqrt(_dot(self.d, self.d))
+        self.sua, self.sva, self.sub, self.svb = Su[a], Sv[a], Su[b], Sv[b]
+
+
+def _residuals(energy: Energy, S, Su, Sv, keep: list | None = None):
     """Residuals and Jacobian blocks at surface data (S, S_u, S_v).
 
     Returns (rs (m,), Q (m, 4), rd (c,), Jd (c, 2)): spring residuals
     sqrt(k) (l - r); Q = t^T [S_u(a), S_v(a), -S_u(b), -S_v(b)] with t the
     spring's unit direction, so the spring's Jacobian row is sqrt(k) Q; the
-    yarn residuals sqrt(k) f and their Jacobian rows.
+    yarn residuals sqrt(k) f and their Jacobian rows. ``keep``: a list the
+    gathered :class:`_Gathered` is appended to (for ``assemble_exact``).
     """
     a, b = energy.a, energy.b
-    d = S[a] - S[b]
-    length = np.sqrt(_dot(d, d))
-    t = d / np.maximum(length, 1e-300)[:, None]
+    g = _Gathered(S, Su, Sv, a, b)
+    if keep is not None:
+        keep.append(g)
+    length = g.length
+    t = g.d / np.maximum(length, 1e-300)[:, None]
     rs = np.sqrt(energy.k) * (length - energy.rest)
-    Q = np.column_stack([_dot(t, Su[a]), _dot(t, Sv[a]), -_dot(t, Su[b]), -_dot(t, Sv[b])])
+    Q = np.column_stack([_dot(t, g.sua), _dot(t, g.sva), -_dot(t, g.sub), -_dot(t, g.svb)])
     if energy.dir_nodes.size:
         sd = np.sqrt(energy.dir_k)
         rd = sd * energy.dir_distance(S)
@@ -880,10 +911,11 @@ class _Round:
         solver keeps at most the last one)."""
         if quick and _qdldl is not None and A.shape[0] <= _QDLDL_MAX:
             try:
+                U = self.normal.upper(A)
                 if self._ldl is None:
-                    self._ldl = _qdldl.Solver(A)
+                    self._ldl = _qdldl.Solver(U, upper=True)
                 else:
-                    self._ldl.update(A)
+                    self._ldl.update(U, upper=True)
                 return self._ldl
             except Exception:  # QDLDL raises plain errors on a zero pivot
                 self._ldl = None
@@ -987,13 +1019,14 @@ def _iterate_fast(run: _Run):
         rd_ = _Round(run)
         ev_ = surface.evaluate(rd_.uv, second=True, normals=False)
         run.nfev += 1
-        res = _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv)
+        kept_ = []
+        res = _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv, kept_)
         E_ = 0.5 * (res[0] @ res[0] + res[2] @ res[2])
         if not math.isfinite(E_):
             raise _not_finite("the energy", E_, run.nit, _cause(surface, rd_.uv, ev_))
-        return rd_, ev_, res, E_
+        return rd_, ev_, res, E_, kept_
 
-    rnd, ev, (rs, Q, rd, Jd), E = start()
+    rnd, ev, (rs, Q, rd, Jd), E, kept = start()
     while True:
         converged = E <= rnd.floor
         if not converged and not run.budget_left():
@@ -1025,7 +1058,8 @@ def _iterate_fast(run: _Run):
                                                  big, opts.surface_newton)
 
                 if opts.reuse:
-                    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, lam, fix, opts.surface_newton)
+                    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, lam, fix, opts.surface_newton,
+                                                            kept[0])
                     if A is None:
                         Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
                         bad = Hs if not np.isfinite(Hs).all() else Hn
@@ -1072,7 +1106,8 @@ def _iterate_fast(run: _Run):
             # non-finite energy is handled below (rejected, or an error when it is broken inside)
             with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
                 ev2 = surface.evaluate(uv_try, second=True, normals=False)
-                rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
+                kept2 = []
+                rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv, kept2)
                 E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
             run.nfev += 1
             if not np.isfinite(E2) and _broken_inside(surface, uv_try, ev2.xyz, ev2.su, ev2.sv):
@@ -1095,6 +1130,7 @@ def _iterate_fast(run: _Run):
                     gone = rnd.switch_off(bad, ev.xyz)
                     quiet = quiet and opts.reuse and run.pop.all_dead(gone)
                     rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
+                    kept = kept2
                     E = 0.5 * (rs @ rs + rd @ rd)
                     if not math.isfinite(E):
                         raise _not_finite("the energy", E, run.nit, _cause(surface, rnd.uv[rnd.alive]))
@@ -1107,7 +1143,7 @@ def _iterate_fast(run: _Run):
                 elif chord and decrease > 0.1 * last_decrease:
                     stale = None  # the chord steps converge slowly: a new factorisation will do better
                 last_decrease = decrease
-                rs, Q, rd, Jd, E = rs2, Q2, rd2, Jd2, E2
+                rs, Q, rd, Jd, E, kept = rs2, Q2, rd2, Jd2, E2, kept2
                 yield run.snapshot(E, ev.xyz[rnd.alive], False)
                 # until the population has settled, a loose tolerance will do
                 converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
@@ -1131,7 +1167,7 @@ def _iterate_fast(run: _Run):
             # a refill that found nothing finds nothing again while no node has left since
             if not (opts.reuse and quiet) and run.try_refill():
                 stale, held, quiet = None, None, False
-                rnd, ev, (rs, Q, rd, Jd), E = start()
+                rnd, ev, (rs, Q, rd, Jd), E, kept = start()
                 yield run.snapshot(E, ev.xyz, True)
                 continue
             quiet = True
