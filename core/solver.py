@@ -51,6 +51,7 @@ lower the energy.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -421,6 +422,7 @@ def _broken_inside(surface, uv: np.ndarray, xyz: np.ndarray, *derivs) -> bool:
 
 
 # ------------------------------------------------------------------ Levenberg-Marquardt
+@functools.lru_cache(maxsize=8)
 def _dissection_rank(shape: tuple[int, int], leaf: int = 32) -> np.ndarray:
     """Nested-dissection rank of every cell of an (R, C) lattice rectangle.
 
@@ -450,6 +452,7 @@ def _dissection_rank(shape: tuple[int, int], leaf: int = 32) -> np.ndarray:
             m = (j0 + j1) // 2
             parts = [(i0, i1, j0, m, False), (i0, i1, m + 1, j1, False), (i0, i1, m, m + 1, True)]
         stack.extend(reversed(parts))  # first half, second half, then the separator
+    rank.setflags(write=False)  # cached: a population's rounds mostly keep their lattice's extent
     return rank
 
 
@@ -581,7 +584,7 @@ class _Normal:
         D[:, 1, 1] = kcsum * _dot(Sv, Sv) + np.bincount(ends, ax2 * qb * qb, minlength=n)
         D[:, 1, 0] = D[:, 0, 1]
         big = max(float(np.abs(cross).max(initial=0.0)), float(np.abs(D).max(initial=0.0)), 1e-300)
-        _, G = energy.force_xyz(S)
+        G = _force_xyz(energy, S, kept)
         Gc = _curvature_force(G, Su, Sv) if surface_newton else G
         D[:, 0, 0] += _dot(Gc, ev.suu)
         D[:, 0, 1] += _dot(Gc, ev.suv)
@@ -641,6 +644,24 @@ class _Gathered:
         self.d = S[a] - S[b]
         self.length = np.sqrt(_dot(self.d, self.d))
         self.sua, self.sva, self.sub, self.svb = Su[a], Sv[a], Su[b], Sv[b]
+
+
+def _force_xyz(energy: Energy, S: np.ndarray, kept: _Gathered) -> np.ndarray:
+    """``energy.force_xyz(S)``'s gradient G (n, 3) from the springs' differences and
+    lengths already gathered at S (the same arithmetic: ``np.linalg.norm`` over three
+    components is the square root of ``rowdot``, bitwise; tests/test_solver_speed.py)."""
+    coef = energy.k * (kept.length - energy.rest) / np.maximum(kept.length, 1e-300)
+    g = kept.d * coef[:, None]
+    a, b, n = energy.a, energy.b, energy.n
+    G = np.empty((n, 3))
+    for c in range(3):
+        G[:, c] = np.bincount(a, g[:, c], minlength=n) - np.bincount(b, g[:, c], minlength=n)
+    if energy.dir_nodes.size:
+        f = energy.dir_distance(S)
+        gd = (energy.dir_k * f)[:, None] * energy.dir_planes[:, :3]
+        for c in range(3):
+            G[:, c] += np.bincount(energy.dir_nodes, gd[:, c], minlength=n)
+    return G
 
 
 def _residuals(energy: Energy, S, Su, Sv, keep: list | None = None):
@@ -1174,6 +1195,10 @@ def _iterate_fast(run: _Run):
             if not rnd.settled and E > rnd.floor:
                 rnd.settled = True  # nothing to refill: now converge tightly
                 stale = held if opts.reuse else None
+                # the first chord step is judged on its own: the decrease before it was the last, loosely
+                # converged step of the round before settling (often tiny), which would end the chord steps
+                # at once and cost a factorisation
+                last_decrease = math.inf
                 continue
             run.status, run.message = 0, "converged"
             return

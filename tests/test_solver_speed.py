@@ -17,6 +17,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import core.solver as solver
 from core.darts import CurveDart, PlaneDart
@@ -174,6 +175,31 @@ def test_assemble_exact_is_the_blocks_assembled(name, yarn, off, surface_newton)
     above = rows & (damp_ref > floor)
     np.testing.assert_allclose(damp[above], damp_ref[above], rtol=1e-12)
     assert pinned is not None  # every case has an anchor's pin
+
+
+@pytest.mark.parametrize("name, yarn", [("octant", False), ("saddle", True), ("garment", False)])
+def test_shared_gathers_give_the_same_numbers(name, yarn):
+    """The residuals' gathered spring data reused by the assembly, its G and the upper
+    triangle handed to QDLDL: bitwise what the assembly gathers itself, energy.force_xyz and
+    scipy's triu give."""
+    s, settings = _settings(name, 600)
+    d = drape(s, settings.drape_settings(), settings.material)
+    energy = Energy(s, d.mesh, (_seed_row_yarn(s, settings),) if yarn else ())
+    normal = solver._Normal(energy, 0)
+    ev = s.evaluate(d.uv + 1e-3 * np.sin(7 * d.uv[:, ::-1]), second=True, normals=False)
+    kept = []
+    rs, Q, rd, Jd = solver._residuals(energy, ev.xyz, ev.su, ev.sv, kept)
+    for r, r0 in zip((rs, Q, rd, Jd), solver._residuals(energy, ev.xyz, ev.su, ev.sv)):
+        assert np.array_equal(r, r0)
+    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True, kept[0])
+    A0, damp0, G0, big0 = normal.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True)
+    assert np.array_equal(G, energy.force_xyz(ev.xyz)[1]) and np.array_equal(G, G0)
+    assert big == big0 and np.array_equal(damp, damp0) and (A != A0).nnz == 0
+    U = normal.upper(A)
+    ref = sp.triu(A, format="csc")
+    ref.sort_indices()
+    assert np.array_equal(U.indptr, ref.indptr) and np.array_equal(U.indices, ref.indices)
+    assert np.array_equal(U.data, ref.data)
 
 
 def test_reuse_is_an_option_with_a_default():
