@@ -664,23 +664,27 @@ def _force_xyz(energy: Energy, S: np.ndarray, kept: _Gathered) -> np.ndarray:
     return G
 
 
-def _residuals(energy: Energy, S, Su, Sv, keep: list | None = None):
+def _residuals(energy: Energy, S, Su, Sv, keep: list | None = None, at: tuple | None = None):
     """Residuals and Jacobian blocks at surface data (S, S_u, S_v).
 
     Returns (rs (m,), Q (m, 4), rd (c,), Jd (c, 2)): spring residuals
     sqrt(k) (l - r); Q = t^T [S_u(a), S_v(a), -S_u(b), -S_v(b)] with t the
     spring's unit direction, so the spring's Jacobian row is sqrt(k) Q; the
     yarn residuals sqrt(k) f and their Jacobian rows. ``keep``: a list the
-    gathered :class:`_Gathered` is appended to (for ``assemble_exact``).
+    gathered :class:`_Gathered` is appended to (for ``assemble_exact``). ``at``:
+    (the :class:`_Gathered`, Q) of an earlier call at the same S, S_u, S_v with
+    the same springs (only the constants changed: nodes switched off), reused.
     """
     a, b = energy.a, energy.b
-    g = _Gathered(S, Su, Sv, a, b)
+    if at is None:
+        g = _Gathered(S, Su, Sv, a, b)
+        t = g.d / np.maximum(g.length, 1e-300)[:, None]
+        Q = np.column_stack([_dot(t, g.sua), _dot(t, g.sva), -_dot(t, g.sub), -_dot(t, g.svb)])
+    else:  # Q is geometry only (no k in it)
+        g, Q = at
     if keep is not None:
         keep.append(g)
-    length = g.length
-    t = g.d / np.maximum(length, 1e-300)[:, None]
-    rs = np.sqrt(energy.k) * (length - energy.rest)
-    Q = np.column_stack([_dot(t, g.sua), _dot(t, g.sva), -_dot(t, g.sub), -_dot(t, g.svb)])
+    rs = np.sqrt(energy.k) * (g.length - energy.rest)
     if energy.dir_nodes.size:
         sd = np.sqrt(energy.dir_k)
         rd = sd * energy.dir_distance(S)
@@ -1150,7 +1154,7 @@ def _iterate_fast(run: _Run):
                     stale, held = None, None
                     gone = rnd.switch_off(bad, ev.xyz)
                     quiet = quiet and opts.reuse and run.pop.all_dead(gone)
-                    rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
+                    rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=(kept2[0], Q2))
                     kept = kept2
                     E = 0.5 * (rs @ rs + rd @ rd)
                     if not math.isfinite(E):
@@ -1181,7 +1185,7 @@ def _iterate_fast(run: _Run):
                 stale, held = None, None
                 gone = rnd.switch_off(np.zeros(rnd.mesh.n_nodes, dtype=bool), ev.xyz)
                 quiet = quiet and opts.reuse and run.pop.all_dead(gone)
-                rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
+                rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=(kept[0], Q))
                 E = 0.5 * (rs @ rs + rd @ rd)
                 yield run.snapshot(E, ev.xyz[rnd.alive], True)
                 continue
