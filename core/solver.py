@@ -728,10 +728,12 @@ class _Run:
             return False
         return True
 
-    def snapshot(self, energy: float, xyz: np.ndarray, changed: bool) -> Snapshot:
+    def snapshot(self, energy: float, xyz: np.ndarray, changed: bool, lengths: np.ndarray | None = None) -> Snapshot:
+        """``lengths``: the live springs' lengths at xyz when already known (in ``self.mesh``'s order)."""
         self.history.append(energy)
+        strain = spring_strain(xyz, self.mesh) if lengths is None else lengths / self.mesh.rest - 1.0
         return Snapshot(self.nit, energy, self.nfev, self.mesh, self.uv.copy(), xyz.copy(),
-                        spring_strain(xyz, self.mesh), changed, time.perf_counter() - self.t0)
+                        strain, changed, time.perf_counter() - self.t0)
 
     def remove_invalid(self, uv_old: np.ndarray, uv_new: np.ndarray) -> bool:
         """Delete nodes that left the domain (or crossed a dart); True if any did."""
@@ -1055,7 +1057,7 @@ def _iterate_fast(run: _Run):
     while True:
         converged = E <= rnd.floor
         if not converged and not run.budget_left():
-            yield run.snapshot(E, ev.xyz[rnd.alive], False)
+            yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
             return
         chord = False
         # chord steps and the lambda jump only once the population has settled: before, they change which
@@ -1159,7 +1161,7 @@ def _iterate_fast(run: _Run):
                     E = 0.5 * (rs @ rs + rd @ rd)
                     if not math.isfinite(E):
                         raise _not_finite("the energy", E, run.nit, _cause(surface, rnd.uv[rnd.alive]))
-                    yield run.snapshot(E, ev.xyz[rnd.alive], True)
+                    yield run.snapshot(E, ev.xyz[rnd.alive], True, kept[0].length[rnd.spring_on])
                     continue
                 if opts.reuse and not chord:
                     held = (lu, A, damp)
@@ -1169,14 +1171,14 @@ def _iterate_fast(run: _Run):
                     stale = None  # the chord steps converge slowly: a new factorisation will do better
                 last_decrease = decrease
                 rs, Q, rd, Jd, E, kept = rs2, Q2, rd2, Jd2, E2, kept2
-                yield run.snapshot(E, ev.xyz[rnd.alive], False)
+                yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
                 # until the population has settled, a loose tolerance will do
                 converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
             else:
                 stale = held = None
                 lam = max(lam * nu, _LAM_JUMP) if quick else lam * nu
                 nu *= 2
-                yield run.snapshot(E, ev.xyz[rnd.alive], False)
+                yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
                 converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
         if converged:
             # a spring that came to cross a dart without either end crossing it (swung round the
@@ -1187,13 +1189,13 @@ def _iterate_fast(run: _Run):
                 quiet = quiet and opts.reuse and run.pop.all_dead(gone)
                 rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=(kept[0], Q))
                 E = 0.5 * (rs @ rs + rd @ rd)
-                yield run.snapshot(E, ev.xyz[rnd.alive], True)
+                yield run.snapshot(E, ev.xyz[rnd.alive], True, kept[0].length[rnd.spring_on])
                 continue
             # a refill that found nothing finds nothing again while no node has left since
             if not (opts.reuse and quiet) and run.try_refill():
                 stale, held, quiet = None, None, False
                 rnd, ev, (rs, Q, rd, Jd), E, kept = start()
-                yield run.snapshot(E, ev.xyz, True)
+                yield run.snapshot(E, ev.xyz, True, kept[0].length)
                 continue
             quiet = True
             if not rnd.settled and E > rnd.floor:

@@ -25,6 +25,7 @@ from core.drape import drape
 from core.energy import Energy, YarnConstraint, yarn_plane
 from core.examples import example_names, load_example
 from core.mesh import MATERIALS
+from core.metrics import spring_strain
 from core.pipeline import FlattenSettings, flatten, make_problem
 from core.quadrature import region_area
 
@@ -246,3 +247,19 @@ def test_newton_on_the_surface_matches_newton_in_the_chart(name, material, dart,
 POPULATION_SPLITS = {("saddle", "woven", "curve", False), ("saddle", "woven", "curve", True),
                      ("saddle", "isotropic", "curve", False), ("dome", "woven", "curve", False),
                      ("dome", "isotropic", "curve", False)}
+
+
+def test_snapshot_strain_is_the_meshes_strain():
+    """Every snapshot of a solve with a dart (switch-offs, refills, settled chord steps) carries
+    the strain of its own mesh at its own xyz, bitwise (the solver takes it from the lengths the
+    residuals gathered)."""
+    s, settings = _settings("octant", 700)
+    settings = dataclasses.replace(settings, darts=(CURVE,))
+    d = drape(s, settings.drape_settings(), settings.material)
+    problem = make_problem(s, settings)
+    changed = 0
+    for snap in solver.iterate(problem, solver.State(d.mesh, d.uv), settings.solver_options()):
+        assert snap.strain.shape == (snap.mesh.n_springs,)
+        assert np.array_equal(snap.strain, spring_strain(snap.xyz, snap.mesh))
+        changed += snap.population_changed
+    assert changed >= 2  # nodes left and came back
