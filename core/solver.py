@@ -51,6 +51,7 @@ lower the energy.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -421,6 +422,7 @@ def _broken_inside(surface, uv: np.ndarray, xyz: np.ndarray, *derivs) -> bool:
 
 
 # ------------------------------------------------------------------ Levenberg-Marquardt
+@functools.lru_cache(maxsize=8)
 def _dissection_rank(shape: tuple[int, int], leaf: int = 32) -> np.ndarray:
     """Nested-dissection rank of every cell of an (R, C) lattice rectangle.
 
@@ -450,6 +452,7 @@ def _dissection_rank(shape: tuple[int, int], leaf: int = 32) -> np.ndarray:
             m = (j0 + j1) // 2
             parts = [(i0, i1, j0, m, False), (i0, i1, m + 1, j1, False), (i0, i1, m, m + 1, True)]
         stack.extend(reversed(parts))  # first half, second half, then the separator
+    rank.setflags(write=False)  # cached: a population's rounds mostly keep their lattice's extent
     return rank
 
 
@@ -509,6 +512,13 @@ class _Normal:
                               shape=(self.nvar, self.nvar)).tocsc()
         self.csc_take = probe.data.astype(np.int64) - 1
         self.csc_indices, self.csc_indptr = probe.indices, probe.indptr
+        # the upper triangle's entries of that CSC data, for QDLDL (which otherwise takes it by scipy's triu)
+        col = np.repeat(np.arange(self.nvar), np.diff(probe.indptr))
+        up = probe.indices <= col
+        self.up_take = np.flatnonzero(up)
+        self.up_indices = probe.indices[up]
+        self.up_indptr = np.concatenate([[0], np.cumsum(np.bincount(col[up], minlength=self.nvar))]).astype(
+            probe.indptr.dtype)
         # both ends of every spring, for one bincount per entry of the diagonal blocks
         self.ends_num = np.concatenate([a, b])
         self.ends_all = np.concatenate([energy.a, energy.b])
@@ -540,7 +550,7 @@ class _Normal:
         return A, damp.ravel()
 
     def assemble_exact(self, energy: Energy, ev, Q: np.ndarray, Jd: np.ndarray, damp_rel: float, fix=None,
-                       surface_newton: bool = False):
+                       surface_newton: bool = False, kept: _Gathered | None = None):
         """What ``_hessian_blocks`` then ``assemble`` give (A + damping as CSC, the damping
         vector), plus G (n, 3) and the scale ``big``, without the (m, 4, 4) spring blocks:
         a node's diagonal block is its Gram matrix times the sum of k c over its springs
@@ -548,14 +558,17 @@ class _Normal:
         numbers per spring. ``fix(D, big, G)`` may change the node blocks D (n, 2, 2)
         before the damping is taken from them (switched-off nodes, the pin).
         ``surface_newton``: the curvature term with the normal part of G only
-        (:func:`_curvature_force`), as ``_hessian_blocks(..., surface_newton=True)``."""
+        (:func:`_curvature_force`), as ``_hessian_blocks(..., surface_newton=True)``.
+        ``kept``: the springs' surface data at ``ev`` that :func:`_residuals` gathered
+        (the same arithmetic; gathered again when not given)."""
         S, Su, Sv = ev.xyz, ev.su, ev.sv
         a, b, n = energy.a, energy.b, energy.n
-        d = S[a] - S[b]
-        kc = energy.k * (1.0 - energy.rest / np.maximum(np.sqrt(_dot(d, d)), 1e-300))
+        if kept is None:
+            kept = _Gathered(S, Su, Sv, a, b)
+        kc = energy.k * (1.0 - energy.rest / np.maximum(kept.length, 1e-300))
         ax = energy.k - kc
         q0, q1, q2, q3 = (np.ascontiguousarray(Q[:, i]) for i in range(4))
-        Sua, Sva, Sub, Svb = Su[a], Sv[a], Su[b], Sv[b]
+        Sua, Sva, Sub, Svb = kept.sua, kept.sva, kept.sub, kept.svb
         cross = np.empty((len(a), 2, 2))
         cross[:, 0, 0] = ax * q0 * q2 - kc * _dot(Sua, Sub)
         cross[:, 0, 1] = ax * q0 * q3 - kc * _dot(Sua, Svb)
@@ -571,7 +584,7 @@ class _Normal:
         D[:, 1, 1] = kcsum * _dot(Sv, Sv) + np.bincount(ends, ax2 * qb * qb, minlength=n)
         D[:, 1, 0] = D[:, 0, 1]
         big = max(float(np.abs(cross).max(initial=0.0)), float(np.abs(D).max(initial=0.0)), 1e-300)
-        _, G = energy.force_xyz(S)
+        G = _force_xyz(energy, S, kept)
         Gc = _curvature_force(G, Su, Sv) if surface_newton else G
         D[:, 0, 0] += _dot(Gc, ev.suu)
         D[:, 0, 1] += _dot(Gc, ev.suv)
@@ -608,6 +621,10 @@ class _Normal:
                 g[:, c] += np.bincount(energy.dir_nodes, Jd[:, c] * rd, minlength=n)
         return g[self.order].ravel()
 
+    def upper(self, A) -> sp.csc_matrix:
+        """The upper triangle (diagonal included) of a matrix ``assemble`` made, as CSC."""
+        return sp.csc_matrix((A.data[self.up_take], self.up_indices, self.up_indptr), shape=A.shape)
+
     def scatter(self, step: np.ndarray, n: int) -> np.ndarray:
         """(n, 2) node steps from the block-ordered variable vector."""
         out = np.zeros((n, 2))
@@ -615,20 +632,59 @@ class _Normal:
         return out
 
 
-def _residuals(energy: Energy, S, Su, Sv):
+class _Gathered:
+    """The springs' surface data at one evaluation: both ends' S_u and S_v
+    and the springs' lengths, gathered once for the residuals and the Newton
+    assembly at the same point (an accepted trial step's residuals are the
+    next assembly's)."""
+
+    __slots__ = ("length", "sua", "sva", "sub", "svb", "d")
+
+    def __init__(self, S, Su, Sv, a, b):
+        self.d = S[a] - S[b]
+        self.length = np.sqrt(_dot(self.d, self.d))
+        self.sua, self.sva, self.sub, self.svb = Su[a], Sv[a], Su[b], Sv[b]
+
+
+def _force_xyz(energy: Energy, S: np.ndarray, kept: _Gathered) -> np.ndarray:
+    """``energy.force_xyz(S)``'s gradient G (n, 3) from the springs' differences and
+    lengths already gathered at S (the same arithmetic: ``np.linalg.norm`` over three
+    components is the square root of ``rowdot``, bitwise; tests/test_solver_speed.py)."""
+    coef = energy.k * (kept.length - energy.rest) / np.maximum(kept.length, 1e-300)
+    g = kept.d * coef[:, None]
+    a, b, n = energy.a, energy.b, energy.n
+    G = np.empty((n, 3))
+    for c in range(3):
+        G[:, c] = np.bincount(a, g[:, c], minlength=n) - np.bincount(b, g[:, c], minlength=n)
+    if energy.dir_nodes.size:
+        f = energy.dir_distance(S)
+        gd = (energy.dir_k * f)[:, None] * energy.dir_planes[:, :3]
+        for c in range(3):
+            G[:, c] += np.bincount(energy.dir_nodes, gd[:, c], minlength=n)
+    return G
+
+
+def _residuals(energy: Energy, S, Su, Sv, keep: list | None = None, at: tuple | None = None):
     """Residuals and Jacobian blocks at surface data (S, S_u, S_v).
 
     Returns (rs (m,), Q (m, 4), rd (c,), Jd (c, 2)): spring residuals
     sqrt(k) (l - r); Q = t^T [S_u(a), S_v(a), -S_u(b), -S_v(b)] with t the
     spring's unit direction, so the spring's Jacobian row is sqrt(k) Q; the
-    yarn residuals sqrt(k) f and their Jacobian rows.
+    yarn residuals sqrt(k) f and their Jacobian rows. ``keep``: a list the
+    gathered :class:`_Gathered` is appended to (for ``assemble_exact``). ``at``:
+    (the :class:`_Gathered`, Q) of an earlier call at the same S, S_u, S_v with
+    the same springs (only the constants changed: nodes switched off), reused.
     """
     a, b = energy.a, energy.b
-    d = S[a] - S[b]
-    length = np.sqrt(_dot(d, d))
-    t = d / np.maximum(length, 1e-300)[:, None]
-    rs = np.sqrt(energy.k) * (length - energy.rest)
-    Q = np.column_stack([_dot(t, Su[a]), _dot(t, Sv[a]), -_dot(t, Su[b]), -_dot(t, Sv[b])])
+    if at is None:
+        g = _Gathered(S, Su, Sv, a, b)
+        t = g.d / np.maximum(g.length, 1e-300)[:, None]
+        Q = np.column_stack([_dot(t, g.sua), _dot(t, g.sva), -_dot(t, g.sub), -_dot(t, g.svb)])
+    else:  # Q is geometry only (no k in it)
+        g, Q = at
+    if keep is not None:
+        keep.append(g)
+    rs = np.sqrt(energy.k) * (g.length - energy.rest)
     if energy.dir_nodes.size:
         sd = np.sqrt(energy.dir_k)
         rd = sd * energy.dir_distance(S)
@@ -672,10 +728,12 @@ class _Run:
             return False
         return True
 
-    def snapshot(self, energy: float, xyz: np.ndarray, changed: bool) -> Snapshot:
+    def snapshot(self, energy: float, xyz: np.ndarray, changed: bool, lengths: np.ndarray | None = None) -> Snapshot:
+        """``lengths``: the live springs' lengths at xyz when already known (in ``self.mesh``'s order)."""
         self.history.append(energy)
+        strain = spring_strain(xyz, self.mesh) if lengths is None else lengths / self.mesh.rest - 1.0
         return Snapshot(self.nit, energy, self.nfev, self.mesh, self.uv.copy(), xyz.copy(),
-                        spring_strain(xyz, self.mesh), changed, time.perf_counter() - self.t0)
+                        strain, changed, time.perf_counter() - self.t0)
 
     def remove_invalid(self, uv_old: np.ndarray, uv_new: np.ndarray) -> bool:
         """Delete nodes that left the domain (or crossed a dart); True if any did."""
@@ -880,10 +938,11 @@ class _Round:
         solver keeps at most the last one)."""
         if quick and _qdldl is not None and A.shape[0] <= _QDLDL_MAX:
             try:
+                U = self.normal.upper(A)
                 if self._ldl is None:
-                    self._ldl = _qdldl.Solver(A)
+                    self._ldl = _qdldl.Solver(U, upper=True)
                 else:
-                    self._ldl.update(A)
+                    self._ldl.update(U, upper=True)
                 return self._ldl
             except Exception:  # QDLDL raises plain errors on a zero pivot
                 self._ldl = None
@@ -987,17 +1046,18 @@ def _iterate_fast(run: _Run):
         rd_ = _Round(run)
         ev_ = surface.evaluate(rd_.uv, second=True, normals=False)
         run.nfev += 1
-        res = _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv)
+        kept_ = []
+        res = _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv, kept_)
         E_ = 0.5 * (res[0] @ res[0] + res[2] @ res[2])
         if not math.isfinite(E_):
             raise _not_finite("the energy", E_, run.nit, _cause(surface, rd_.uv, ev_))
-        return rd_, ev_, res, E_
+        return rd_, ev_, res, E_, kept_
 
-    rnd, ev, (rs, Q, rd, Jd), E = start()
+    rnd, ev, (rs, Q, rd, Jd), E, kept = start()
     while True:
         converged = E <= rnd.floor
         if not converged and not run.budget_left():
-            yield run.snapshot(E, ev.xyz[rnd.alive], False)
+            yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
             return
         chord = False
         # chord steps and the lambda jump only once the population has settled: before, they change which
@@ -1025,7 +1085,8 @@ def _iterate_fast(run: _Run):
                                                  big, opts.surface_newton)
 
                 if opts.reuse:
-                    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, lam, fix, opts.surface_newton)
+                    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, lam, fix, opts.surface_newton,
+                                                            kept[0])
                     if A is None:
                         Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
                         bad = Hs if not np.isfinite(Hs).all() else Hn
@@ -1072,7 +1133,8 @@ def _iterate_fast(run: _Run):
             # non-finite energy is handled below (rejected, or an error when it is broken inside)
             with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
                 ev2 = surface.evaluate(uv_try, second=True, normals=False)
-                rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv)
+                kept2 = []
+                rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv, kept2)
                 E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
             run.nfev += 1
             if not np.isfinite(E2) and _broken_inside(surface, uv_try, ev2.xyz, ev2.su, ev2.sv):
@@ -1094,11 +1156,12 @@ def _iterate_fast(run: _Run):
                     stale, held = None, None
                     gone = rnd.switch_off(bad, ev.xyz)
                     quiet = quiet and opts.reuse and run.pop.all_dead(gone)
-                    rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
+                    rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=(kept2[0], Q2))
+                    kept = kept2
                     E = 0.5 * (rs @ rs + rd @ rd)
                     if not math.isfinite(E):
                         raise _not_finite("the energy", E, run.nit, _cause(surface, rnd.uv[rnd.alive]))
-                    yield run.snapshot(E, ev.xyz[rnd.alive], True)
+                    yield run.snapshot(E, ev.xyz[rnd.alive], True, kept[0].length[rnd.spring_on])
                     continue
                 if opts.reuse and not chord:
                     held = (lu, A, damp)
@@ -1107,15 +1170,15 @@ def _iterate_fast(run: _Run):
                 elif chord and decrease > 0.1 * last_decrease:
                     stale = None  # the chord steps converge slowly: a new factorisation will do better
                 last_decrease = decrease
-                rs, Q, rd, Jd, E = rs2, Q2, rd2, Jd2, E2
-                yield run.snapshot(E, ev.xyz[rnd.alive], False)
+                rs, Q, rd, Jd, E, kept = rs2, Q2, rd2, Jd2, E2, kept2
+                yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
                 # until the population has settled, a loose tolerance will do
                 converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
             else:
                 stale = held = None
                 lam = max(lam * nu, _LAM_JUMP) if quick else lam * nu
                 nu *= 2
-                yield run.snapshot(E, ev.xyz[rnd.alive], False)
+                yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
                 converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
         if converged:
             # a spring that came to cross a dart without either end crossing it (swung round the
@@ -1124,20 +1187,24 @@ def _iterate_fast(run: _Run):
                 stale, held = None, None
                 gone = rnd.switch_off(np.zeros(rnd.mesh.n_nodes, dtype=bool), ev.xyz)
                 quiet = quiet and opts.reuse and run.pop.all_dead(gone)
-                rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv)
+                rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=(kept[0], Q))
                 E = 0.5 * (rs @ rs + rd @ rd)
-                yield run.snapshot(E, ev.xyz[rnd.alive], True)
+                yield run.snapshot(E, ev.xyz[rnd.alive], True, kept[0].length[rnd.spring_on])
                 continue
             # a refill that found nothing finds nothing again while no node has left since
             if not (opts.reuse and quiet) and run.try_refill():
                 stale, held, quiet = None, None, False
-                rnd, ev, (rs, Q, rd, Jd), E = start()
-                yield run.snapshot(E, ev.xyz, True)
+                rnd, ev, (rs, Q, rd, Jd), E, kept = start()
+                yield run.snapshot(E, ev.xyz, True, kept[0].length)
                 continue
             quiet = True
             if not rnd.settled and E > rnd.floor:
                 rnd.settled = True  # nothing to refill: now converge tightly
                 stale = held if opts.reuse else None
+                # the first chord step is judged on its own: the decrease before it was the last, loosely
+                # converged step of the round before settling (often tiny), which would end the chord steps
+                # at once and cost a factorisation
+                last_decrease = math.inf
                 continue
             run.status, run.message = 0, "converged"
             return

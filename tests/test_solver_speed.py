@@ -17,6 +17,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import core.solver as solver
 from core.darts import CurveDart, PlaneDart
@@ -24,6 +25,7 @@ from core.drape import drape
 from core.energy import Energy, YarnConstraint, yarn_plane
 from core.examples import example_names, load_example
 from core.mesh import MATERIALS
+from core.metrics import spring_strain
 from core.pipeline import FlattenSettings, flatten, make_problem
 from core.quadrature import region_area
 
@@ -176,6 +178,38 @@ def test_assemble_exact_is_the_blocks_assembled(name, yarn, off, surface_newton)
     assert pinned is not None  # every case has an anchor's pin
 
 
+@pytest.mark.parametrize("name, yarn", [("octant", False), ("saddle", True), ("garment", False)])
+def test_shared_gathers_give_the_same_numbers(name, yarn):
+    """The residuals' gathered spring data reused by the assembly and after a switch-off, its G and the upper
+    triangle handed to QDLDL: bitwise what the assembly gathers itself, energy.force_xyz and
+    scipy's triu give."""
+    s, settings = _settings(name, 600)
+    d = drape(s, settings.drape_settings(), settings.material)
+    energy = Energy(s, d.mesh, (_seed_row_yarn(s, settings),) if yarn else ())
+    normal = solver._Normal(energy, 0)
+    ev = s.evaluate(d.uv + 1e-3 * np.sin(7 * d.uv[:, ::-1]), second=True, normals=False)
+    kept = []
+    rs, Q, rd, Jd = solver._residuals(energy, ev.xyz, ev.su, ev.sv, kept)
+    for r, r0 in zip((rs, Q, rd, Jd), solver._residuals(energy, ev.xyz, ev.su, ev.sv)):
+        assert np.array_equal(r, r0)
+    # after a switch-off (only the constants change) the residuals reuse the gathers and Q
+    alive = np.ones(d.mesh.n_nodes, dtype=bool)
+    alive[np.argsort(d.uv[:, 0])[:7]] = False
+    off = energy.masked(alive[d.mesh.ends[:, 0]] & alive[d.mesh.ends[:, 1]], alive)
+    for r, r0 in zip(solver._residuals(off, ev.xyz, ev.su, ev.sv, at=(kept[0], Q)),
+                     solver._residuals(off, ev.xyz, ev.su, ev.sv)):
+        assert np.array_equal(r, r0)
+    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True, kept[0])
+    A0, damp0, G0, big0 = normal.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True)
+    assert np.array_equal(G, energy.force_xyz(ev.xyz)[1]) and np.array_equal(G, G0)
+    assert big == big0 and np.array_equal(damp, damp0) and (A != A0).nnz == 0
+    U = normal.upper(A)
+    ref = sp.triu(A, format="csc")
+    ref.sort_indices()
+    assert np.array_equal(U.indptr, ref.indptr) and np.array_equal(U.indices, ref.indices)
+    assert np.array_equal(U.data, ref.data)
+
+
 def test_reuse_is_an_option_with_a_default():
     assert solver.SolverOptions().reuse is True
     assert solver.SolverOptions(reuse=False).reuse is False
@@ -213,3 +247,19 @@ def test_newton_on_the_surface_matches_newton_in_the_chart(name, material, dart,
 POPULATION_SPLITS = {("saddle", "woven", "curve", False), ("saddle", "woven", "curve", True),
                      ("saddle", "isotropic", "curve", False), ("dome", "woven", "curve", False),
                      ("dome", "isotropic", "curve", False)}
+
+
+def test_snapshot_strain_is_the_meshes_strain():
+    """Every snapshot of a solve with a dart (switch-offs, refills, settled chord steps) carries
+    the strain of its own mesh at its own xyz, bitwise (the solver takes it from the lengths the
+    residuals gathered)."""
+    s, settings = _settings("octant", 700)
+    settings = dataclasses.replace(settings, darts=(CURVE,))
+    d = drape(s, settings.drape_settings(), settings.material)
+    problem = make_problem(s, settings)
+    changed = 0
+    for snap in solver.iterate(problem, solver.State(d.mesh, d.uv), settings.solver_options()):
+        assert snap.strain.shape == (snap.mesh.n_springs,)
+        assert np.array_equal(snap.strain, spring_strain(snap.xyz, snap.mesh))
+        changed += snap.population_changed
+    assert changed >= 2  # nodes left and came back
