@@ -16,6 +16,12 @@ For every (material, size) on the octant, from the same drape:
    the refill and the drape give; a node order out of it would cost cache
    locality in the assembly and fill in the factorisation).
 
+``--compare CASES`` instead runs ``core.pipeline.flatten`` with today's refill
+rule (a position deleted twice is never refilled) and the candidate tried in
+session 9 (a refilled node deleted again is never refilled; patched in here, not
+in core), alternating, on CASES (``surface:material:nodes,...``): seconds,
+iterations, nodes, EN, the boundary and area errors and the uncovered share.
+
 Timings depend on the load (2 cores, other work running): the one-minute load
 average is printed before and after.
 """
@@ -39,7 +45,7 @@ import core.solver as solver  # noqa: E402
 from core.drape import drape  # noqa: E402
 from core.examples import load_example  # noqa: E402
 from core.mesh import MATERIALS  # noqa: E402
-from core.pipeline import FlattenSettings, make_problem  # noqa: E402
+from core.pipeline import FlattenSettings, flatten, make_problem  # noqa: E402
 from core.quadrature import region_area  # noqa: E402
 
 TIMED = ((solver._Normal, "assemble_exact"), (solver, "_residuals"), (solver._Round, "factorise"),
@@ -125,6 +131,70 @@ def run(surface, problem, d, population: bool) -> dict:
             "changes": changes, "medians": medians, "in_order": in_order}
 
 
+class RefilledOnce:
+    """The candidate refill rule tried in session 9 (docs/decisions.md, "Population churn"), patched
+    in: a position whose node came from a refill counts double when it loses it, so a refilled node
+    deleted again is never refilled (today: every position gets two deletions)."""
+
+    def __enter__(self):
+        self._record, self._refill = solver._Population.record, solver._Run.try_refill
+
+        def record(pop, ij):
+            born = getattr(pop, "born", set())
+            for key in map(tuple, ij.tolist()):
+                pop.counts[key] = pop.counts.get(key, 0) + (2 if key in born else 1)
+            pop.deleted += len(ij)
+
+        def try_refill(run, _refill=self._refill):
+            before = set(map(tuple, run.mesh.ij.tolist()))
+            added = _refill(run)
+            if added:
+                run.pop.born = getattr(run.pop, "born", set()) | (set(map(tuple, run.mesh.ij.tolist())) - before)
+            return added
+
+        solver._Population.record, solver._Run.try_refill = record, try_refill
+        return self
+
+    def __exit__(self, *exc):
+        solver._Population.record, solver._Run.try_refill = self._record, self._refill
+
+
+class _Today:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        pass
+
+
+def compare(cases: str, repeat: int) -> str:
+    """Today's refill rule against the candidate, alternating (markdown table)."""
+    rows = []
+    for case in cases.split(","):
+        name, material, nodes = case.split(":")
+        s = load_example(name)
+        st = FlattenSettings(float(np.sqrt(region_area(s) / int(nodes))), material=MATERIALS[material])
+        got = {"today": [], "refilled once": []}
+        for _ in range(repeat):
+            for variant, rule in (("today", _Today), ("refilled once", RefilledOnce)):
+                with rule():
+                    t0 = time.perf_counter()
+                    r = flatten(s, st)
+                    got[variant].append((time.perf_counter() - t0, r.metrics))
+        for variant, runs in got.items():
+            m = runs[0][1]
+            secs = float(np.median([t for t, _ in runs]))
+            rows.append([f"{name}, {material}, ~{int(nodes):,}", variant, f"{secs:.2f}", m["iterations"],
+                         f"{m['nodes']:,}", f"{m['energy']:.6e}", f"{m['boundary_error_pct']:.4f}",
+                         f"{m['area_error_pct']:.4f}", f"{m['uncovered_pct']:.3f}", m["nodes_refilled"]])
+        print(table(HEAD_CMP, rows[-2:]), flush=True)
+    return table(HEAD_CMP, rows)
+
+
+HEAD_CMP = ["case", "rule", "file to pattern s (median)", "iterations", "nodes", "EN", "boundary error %",
+            "area error %", "uncovered %", "refilled"]
+
+
 def table(head, rows) -> str:
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
@@ -136,8 +206,18 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", default="10000")
     ap.add_argument("--materials", default="woven,isotropic")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "population.md"))
+    ap.add_argument("--compare", default=None, help="surface:material:nodes,...")
+    ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
     load0 = os.getloadavg()[0]
+    if args.compare:
+        text = compare(args.compare, args.repeat)
+        load1 = os.getloadavg()[0]
+        head = (f"# Refill rule, today against the candidate refilled-once ({_dt.date.today().isoformat()})\n\n"
+                f"`benchmarks/population.py --compare {args.compare} --repeat {args.repeat}`; {platform.node()}, "
+                f"{os.cpu_count()} cores, load {load0:.2f} before, {load1:.2f} after; alternating runs.\n\n")
+        Path(args.out).write_text(head + text + "\n")
+        return 0
     surface = load_example("octant")
     parts = []
     summary = []
