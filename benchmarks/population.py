@@ -16,11 +16,13 @@ For every (material, size) on the octant, from the same drape:
    the refill and the drape give; a node order out of it would cost cache
    locality in the assembly and fill in the factorisation).
 
-``--compare CASES`` instead runs ``core.pipeline.flatten`` with today's refill
-rule (a position deleted twice is never refilled) and the candidate tried in
-session 9 (a refilled node deleted again is never refilled; patched in here, not
-in core), alternating, on CASES (``surface:material:nodes,...``): seconds,
-iterations, nodes, EN, the boundary and area errors and the uncovered share.
+``--compare CASES`` instead runs ``core.pipeline.flatten`` with the refill rules
+``--rules`` (``before``: every refill that finds nodes is made, as before
+session 9; ``today``: a refill that repeats an earlier one, the same positions
+added to the same population, is not made; ``refilled-once``: the candidate
+tried and dropped, a refilled node deleted again is never refilled), alternating,
+on CASES (``surface:material:nodes,...``): seconds, iterations, nodes, EN, the
+boundary and area errors and the uncovered share.
 
 Timings depend on the load (2 cores, other work running): the one-minute load
 average is printed before and after.
@@ -159,6 +161,23 @@ class RefilledOnce:
         solver._Population.record, solver._Run.try_refill = self._record, self._refill
 
 
+class RepeatsRefills:
+    """The refill before session 9's repeat check: every refill that finds nodes is made."""
+
+    def __enter__(self):
+        self._refill = solver._Run.try_refill
+
+        def try_refill(run, _refill=self._refill):
+            run.refills.clear()
+            return _refill(run)
+
+        solver._Run.try_refill = try_refill
+        return self
+
+    def __exit__(self, *exc):
+        solver._Run.try_refill = self._refill
+
+
 class _Today:
     def __enter__(self):
         return self
@@ -167,17 +186,20 @@ class _Today:
         pass
 
 
-def compare(cases: str, repeat: int) -> str:
-    """Today's refill rule against the candidate, alternating (markdown table)."""
+RULES = {"before": RepeatsRefills, "today": None, "refilled-once": RefilledOnce}
+
+
+def compare(cases: str, repeat: int, rules: str = "before,today") -> str:
+    """Refill rules side by side, alternating (markdown table)."""
     rows = []
     for case in cases.split(","):
         name, material, nodes = case.split(":")
         s = load_example(name)
         st = FlattenSettings(float(np.sqrt(region_area(s) / int(nodes))), material=MATERIALS[material])
-        got = {"today": [], "refilled once": []}
+        got = {rule: [] for rule in rules.split(",")}
         for _ in range(repeat):
-            for variant, rule in (("today", _Today), ("refilled once", RefilledOnce)):
-                with rule():
+            for variant in got:
+                with (RULES[variant] or _Today)():
                     t0 = time.perf_counter()
                     r = flatten(s, st)
                     got[variant].append((time.perf_counter() - t0, r.metrics))
@@ -187,7 +209,7 @@ def compare(cases: str, repeat: int) -> str:
             rows.append([f"{name}, {material}, ~{int(nodes):,}", variant, f"{secs:.2f}", m["iterations"],
                          f"{m['nodes']:,}", f"{m['energy']:.6e}", f"{m['boundary_error_pct']:.4f}",
                          f"{m['area_error_pct']:.4f}", f"{m['uncovered_pct']:.3f}", m["nodes_refilled"]])
-        print(table(HEAD_CMP, rows[-2:]), flush=True)
+        print(table(HEAD_CMP, rows[-len(got):]), flush=True)
     return table(HEAD_CMP, rows)
 
 
@@ -208,13 +230,15 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "population.md"))
     ap.add_argument("--compare", default=None, help="surface:material:nodes,...")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--rules", default="before,today", help="refill rules to compare: " + ",".join(RULES))
     args = ap.parse_args(argv)
     load0 = os.getloadavg()[0]
     if args.compare:
-        text = compare(args.compare, args.repeat)
+        text = compare(args.compare, args.repeat, args.rules)
         load1 = os.getloadavg()[0]
-        head = (f"# Refill rule, today against the candidate refilled-once ({_dt.date.today().isoformat()})\n\n"
-                f"`benchmarks/population.py --compare {args.compare} --repeat {args.repeat}`; {platform.node()}, "
+        head = (f"# Refill rules {args.rules} ({_dt.date.today().isoformat()})\n\n"
+                f"`benchmarks/population.py --compare {args.compare} --repeat {args.repeat} --rules {args.rules}`; "
+                f"{platform.node()}, "
                 f"{os.cpu_count()} cores, load {load0:.2f} before, {load1:.2f} after; alternating runs.\n\n")
         Path(args.out).write_text(head + text + "\n")
         return 0
