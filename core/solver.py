@@ -718,6 +718,7 @@ class _Run:
         self.message = ""
         self.terms = problem.yarns
         self.fixed_ij, self.pin = _anchors(problem, self.mesh, self.uv, options)
+        self.refills: set[tuple[bytes, bytes]] = set()  # (population, positions added) of every refill made
 
     def budget_left(self) -> bool:
         if self.nit >= self.options.max_iter:
@@ -755,6 +756,12 @@ class _Run:
         ij, uv = self.problem.refill(self.mesh, self.uv, self.pop.dead())
         if len(ij) == 0:
             return False
+        # the same refill of the same population again: its round emptied those positions once and
+        # came back here, and would again (an isotropic piece's edge, docs/decisions.md "Population churn")
+        key = (self.mesh.ij.tobytes(), ij[np.lexsort((ij[:, 1], ij[:, 0]))].tobytes())
+        if key in self.refills:
+            return False
+        self.refills.add(key)
         all_ij = np.concatenate([self.mesh.ij, ij])
         all_uv = np.concatenate([self.uv, uv])
         order = np.lexsort((all_ij[:, 1], all_ij[:, 0]))
