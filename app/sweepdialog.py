@@ -113,6 +113,8 @@ class SweepDialog(QDialog):
         self.buttons.rejected.connect(self.close)
         lay.addWidget(self.buttons)
         self.resize(720, 460)
+        from core.sweep import warm_pool
+        warm_pool()  # the workers import the solver while the user picks the angles, not during the sweep
 
     @property
     def busy(self) -> bool:

@@ -21,6 +21,7 @@ import multiprocessing
 import os
 import threading
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -29,7 +30,8 @@ from core.errors import SettingsError
 from core.nurbs import NurbsSurface
 from core.region import cover_for
 
-__all__ = ["RANK_KEYS", "SweepResult", "angle_period", "sweep_seeds", "rank_rows", "sweep"]
+__all__ = ["RANK_KEYS", "SweepResult", "angle_period", "sweep_seeds", "rank_rows", "sweep", "warm_pool",
+           "default_workers"]
 
 RANK_KEYS = ("area_beyond_lock_pct", "max_shear_deg", "boundary_error_pct")
 """What a sweep ranks by, most important first; smaller is better."""
@@ -148,19 +150,71 @@ def _context():
     return multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
 
 
+_POOLS: dict[int, ProcessPoolExecutor] = {}
+_POOLS_LOCK = threading.Lock()
+
+
+def warm_pool(workers: int | None = None) -> ProcessPoolExecutor | None:
+    """The pool of ``workers`` processes (None: :func:`default_workers`), made
+    on the first call and kept for later sweeps: a new pool's processes pay
+    their imports on their first row (0.85 s for two forkserver workers, 0.01 s
+    forked), so the window can call this when its sweep dialog opens and every
+    sweep after the first starts warm. None for one worker (rows run here)."""
+    workers = default_workers() if workers is None else workers
+    if workers <= 1:
+        return None
+    with _POOLS_LOCK:
+        pool = _POOLS.get(workers)
+        if pool is None:
+            pool = _POOLS[workers] = ProcessPoolExecutor(workers, mp_context=_context())
+            for _ in range(workers):  # each worker imports the solver now, not on its first row
+                pool.submit(_preload)
+        return pool
+
+
+def _preload() -> None:
+    import time
+
+    import core.pipeline  # noqa: F401
+
+    time.sleep(0.05)  # long enough that the next preload goes to another worker
+
+
+def _drop_pool(workers: int, pool) -> None:
+    with _POOLS_LOCK:
+        if _POOLS.get(workers) is pool:
+            del _POOLS[workers]
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def default_workers() -> int:
+    """One worker per core, at most 4."""
+    return max(1, min(os.cpu_count() or 1, 4))
+
+
 class _Runner:
     def __init__(self, workers: int):
-        self.pool = ProcessPoolExecutor(workers, mp_context=_context()) if workers > 1 else None
+        self.workers = workers
 
     def map(self, jobs, fn=None):
         fn = fn or _solve_row
-        if self.pool is None:
+        pool = warm_pool(self.workers) if len(jobs) > 1 else None
+        if pool is None:
             return [fn(j) for j in jobs]
-        return list(self.pool.map(fn, jobs))
+        futures = [pool.submit(fn, j) for j in jobs]
+        try:
+            return [f.result() for f in futures]
+        except BrokenProcessPool:
+            # a worker died (killed, out of memory): the next sweep gets a new pool
+            _drop_pool(self.workers, pool)
+            raise
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
 
     def close(self):
-        if self.pool is not None:
-            self.pool.shutdown(cancel_futures=True)
+        pass
 
 
 def _wrap(angle: float, period: float) -> float:
@@ -195,7 +249,7 @@ def sweep(surface: NurbsSurface, settings, angles: int = 12, seeds: int = 1, loc
     step = period / angles
     seed_list = sweep_seeds(surface, settings.region, seeds, settings.seed)
     if workers is None:
-        workers = max(1, min(os.cpu_count() or 1, 4))
+        workers = default_workers()
 
     def jobs(pairs):
         return [(surface, replace(settings, angle_deg=round(a, 9), seed=s), area) for a, s in pairs]

@@ -135,3 +135,17 @@ def test_cli_angle_neither_number_nor_auto(capsys):
         main(["flatten", "saddle", "--spacing", "0.2", "--angle", "steep", "--out", "x.json"])
     assert e.value.code == 2
     assert "neither a number of degrees nor 'auto'" in capsys.readouterr().err
+
+
+def test_a_second_sweep_reuses_the_warm_pool_and_gives_the_same_rows():
+    from core.sweep import warm_pool
+
+    surface = load_example("saddle")
+    s = FlattenSettings(spacing=0.2, material=MATERIALS["woven"])
+    pool = warm_pool(2)
+    first = sweep(surface, s, angles=3, workers=2)
+    pids = set(pool._processes)
+    second = sweep(surface, s, angles=3, workers=2)
+    assert warm_pool(2) is pool and set(pool._processes) == pids and pids
+    assert first.rows == second.rows
+    assert [r["energy"] for r in first.rows] == [r["energy"] for r in sweep(surface, s, angles=3, workers=1).rows]
