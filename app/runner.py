@@ -23,12 +23,13 @@ __all__ = ["Runner"]
 
 FRAME_INTERVAL_MS = 30
 """The frame pump's period: at most about 33 frames a second reach the views."""
-FRAME_SHARE = 0.06
+FRAME_SHARE = 0.03
 """At most about this share of a run goes into drawing its live frames: after a
 frame that took the GUI c seconds (its slots and the repaint they asked for),
 the next waits c (1 / FRAME_SHARE - 1). With software OpenGL on a loaded
 2-core machine a frame can take 0.1 s, and drawing every one made the run 40 %
-longer (docs/decisions.md, "Window latency, session 7"). None: every pump period.
+longer (docs/decisions.md, "Window latency, session 7"); 0.06 let a 0.4 s dart
+re-solve draw 3 live frames and cost it a fifth (session 9). None: every pump period.
 The drape's frames are paced by the drape itself (``app.worker.DRAPE_FRAME_INTERVAL``),
 and a paused run shows its newest state at once."""
 

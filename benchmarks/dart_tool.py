@@ -271,9 +271,8 @@ def main() -> int:
               "rest is other work on the shared machine). The V: the first frame whose pattern has the dart's "
               "legs. Live frames' share: the solve thread's time in live patterns plus the GUI thread's time "
               "drawing frames (the result's own frame included, the only one in the \"no live frames\" rows), over "
-              "Enter to result. The same re-solve in core alone (`core.pipeline.flatten` from the "
-              "window's warm start, the same dart, in the same process with no event loop running) took "
-              "0.73-0.77 s, 12 iterations (docs/decisions.md, \"Window latency, session 9\")."]
+              "Enter to result. The same re-solve in core alone: benchmarks/results/curve_dart.md "
+              "(`benchmarks/curve_dart.py`)."]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.out:
