@@ -223,9 +223,10 @@ def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatc
 def test_the_event_loop_runs_during_a_solve(each_widget, make_window, qtbot):
     """Ticks of a 10 ms timer during a run: the longest gap stays under 250 ms,
     frames arrive, and the camera moves when dragged mid-run."""
-    # ~650 nodes and the paper's scheme for 25 iterations: a run of a few seconds on any machine
+    # ~650 nodes and the paper's scheme for 150 iterations: a run of a few seconds on any machine, long
+    # enough for three live frames within the runner's frame share (app.runner.FRAME_SHARE)
     # (a fast solve can end in under a second on a quiet one, before a 7-event drag is through)
-    win = make_window(small_project(0.05, solver="paper", max_iter=25))
+    win = make_window(small_project(0.05, solver="paper", max_iter=150))
     qtbot.wait(500)  # let the new window finish its first paints (GL shader compilation) before timing
     ticks = []
     timer = QTimer()
