@@ -291,10 +291,15 @@ class Energy:
         """EN at uv : (n, 2)."""
         return self.value_xyz(self.surface.points(uv))
 
-    def force_xyz(self, xyz: np.ndarray) -> tuple[float, np.ndarray]:
-        """EN and its gradient with respect to the 3D node positions, (n, 3)."""
-        d = xyz[self.a] - xyz[self.b]
-        length = np.linalg.norm(d, axis=1)
+    def force_xyz(self, xyz: np.ndarray, d: np.ndarray | None = None,
+                  length: np.ndarray | None = None) -> tuple[float, np.ndarray]:
+        """EN and its gradient with respect to the 3D node positions, (n, 3).
+        ``d`` (m, 3) and ``length`` (m,): the springs' xyz[a] - xyz[b] and their
+        lengths when the caller has them already (the solver's residuals)."""
+        if d is None:
+            d = xyz[self.a] - xyz[self.b]
+        if length is None:
+            length = np.linalg.norm(d, axis=1)
         ext = length - self.rest
         coef = self.k * ext / np.maximum(length, 1e-300)
         g = d * coef[:, None]

@@ -559,7 +559,7 @@ class _Normal:
         before the damping is taken from them (switched-off nodes, the pin).
         ``surface_newton``: the curvature term with the normal part of G only
         (:func:`_curvature_force`), as ``_hessian_blocks(..., surface_newton=True)``.
-        ``kept``: the springs' surface data at ``ev`` that :func:`_residuals` gathered
+        ``kept``: the springs' surface data at ``ev`` that :func:`_gathered_residuals` gathered
         (the same arithmetic; gathered again when not given)."""
         S, Su, Sv = ev.xyz, ev.su, ev.sv
         a, b, n = energy.a, energy.b, energy.n
@@ -584,7 +584,7 @@ class _Normal:
         D[:, 1, 1] = kcsum * _dot(Sv, Sv) + np.bincount(ends, ax2 * qb * qb, minlength=n)
         D[:, 1, 0] = D[:, 0, 1]
         big = max(float(np.abs(cross).max(initial=0.0)), float(np.abs(D).max(initial=0.0)), 1e-300)
-        G = _force_xyz(energy, S, kept)
+        _, G = energy.force_xyz(S, kept.d, kept.length)
         Gc = _curvature_force(G, Su, Sv) if surface_newton else G
         D[:, 0, 0] += _dot(Gc, ev.suu)
         D[:, 0, 1] += _dot(Gc, ev.suv)
@@ -636,54 +636,35 @@ class _Gathered:
     """The springs' surface data at one evaluation: both ends' S_u and S_v
     and the springs' lengths, gathered once for the residuals and the Newton
     assembly at the same point (an accepted trial step's residuals are the
-    next assembly's)."""
+    next assembly's), and the residuals' Q made from them."""
 
-    __slots__ = ("length", "sua", "sva", "sub", "svb", "d")
+    __slots__ = ("length", "sua", "sva", "sub", "svb", "d", "Q")
 
     def __init__(self, S, Su, Sv, a, b):
         self.d = S[a] - S[b]
         self.length = np.sqrt(_dot(self.d, self.d))
         self.sua, self.sva, self.sub, self.svb = Su[a], Sv[a], Su[b], Sv[b]
+        t = self.d / np.maximum(self.length, 1e-300)[:, None]
+        self.Q = np.column_stack([_dot(t, self.sua), _dot(t, self.sva), -_dot(t, self.sub), -_dot(t, self.svb)])
 
 
-def _force_xyz(energy: Energy, S: np.ndarray, kept: _Gathered) -> np.ndarray:
-    """``energy.force_xyz(S)``'s gradient G (n, 3) from the springs' differences and
-    lengths already gathered at S (the same arithmetic: ``np.linalg.norm`` over three
-    components is the square root of ``rowdot``, bitwise; tests/test_solver_speed.py)."""
-    coef = energy.k * (kept.length - energy.rest) / np.maximum(kept.length, 1e-300)
-    g = kept.d * coef[:, None]
-    a, b, n = energy.a, energy.b, energy.n
-    G = np.empty((n, 3))
-    for c in range(3):
-        G[:, c] = np.bincount(a, g[:, c], minlength=n) - np.bincount(b, g[:, c], minlength=n)
-    if energy.dir_nodes.size:
-        f = energy.dir_distance(S)
-        gd = (energy.dir_k * f)[:, None] * energy.dir_planes[:, :3]
-        for c in range(3):
-            G[:, c] += np.bincount(energy.dir_nodes, gd[:, c], minlength=n)
-    return G
-
-
-def _residuals(energy: Energy, S, Su, Sv, keep: list | None = None, at: tuple | None = None):
+def _residuals(energy: Energy, S, Su, Sv):
     """Residuals and Jacobian blocks at surface data (S, S_u, S_v).
 
     Returns (rs (m,), Q (m, 4), rd (c,), Jd (c, 2)): spring residuals
     sqrt(k) (l - r); Q = t^T [S_u(a), S_v(a), -S_u(b), -S_v(b)] with t the
     spring's unit direction, so the spring's Jacobian row is sqrt(k) Q; the
-    yarn residuals sqrt(k) f and their Jacobian rows. ``keep``: a list the
-    gathered :class:`_Gathered` is appended to (for ``assemble_exact``). ``at``:
-    (the :class:`_Gathered`, Q) of an earlier call at the same S, S_u, S_v with
-    the same springs (only the constants changed: nodes switched off), reused.
+    yarn residuals sqrt(k) f and their Jacobian rows.
     """
-    a, b = energy.a, energy.b
-    if at is None:
-        g = _Gathered(S, Su, Sv, a, b)
-        t = g.d / np.maximum(g.length, 1e-300)[:, None]
-        Q = np.column_stack([_dot(t, g.sua), _dot(t, g.sva), -_dot(t, g.sub), -_dot(t, g.svb)])
-    else:  # Q is geometry only (no k in it)
-        g, Q = at
-    if keep is not None:
-        keep.append(g)
+    return _gathered_residuals(energy, S, Su, Sv)[1]
+
+
+def _gathered_residuals(energy: Energy, S, Su, Sv, at: _Gathered | None = None):
+    """(the springs' :class:`_Gathered` data, :func:`_residuals`' tuple). ``at``: the
+    gathered data of an earlier call at the same S, S_u, S_v with the same springs
+    (only the constants changed: nodes switched off), reused with its Q."""
+    g = _Gathered(S, Su, Sv, energy.a, energy.b) if at is None else at
+    Q = g.Q  # geometry only (no k in it)
     rs = np.sqrt(energy.k) * (g.length - energy.rest)
     if energy.dir_nodes.size:
         sd = np.sqrt(energy.dir_k)
@@ -693,7 +674,7 @@ def _residuals(energy: Energy, S, Su, Sv, keep: list | None = None, at: tuple | 
         Jd = np.column_stack([_dot(Nn, Su[c]), _dot(Nn, Sv[c])]) * sd[:, None]
     else:
         rd, Jd = np.zeros(0), np.zeros((0, 2))
-    return rs, Q, rd, Jd
+    return g, (rs, Q, rd, Jd)
 
 
 def _energy_floor(mesh: SpringMesh) -> float:
@@ -1053,8 +1034,7 @@ def _iterate_fast(run: _Run):
         rd_ = _Round(run)
         ev_ = surface.evaluate(rd_.uv, second=True, normals=False)
         run.nfev += 1
-        kept_ = []
-        res = _residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv, kept_)
+        kept_, res = _gathered_residuals(rd_.energy, ev_.xyz, ev_.su, ev_.sv)
         E_ = 0.5 * (res[0] @ res[0] + res[2] @ res[2])
         if not math.isfinite(E_):
             raise _not_finite("the energy", E_, run.nit, _cause(surface, rd_.uv, ev_))
@@ -1064,7 +1044,7 @@ def _iterate_fast(run: _Run):
     while True:
         converged = E <= rnd.floor
         if not converged and not run.budget_left():
-            yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
+            yield run.snapshot(E, ev.xyz[rnd.alive], False, kept.length[rnd.spring_on])
             return
         chord = False
         # chord steps and the lambda jump only once the population has settled: before, they change which
@@ -1093,7 +1073,7 @@ def _iterate_fast(run: _Run):
 
                 if opts.reuse:
                     A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, lam, fix, opts.surface_newton,
-                                                            kept[0])
+                                                            kept)
                     if A is None:
                         Hs, Hn, G = _hessian_blocks(energy, ev.xyz, ev.su, ev.sv, Q, ev.suu, ev.suv, ev.svv)
                         bad = Hs if not np.isfinite(Hs).all() else Hn
@@ -1140,8 +1120,7 @@ def _iterate_fast(run: _Run):
             # non-finite energy is handled below (rejected, or an error when it is broken inside)
             with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
                 ev2 = surface.evaluate(uv_try, second=True, normals=False)
-                kept2 = []
-                rs2, Q2, rd2, Jd2 = _residuals(energy, ev2.xyz, ev2.su, ev2.sv, kept2)
+                kept2, (rs2, Q2, rd2, Jd2) = _gathered_residuals(energy, ev2.xyz, ev2.su, ev2.sv)
                 E2 = 0.5 * (rs2 @ rs2 + rd2 @ rd2)
             run.nfev += 1
             if not np.isfinite(E2) and _broken_inside(surface, uv_try, ev2.xyz, ev2.su, ev2.sv):
@@ -1163,12 +1142,11 @@ def _iterate_fast(run: _Run):
                     stale, held = None, None
                     gone = rnd.switch_off(bad, ev.xyz)
                     quiet = quiet and opts.reuse and run.pop.all_dead(gone)
-                    rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=(kept2[0], Q2))
-                    kept = kept2
+                    kept, (rs, Q, rd, Jd) = _gathered_residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=kept2)
                     E = 0.5 * (rs @ rs + rd @ rd)
                     if not math.isfinite(E):
                         raise _not_finite("the energy", E, run.nit, _cause(surface, rnd.uv[rnd.alive]))
-                    yield run.snapshot(E, ev.xyz[rnd.alive], True, kept[0].length[rnd.spring_on])
+                    yield run.snapshot(E, ev.xyz[rnd.alive], True, kept.length[rnd.spring_on])
                     continue
                 if opts.reuse and not chord:
                     held = (lu, A, damp)
@@ -1178,14 +1156,14 @@ def _iterate_fast(run: _Run):
                     stale = None  # the chord steps converge slowly: a new factorisation will do better
                 last_decrease = decrease
                 rs, Q, rd, Jd, E, kept = rs2, Q2, rd2, Jd2, E2, kept2
-                yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
+                yield run.snapshot(E, ev.xyz[rnd.alive], False, kept.length[rnd.spring_on])
                 # until the population has settled, a loose tolerance will do
                 converged = decrease <= (opts.tol if rnd.settled else loose) * (E + decrease)
             else:
                 stale = held = None
                 lam = max(lam * nu, _LAM_JUMP) if quick else lam * nu
                 nu *= 2
-                yield run.snapshot(E, ev.xyz[rnd.alive], False, kept[0].length[rnd.spring_on])
+                yield run.snapshot(E, ev.xyz[rnd.alive], False, kept.length[rnd.spring_on])
                 converged = lam > 1e16  # no step lowers EN: at the minimum to round-off
         if converged:
             # a spring that came to cross a dart without either end crossing it (swung round the
@@ -1194,15 +1172,15 @@ def _iterate_fast(run: _Run):
                 stale, held = None, None
                 gone = rnd.switch_off(np.zeros(rnd.mesh.n_nodes, dtype=bool), ev.xyz)
                 quiet = quiet and opts.reuse and run.pop.all_dead(gone)
-                rs, Q, rd, Jd = _residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=(kept[0], Q))
+                kept, (rs, Q, rd, Jd) = _gathered_residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=kept)
                 E = 0.5 * (rs @ rs + rd @ rd)
-                yield run.snapshot(E, ev.xyz[rnd.alive], True, kept[0].length[rnd.spring_on])
+                yield run.snapshot(E, ev.xyz[rnd.alive], True, kept.length[rnd.spring_on])
                 continue
             # a refill that found nothing finds nothing again while no node has left since
             if not (opts.reuse and quiet) and run.try_refill():
                 stale, held, quiet = None, None, False
                 rnd, ev, (rs, Q, rd, Jd), E, kept = start()
-                yield run.snapshot(E, ev.xyz, True, kept[0].length)
+                yield run.snapshot(E, ev.xyz, True, kept.length)
                 continue
             quiet = True
             if not rnd.settled and E > rnd.floor:

@@ -92,14 +92,20 @@ CASES += [(name, material, "curve", yarn) for name in example_names()
 CASES += [(name, "woven", False, False, angle) for name in ("octant", "saddle") for angle in (30.0, 60.0)]
 
 
-@pytest.mark.parametrize("name, material, dart, yarn, angle", [c if len(c) == 5 else c + (0.0,) for c in CASES])
-def test_the_quick_path_matches_the_reference_path(name, material, dart, yarn, angle, monkeypatch):
+def _case(name, material, dart, yarn, angle):
+    """A CASES row's surface and settings at 700 nodes."""
     s, settings = _settings(name, 700, material)
     settings = dataclasses.replace(settings, angle_deg=angle)
     if dart:
         settings = dataclasses.replace(settings, darts=(CURVE if dart == "curve" else DART,))
     if yarn:
         settings = dataclasses.replace(settings, yarns=(_seed_row_yarn(s, settings),))
+    return s, settings
+
+
+@pytest.mark.parametrize("name, material, dart, yarn, angle", [c if len(c) == 5 else c + (0.0,) for c in CASES])
+def test_the_quick_path_matches_the_reference_path(name, material, dart, yarn, angle, monkeypatch):
+    s, settings = _case(name, material, dart, yarn, angle)
     fast, nf_fast = _flatten(s, settings, True, monkeypatch)
     ref, nf_ref = _flatten(s, settings, False, monkeypatch)
     _agree(fast, ref)
@@ -188,18 +194,17 @@ def test_shared_gathers_give_the_same_numbers(name, yarn):
     energy = Energy(s, d.mesh, (_seed_row_yarn(s, settings),) if yarn else ())
     normal = solver._Normal(energy, 0)
     ev = s.evaluate(d.uv + 1e-3 * np.sin(7 * d.uv[:, ::-1]), second=True, normals=False)
-    kept = []
-    rs, Q, rd, Jd = solver._residuals(energy, ev.xyz, ev.su, ev.sv, kept)
+    kept, (rs, Q, rd, Jd) = solver._gathered_residuals(energy, ev.xyz, ev.su, ev.sv)
     for r, r0 in zip((rs, Q, rd, Jd), solver._residuals(energy, ev.xyz, ev.su, ev.sv)):
         assert np.array_equal(r, r0)
     # after a switch-off (only the constants change) the residuals reuse the gathers and Q
     alive = np.ones(d.mesh.n_nodes, dtype=bool)
     alive[np.argsort(d.uv[:, 0])[:7]] = False
     off = energy.masked(alive[d.mesh.ends[:, 0]] & alive[d.mesh.ends[:, 1]], alive)
-    for r, r0 in zip(solver._residuals(off, ev.xyz, ev.su, ev.sv, at=(kept[0], Q)),
+    for r, r0 in zip(solver._gathered_residuals(off, ev.xyz, ev.su, ev.sv, at=kept)[1],
                      solver._residuals(off, ev.xyz, ev.su, ev.sv)):
         assert np.array_equal(r, r0)
-    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True, kept[0])
+    A, damp, G, big = normal.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True, kept)
     A0, damp0, G0, big0 = normal.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True)
     assert np.array_equal(G, energy.force_xyz(ev.xyz)[1]) and np.array_equal(G, G0)
     assert big == big0 and np.array_equal(damp, damp0) and (A != A0).nnz == 0
@@ -219,12 +224,7 @@ def test_reuse_is_an_option_with_a_default():
 def test_newton_on_the_surface_matches_newton_in_the_chart(name, material, dart, yarn, angle, monkeypatch):
     """The default solver (on the surface, quick path) against the solver before it (the chart's
     Newton, a factorisation every iteration): the same results within the issue's tolerances."""
-    s, settings = _settings(name, 700, material)
-    settings = dataclasses.replace(settings, angle_deg=angle)
-    if dart:
-        settings = dataclasses.replace(settings, darts=(CURVE if dart == "curve" else DART,))
-    if yarn:
-        settings = dataclasses.replace(settings, yarns=(_seed_row_yarn(s, settings),))
+    s, settings = _case(name, material, dart, yarn, angle)
     new, _ = _flatten(s, settings, True, monkeypatch)
     old, _ = _flatten(s, settings, False, monkeypatch, surface_newton=False)
     if (name, material, dart, yarn) in POPULATION_SPLITS:
