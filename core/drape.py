@@ -42,8 +42,8 @@ from core.geom import nonfinite_rows
 from core.mesh import DIAG, Material, SpringMesh, build_mesh
 from core.nurbs import NurbsSurface
 
-__all__ = ["DrapeSettings", "DrapeResult", "drape", "refill", "estimate_node_count", "available_memory",
-           "node_limit", "BYTES_PER_NODE"]
+__all__ = ["DrapeSettings", "DrapeResult", "drape", "refill", "estimate_node_count", "check_node_count",
+           "available_memory", "node_limit", "BYTES_PER_NODE"]
 
 _NEWTON_MAXIT = 40
 
@@ -641,6 +641,22 @@ class _Builder:
         return pos[keep]
 
 
+def check_node_count(s: DrapeSettings, area: float) -> None:
+    """Refuse, up front, a mesh over a region of ``area`` estimated larger than
+    ``s.max_nodes`` or than the available memory holds (a one-line SettingsError)."""
+    est = estimate_node_count(area, s.r_weft, s.r_warp)
+    limit, memory = node_limit(s.max_nodes)
+    if est > limit:
+        smallest = float(np.sqrt(area / max(limit, 1)) * np.sqrt(s.r_weft / s.r_warp))
+        need = f"about {est:,} nodes and about {_bytes(est * BYTES_PER_NODE)} of memory"
+        if limit < s.max_nodes:
+            over = f"more than the {_bytes(memory)} available (room for about {limit:,} nodes)"
+        else:
+            over = f"more than the limit of {s.max_nodes:,} nodes"
+        raise SettingsError(f"spacing {s.r_weft:g} needs {need}, {over}; the smallest spacing "
+                            f"that fits is about {smallest:.3g}")
+
+
 def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
           area: float | None = None, progress=None, progress_interval: float = 0.06,
           inside=None) -> DrapeResult:
@@ -669,17 +685,7 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
     if not np.isfinite(s.angle_deg):
         raise SettingsError(f"angle {s.angle_deg!r} is not a number")
     if area is not None:
-        est = estimate_node_count(area, s.r_weft, s.r_warp)
-        limit, memory = node_limit(s.max_nodes)
-        if est > limit:
-            smallest = float(np.sqrt(area / max(limit, 1)) * np.sqrt(s.r_weft / s.r_warp))
-            need = f"about {est:,} nodes and about {_bytes(est * BYTES_PER_NODE)} of memory"
-            if limit < s.max_nodes:
-                over = f"more than the {_bytes(memory)} available (room for about {limit:,} nodes)"
-            else:
-                over = f"more than the limit of {s.max_nodes:,} nodes"
-            raise SettingsError(f"spacing {s.r_weft:g} needs {need}, {over}; the smallest spacing "
-                                f"that fits is about {smallest:.3g}")
+        check_node_count(s, area)
     b = _Builder(surface, s)
     b.inside = inside
     if progress is not None:

@@ -17,9 +17,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import core
+from core import multilevel
 from core.coverage import cell_diagonal, coverage_grid, uncovered_regions
 from core.darts import DART_KINDS, RESULT_DART_KEYS, DartSet
-from core.drape import DrapeResult, DrapeSettings, drape, refill
+from core.drape import DrapeResult, DrapeSettings, check_node_count, drape, refill
 from core.energy import Energy, YarnConstraint, resolve_yarns
 from core.geom import outline_errors, require_finite
 from core.errors import SettingsError, SolverError
@@ -337,6 +338,87 @@ def drape_piece(surface: NurbsSurface, ds: DrapeSettings, material: Material, co
     return DrapeResult(mesh=mesh, uv=d.uv[keep], xyz=d.xyz[keep], stats=d.stats)
 
 
+def _levels(settings: FlattenSettings, area: float) -> int:
+    """Coarser levels a solve from the drape starts from (:func:`core.multilevel.levels_for`);
+    the fast solver's only (the paper's scheme is the reference it is measured against), and
+    not with darts: near a dart the coarse net's edge differs from the fine drape's, and the
+    population the fine solve settles on there with it (docs/decisions.md, "A coarse-to-fine
+    start")."""
+    if settings.solver != "fast" or settings.darts:
+        return 0
+    sw = settings.spacing_warp or settings.spacing
+    return multilevel.levels_for(area / (settings.spacing * sw))
+
+
+def _coarser(settings: FlattenSettings) -> FlattenSettings:
+    """The settings one level coarser: twice the spacing; a yarn held by index holds
+    the coarse row or column nearest its own (fine row 2i is coarse row i), one
+    with a picked point resolves on the coarse lattice as on any other."""
+    sw = None if settings.spacing_warp is None else 2 * settings.spacing_warp
+    yarns = tuple(y if y.point is not None else replace(y, index=y.index // 2) for y in settings.yarns)
+    return replace(settings, spacing=2 * settings.spacing, spacing_warp=sw, yarns=yarns)
+
+
+def _on_lattice(surface: NurbsSurface, settings: FlattenSettings, mesh: SpringMesh, uv: np.ndarray) -> State:
+    """A state on the settings' lattice: a coarser level's (a run stopped during a
+    coarse-to-fine start) refined level by level, as the start would have."""
+    k = int(round(math.log2(mesh.r_weft / settings.spacing))) if mesh.r_weft > 1.5 * settings.spacing else 0
+    if k <= 0:
+        return State(mesh, uv)
+    cover = cover_for(surface, settings.region)
+    inside = cover.contains if cover.trimmed else None
+    for level in range(k - 1, -1, -1):
+        fine = settings
+        for _ in range(level):
+            fine = _coarser(fine)
+        ij, uv = multilevel.refine(surface, mesh, uv, inside)
+        mesh = make_problem(surface, fine).build(ij, uv)
+    return State(mesh, uv)
+
+
+def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, cover: Cover, A3: float,
+           levels: int, drape_progress, drape_interval: float):
+    """Generator: the state a solve from scratch starts from, and the drape's stats
+    (with a coarse-to-fine start, each coarser level's in ``stats["levels"]``).
+
+    With ``levels`` > 0 the piece is solved first at twice the spacing (itself
+    started ``levels - 1`` levels coarser), yielding that solve's snapshots, and
+    its solution carried onto this lattice (:func:`core.multilevel.carry`)."""
+    # the fine lattice is never draped on a coarse-to-fine start: its size is checked here, before any level
+    check_node_count(settings.drape_settings(), A3)
+    if levels <= 0:
+        progress = None
+        if drape_progress is not None:
+            def progress(ij, uv, xyz):
+                if len(ij) < 3:
+                    return
+                order = np.lexsort((ij[:, 1], ij[:, 0]))
+                drape_progress(problem.build(ij[order], uv[order]), uv[order], xyz[order])
+        d = drape_piece(surface, settings.drape_settings(), settings.material, cover, area=A3, progress=progress,
+                        progress_interval=drape_interval)
+        _check_drape(surface, d, settings.drape_settings(), cover)
+        return State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
+    coarse = _coarser(settings)
+    cproblem = make_problem(surface, coarse)
+    state, stats = yield from _start(surface, coarse, cproblem, cover, A3, levels - 1, drape_progress,
+                                     drape_interval)
+    if coarse.yarns:
+        cproblem.yarns = resolve_yarns(coarse.yarns, state.mesh, surface.points(state.uv))
+    solve = yield from iterate(cproblem, state, coarse.solver_options())
+    if solve.nit == 0 and solve.status == 0:
+        # the coarse drape was already at the minimum (a developable piece): so is this level's,
+        # which a refined net only approaches
+        return (yield from _start(surface, settings, problem, cover, A3, 0, drape_progress, drape_interval))
+    t = time.perf_counter()
+    fine = multilevel.carry(surface, problem, solve.mesh, solve.uv, settings.material,
+                            cover.contains if cover.trimmed else None)
+    stats = dict(stats)
+    stats.setdefault("levels", []).append({
+        "spacing": coarse.spacing, "nodes": int(solve.mesh.n_nodes), "iterations": int(solve.nit),
+        "solve_seconds": solve.seconds, "refine_seconds": time.perf_counter() - t})
+    return fine, stats
+
+
 UNCOVERED_LIMIT = 0.10
 """Largest share of the surface's area a new drape may leave farther than two
 spacings from every node. A complete drape leaves none (every point is within
@@ -429,7 +511,8 @@ def check_result_finite(uv: np.ndarray, xyz: np.ndarray, pattern: Pattern | None
 
 
 def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
-                 area: float | None = None, drape_progress=None, drape_interval: float = 0.2):
+                 area: float | None = None, drape_progress=None, drape_interval: float = 0.2,
+                 multilevel: int | None = None):
     """Generator: drape (or warm-start from ``initial``), minimise, pattern.
 
     Yields the solver's :class:`core.solver.Snapshot` s; returns the
@@ -442,6 +525,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     (springs across darts cut); an exception it raises ends the drape. A NaN or
     infinity anywhere (solver, nodes, pattern, metrics) raises
     :class:`~core.errors.SolverError`: no result holds a non-finite number.
+    Without ``initial``, a large piece starts from coarser levels (:mod:`core.multilevel`;
+    ``multilevel``: how many, None to choose by size, 0 for the drape): their
+    solves' snapshots come first, each level's mesh its own.
     """
     t0 = time.perf_counter()
     cover = cover_for(surface, settings.region)
@@ -453,17 +539,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
                             f"use a seed inside it, e.g. {ds_[0]:.4g},{ds_[1]:.4g} (its point farthest from the edge)")
     problem = make_problem(surface, settings)
     if initial is None:
-        progress = None
-        if drape_progress is not None:
-            def progress(ij, uv, xyz):
-                if len(ij) < 3:
-                    return
-                order = np.lexsort((ij[:, 1], ij[:, 0]))
-                drape_progress(problem.build(ij[order], uv[order]), uv[order], xyz[order])
-        d = drape_piece(surface, settings.drape_settings(), settings.material, cover, area=A3, progress=progress,
-                        progress_interval=drape_interval)
-        _check_drape(surface, d, settings.drape_settings(), cover)
-        state, stats = State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
+        levels = _levels(settings, A3) if multilevel is None else int(multilevel)
+        state, stats = yield from _start(surface, settings, problem, cover, A3, levels, drape_progress,
+                                         drape_interval)
     else:
         uv = np.asarray(initial.uv, dtype=float)
         mesh = problem.build(initial.mesh.ij, uv)
@@ -504,7 +582,11 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "nodes_deleted_pct": (100.0 * solve.deleted / max(state.mesh.n_nodes + solve.deleted - solve.added, 1)
                               if solve else 0.0),
         "drape_seconds": stats.get("seconds", 0.0),
-        "solve_seconds": solve.seconds if solve else 0.0,
+        # a coarse-to-fine start's coarser solves are part of the solve
+        "solve_seconds": (solve.seconds if solve else 0.0) + sum(
+            lv["solve_seconds"] + lv["refine_seconds"] for lv in stats.get("levels", ())),
+        "coarse_levels": len(stats.get("levels", ())),
+        "coarse_iterations": sum(lv["iterations"] for lv in stats.get("levels", ())),
         "seconds": time.perf_counter() - t0,
         "pieces": len(pattern.pieces),
         "unmapped_points": pattern.unmapped,
@@ -518,12 +600,12 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
 
 
 def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
-            area: float | None = None, callback=None) -> FlattenResult:
+            area: float | None = None, callback=None, multilevel: int | None = None) -> FlattenResult:
     """Run :func:`flatten_iter` to the end. ``callback(snapshot)`` is called
     at every solver iteration; returning True stops the solve there (the
     result is then the last iterate, with its pattern and metrics, see
     :func:`stopped_result`)."""
-    gen = flatten_iter(surface, settings, initial, area)
+    gen = flatten_iter(surface, settings, initial, area, multilevel=multilevel)
     history = []
     while True:
         try:
@@ -546,7 +628,8 @@ def stopped_result(surface: NurbsSurface, settings: FlattenSettings, snap, area:
     its solver, iterations, energy evaluations, ``message`` as status and
     ``history`` (the energy after each iteration) as the energy trace.
     """
-    gen = flatten_iter(surface, replace(settings, solver="none"), State(snap.mesh, snap.uv), area)
+    gen = flatten_iter(surface, replace(settings, solver="none"), _on_lattice(surface, settings, snap.mesh, snap.uv),
+                       area)
     try:
         next(gen)
     except StopIteration as done:
