@@ -97,7 +97,7 @@ def run(args) -> str:
             rows.append(
                 f"| {name}, {material}, {variant} | {old['nodes']:,} / {new['nodes']:,} "
                 f"| {np.median(times[0]):.2f} / {np.median(times[1]):.2f} "
-                f"| {old['iterations']} / {new['iterations']}+{new['coarse_iterations']} "
+                f"| {old['iterations']} / {new['iterations'] - new['coarse_iterations']}+{new['coarse_iterations']} "
                 f"| {old['energy']:.7g} / {new['energy']:.7g} "
                 f"| {old['boundary_error_pct']:.3f} / {new['boundary_error_pct']:.3f} "
                 f"| {old['area_error_pct']:.3f} / {new['area_error_pct']:.3f} "

@@ -408,7 +408,7 @@ def _cmd_flatten(args) -> int:
               f"{m['area_beyond_lock_pct']:.3g} % of the area beyond the lock angle "
               f"({result.settings.material.lock_deg:g} deg), "
               f"{m['iterations']} iterations ({m['solver_status']})"
-              + (f" after {m['coarse_iterations']} on {m['coarse_levels']} coarser level"
+              + (f", {m['coarse_iterations']} of them on {m['coarse_levels']} coarser level"
                  f"{'s' if m['coarse_levels'] > 1 else ''}" if m.get("coarse_levels") else "")
               + f", {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)

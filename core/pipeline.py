@@ -376,6 +376,22 @@ def _on_lattice(surface: NurbsSurface, settings: FlattenSettings, mesh: SpringMe
     return State(mesh, uv)
 
 
+def _counted_from(gen, done: int):
+    """``yield from gen`` (a solve), its snapshots' iterations counted on from ``done``
+    (the iterations of the coarser levels before it: one count over a coarse-to-fine run)."""
+    if not done:
+        return (yield from gen)
+    try:
+        while True:
+            try:
+                snap = next(gen)
+            except StopIteration as end:
+                return end.value
+            yield replace(snap, iteration=snap.iteration + done)
+    finally:
+        gen.close()
+
+
 def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, cover: Cover, A3: float,
            levels: int, drape_progress, drape_interval: float):
     """Generator: the state a solve from scratch starts from, and the drape's stats
@@ -404,7 +420,8 @@ def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, c
                                      drape_interval)
     if coarse.yarns:
         cproblem.yarns = resolve_yarns(coarse.yarns, state.mesh, surface.points(state.uv))
-    solve = yield from iterate(cproblem, state, coarse.solver_options())
+    done = sum(lv["iterations"] for lv in stats.get("levels", ()))
+    solve = yield from _counted_from(iterate(cproblem, state, coarse.solver_options()), done)
     if solve.nit == 0 and solve.status == 0:
         # the coarse drape was already at the minimum (a developable piece): so is this level's,
         # which a refined net only approaches
@@ -415,7 +432,8 @@ def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, c
     stats = dict(stats)
     stats.setdefault("levels", []).append({
         "spacing": coarse.spacing, "nodes": int(solve.mesh.n_nodes), "iterations": int(solve.nit),
-        "solve_seconds": solve.seconds, "refine_seconds": time.perf_counter() - t})
+        "solve_seconds": solve.seconds, "refine_seconds": time.perf_counter() - t,
+        "history": [float(e) for e in solve.history]})
     return fine, stats
 
 
@@ -557,7 +575,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         problem.yarns = yarns
     solve = None
     if solver_entry(settings.solver).iterative:
-        solve = yield from iterate(problem, state, settings.solver_options())
+        solve = yield from _counted_from(iterate(problem, state, settings.solver_options()),
+                                         sum(lv["iterations"] for lv in stats.get("levels", ())))
         state = State(solve.mesh, solve.uv)
     xyz = surface.points(state.uv)
     check_result_finite(state.uv, xyz)
@@ -573,7 +592,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         pattern = make_pattern(surface, state.mesh, xyz, darts=darts if len(darts) else None, uv=state.uv)
     metrics = compute_metrics(surface, state.mesh, xyz, pattern, settings.yarns, A3=A3, cover=cover)
     metrics.update({
-        "iterations": solve.nit if solve else 0,
+        # every level's: the snapshots count on over a coarse-to-fine run, and a stopped one's count is theirs
+        "iterations": (solve.nit if solve else 0) + sum(lv["iterations"] for lv in stats.get("levels", ())),
         "energy_evaluations": solve.nfev if solve else 0,
         "solver_status": solve.message if solve else "no solver",
         "nodes_deleted": solve.deleted if solve else 0,
@@ -594,8 +614,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     if getattr(surface, "fit", None) is not None:  # a surface fitted to a mesh (core.meshsurf)
         metrics.update(surface.fit.metrics())
     check_result_finite(state.uv, xyz, pattern, metrics)
+    history = tuple(float(e) for lv in stats.get("levels", ()) for e in lv.pop("history"))
     result = FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
-                           tuple(float(e) for e in solve.history) if solve else ())
+                           history + (tuple(float(e) for e in solve.history) if solve else ()))
     return replace(result, warnings=warnings_for(result))
 
 

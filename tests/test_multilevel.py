@@ -222,3 +222,20 @@ def test_a_trimmed_piece_with_a_hole_starts_coarse_and_reaches_the_same_result()
     assert abs(f["boundary_error_pct"] - r["boundary_error_pct"]) <= 0.02
     assert abs(f["area_error_pct"] - r["area_error_pct"]) <= 0.02
     assert abs(f["nodes"] - r["nodes"]) <= 0.01 * r["nodes"]
+
+
+def test_one_iteration_count_and_energy_trace_over_the_levels():
+    s, settings = _settings("octant", 3_000)
+    snaps = []
+    gen = flatten_iter(s, settings, multilevel=2)
+    while True:
+        try:
+            snaps.append(next(gen))
+        except StopIteration as done:
+            result = done.value
+            break
+    its = [sn.iteration for sn in snaps]
+    assert its == sorted(its) and its[-1] == result.metrics["iterations"]
+    assert result.metrics["coarse_iterations"] < result.metrics["iterations"]
+    assert list(result.history) == [sn.energy for sn in snaps]
+    assert "history" not in result.drape_stats["levels"][0]  # the trace is the result's, once
