@@ -263,3 +263,64 @@ def test_snapshot_strain_is_the_meshes_strain():
         assert np.array_equal(snap.strain, spring_strain(snap.xyz, snap.mesh))
         changed += snap.population_changed
     assert changed >= 2  # nodes left and came back
+
+
+def _round_meshes():
+    """Meshes a round is made of: solved pieces with a plane or curve dart (springs cut, cells dropped)."""
+    for name, dart in (("octant", DART), ("garment", CURVE), ("saddle", DART)):
+        s, settings = _settings(name, 500)
+        yield name, flatten(s, dataclasses.replace(settings, darts=(dart,))).mesh
+
+
+def test_the_newton_pattern_is_scipys_block_conversion():
+    """``_Normal``'s CSC pattern and its gathers (``src_take`` from assemble_exact's node and spring
+    blocks, ``csc_take`` from the block data, the upper triangle) are bitwise what scipy's bsr -> csc
+    conversion and triu make of the block-CSR data the assembly formed before (lexsorted pattern)."""
+    rng = np.random.default_rng(5)
+    for name, mesh in _round_meshes():
+        energy = Energy(load_example(name), mesh)
+        for fixed in (None, 0, mesh.n_nodes // 2):
+            normal = solver._Normal(energy, fixed)
+            nb, a, b, both = normal.nb, normal.a, normal.b, normal.both
+            rows = np.concatenate([np.arange(nb), a[both], b[both]])
+            cols = np.concatenate([np.arange(nb), b[both], a[both]])
+            perm = np.lexsort((cols, rows))
+            assert np.array_equal(normal.indices, cols[perm])
+            assert np.array_equal(normal.indptr, np.searchsorted(rows[perm], np.arange(nb + 1)))
+            src = rng.random(4 * (nb + mesh.n_springs))
+            diag, cross = src[:4 * nb].reshape(-1, 2, 2), src[4 * nb:].reshape(-1, 2, 2)
+            data = np.empty((normal.nnzb, 2, 2))
+            data[normal.pos_diag] = diag
+            data[normal.pos_ab] = cross[both]
+            data[normal.pos_ba] = cross[both].transpose(0, 2, 1)
+            ref = sp.bsr_matrix((data, normal.indices, normal.indptr), shape=(normal.nvar, normal.nvar)).tocsc()
+            A = sp.csc_matrix((src[normal.src_take], normal.csc_indices, normal.csc_indptr), shape=ref.shape)
+            assert np.array_equal(A.indptr, ref.indptr) and np.array_equal(A.indices, ref.indices)
+            assert np.array_equal(A.data, ref.data) and np.array_equal(data.reshape(-1)[normal.csc_take], ref.data)
+            assert A.indices.dtype == ref.indices.dtype and A.indptr.dtype == ref.indptr.dtype
+            U, up = normal.upper(A), sp.triu(ref, format="csc")
+            assert np.array_equal(U.indptr, up.indptr) and np.array_equal(U.indices, up.indices)
+            assert np.array_equal(U.data, up.data)
+
+
+def test_round_topology_finds_each_cells_edges_and_each_diagonals_corners():
+    """``_round_topology`` (lattice lookups) against a search of the springs by their sorted ends, on
+    meshes with cut springs, and with every spring's ends swapped."""
+    from core.mesh import DIAG, lattice_index
+
+    for _, mesh in _round_meshes():
+        for m in (mesh, dataclasses.replace(mesh, ends=mesh.ends[:, ::-1].copy())):
+            corners, edges = solver._round_topology(m)
+            n = m.n_nodes
+            e = np.sort(m.ends, axis=1)
+            keys = e[:, 0] * n + e[:, 1]
+            for c, (s, t) in enumerate(((0, 1), (1, 2), (3, 2), (0, 3))):
+                lo = np.minimum(m.cells[:, s], m.cells[:, t])
+                hi = np.maximum(m.cells[:, s], m.cells[:, t])
+                assert np.array_equal(keys[edges[:, c]], lo * n + hi)
+            grid, off = lattice_index(m.ij)
+            diag = m.kind == DIAG
+            pa, pb = m.ij[m.ends[:, 0]] - off, m.ij[m.ends[:, 1]] - off
+            assert np.array_equal(corners[diag, 0], grid[pa[diag, 0], pb[diag, 1]])
+            assert np.array_equal(corners[diag, 1], grid[pb[diag, 0], pa[diag, 1]])
+            assert (corners[~diag] == -1).all() and (corners[diag] >= -1).all() and diag.any()
