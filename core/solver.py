@@ -893,7 +893,9 @@ class _Round:
         a, b = mesh.ends[:, 0], mesh.ends[:, 1]
         uncut = np.ones(mesh.n_springs, dtype=bool)
         if run.problem.cut is not None:
-            uncut = ~run.problem.cut(self.uv[a], self.uv[b], xyz[a], xyz[b])
+            take = np.take  # rows by take: several times quicker than fancy indexing here
+            uncut = ~run.problem.cut(take(self.uv, a, axis=0), take(self.uv, b, axis=0), take(xyz, a, axis=0),
+                                     take(xyz, b, axis=0))
         c1, c2 = self._corners[:, 0], self._corners[:, 1]
         thread = self.mesh.kind != DIAG
         while True:
@@ -926,7 +928,9 @@ class _Round:
         if cut is None or not len(on):
             return False
         a, b = self.mesh.ends[on, 0], self.mesh.ends[on, 1]
-        return bool(cut(self.uv[a], self.uv[b], xyz[a], xyz[b]).any())
+        take = np.take
+        return bool(cut(take(self.uv, a, axis=0), take(self.uv, b, axis=0), take(xyz, a, axis=0),
+                        take(xyz, b, axis=0)).any())
 
     def factorise(self, A, quick: bool = False):
         """Factorisation of A: SuperLU in the pattern's own order (nested
