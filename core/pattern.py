@@ -356,8 +356,8 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
     buv, Q = samples
     frames = node_frames(mesh, xyz)
     tree = _usable_tree(xyz, frames)  # one for every map_points call
-    sheet = _same_sheet(surface, mesh, xyz, uv, buv, spacing) if uv is not None else None
     if darts is None or len(darts) == 0:
+        sheet = _same_sheet(surface, mesh, xyz, uv, buv, spacing) if uv is not None else None
         outline = map_points(Q, mesh, xyz, xy, frames=frames, valid=sheet, tree=tree)
         piece, lost = _finite_piece(Piece(outline, Q, buv, np.ones(len(Q), dtype=bool), np.arange(mesh.n_nodes)))
         if piece is None:
@@ -528,13 +528,20 @@ def _same_sheet(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, uv: np
     """
     dom = surface.domain
     size = dom[:, 1] - dom[:, 0]
+    # one contiguous array per coordinate: the (point, candidate) arrays are made component by component
+    # (the arithmetic of np.linalg.norm over the last axis, x0^2 + x1^2 (+ x2^2), several times quicker)
+    u, v, bu, bv = uv[:, 0].copy(), uv[:, 1].copy(), buv[:, 0].copy(), buv[:, 1].copy()
+    i, j = mesh.ij[:, 0].copy(), mesh.ij[:, 1].copy()
+    x, y, z = xyz[:, 0].copy(), xyz[:, 1].copy(), xyz[:, 2].copy()
+    take = np.take
 
     def valid(rows: np.ndarray, nn: np.ndarray) -> np.ndarray:
-        duv = np.linalg.norm((_rows(uv, nn) - _rows(buv, rows)) / size, axis=2)
-        anchor = nn[np.arange(len(nn)), np.argmin(duv, axis=1)][:, None]
-        steps = np.abs(_rows(mesh.ij, nn) - _rows(mesh.ij, anchor)).max(axis=2)
-        d = np.linalg.norm(_rows(xyz, nn) - _rows(xyz, anchor), axis=2)
-        return steps <= 2.0 * d / spacing + 1
+        du = (take(u, nn) - take(bu, rows)) / size[0]
+        dv = (take(v, nn) - take(bv, rows)) / size[1]
+        anchor = nn[np.arange(len(nn)), np.argmin(np.sqrt(du * du + dv * dv), axis=1)][:, None]
+        steps = np.maximum(np.abs(take(i, nn) - take(i, anchor)), np.abs(take(j, nn) - take(j, anchor)))
+        dx, dy, dz = (take(c, nn) - take(c, anchor) for c in (x, y, z))
+        return steps <= 2.0 * np.sqrt(dx * dx + dy * dy + dz * dz) / spacing + 1
 
     return valid
 
