@@ -628,13 +628,14 @@ class _Normal:
         """J^T r over the free variables, in block order."""
         n = energy.n
         g = np.zeros((n, 2))
-        gs = Q * (np.sqrt(energy.k) * rs)[:, None]
+        w = np.sqrt(energy.k) * rs
+        m = len(w)
+        a, b = self.ends_all[:m], self.ends_all[m:]  # contiguous (energy.a, .b are views of the mesh's ends)
         for c in range(2):
-            g[:, c] = (np.bincount(energy.a, gs[:, c], minlength=n)
-                       + np.bincount(energy.b, gs[:, 2 + c], minlength=n))
+            g[:, c] = np.bincount(a, Q[:, c] * w, minlength=n) + np.bincount(b, Q[:, 2 + c] * w, minlength=n)
             if len(rd):
                 g[:, c] += np.bincount(energy.dir_nodes, Jd[:, c] * rd, minlength=n)
-        return g[self.order].ravel()
+        return np.take(g, self.order, axis=0).ravel()
 
     def upper(self, A) -> sp.csc_matrix:
         """The upper triangle (diagonal included) of a matrix ``assemble`` made, as CSC."""
