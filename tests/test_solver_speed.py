@@ -324,3 +324,64 @@ def test_round_topology_finds_each_cells_edges_and_each_diagonals_corners():
             assert np.array_equal(corners[diag, 0], grid[pa[diag, 0], pb[diag, 1]])
             assert np.array_equal(corners[diag, 1], grid[pb[diag, 0], pa[diag, 1]])
             assert (corners[~diag] == -1).all() and (corners[diag] >= -1).all() and diag.any()
+
+
+def test_a_refill_tests_the_darts_on_the_points_it_has():
+    """The drape's refill hands the dart test the points it already has (the nodes', the Newton's)
+    instead of evaluating the surface again: every refill of a warm plane-dart and curve-dart
+    re-solve (nodes added, and none) gives bitwise the nodes the evaluating test gives."""
+    import core.pipeline as pipeline
+    from core.darts import DartSet
+
+    s, settings = _settings("octant", 700)
+    base = flatten(s, settings)
+    added = []
+    for dart in (DART, CURVE):
+        with_dart = dataclasses.replace(settings, darts=(dart,))
+        calls = []
+        refill = pipeline.refill
+
+        def recorded(*a, **k):
+            calls.append((a, k))
+            return refill(*a, **k)
+
+        pipeline.refill = recorded
+        try:
+            flatten(s, with_dart, initial=base.state())
+        finally:
+            pipeline.refill = refill
+        darts = DartSet(s, with_dart.darts)
+        tested = [0]
+
+        def checked(ua, ub, xa, xb):  # the points handed over are the surface's, bit for bit
+            assert np.array_equal(xa, s.points(ua)) and np.array_equal(xb, s.points(ub))
+            tested[0] += len(ua)
+            return darts.crossing(ua, ub, xa, xb)
+
+        for a, k in calls:
+            ij, uv = refill(*a, **k)
+            ij0, uv0 = refill(*a, **{**k, "separated": lambda ua, ub, xa, xb: darts.crossing(ua, ub)})
+            ij1, uv1 = refill(*a, **{**k, "separated": checked})
+            assert np.array_equal(ij, ij0) and np.array_equal(uv, uv0)
+            assert np.array_equal(ij, ij1) and np.array_equal(uv, uv1)
+            added.append(len(ij))
+        assert tested[0] > 0
+    assert max(added) > 0 and min(added) == 0
+
+
+def test_gathered_rows_are_the_fancy_indexed_ones():
+    """``_Gathered`` takes the springs' rows with np.take: the same arrays, bit for bit, as indexing."""
+    from core.geom import rowdot
+
+    s, settings = _settings("saddle", 500)
+    d = drape(s, settings.drape_settings(), settings.material)
+    ev = s.evaluate(d.uv + 1e-3 * np.cos(5 * d.uv), second=False, normals=False)
+    a, b = d.mesh.ends[:, 0], d.mesh.ends[:, 1]
+    g = solver._Gathered(ev.xyz, ev.su, ev.sv, a, b)
+    dd = ev.xyz[a] - ev.xyz[b]
+    length = np.sqrt(rowdot(dd, dd))
+    t = dd / np.maximum(length, 1e-300)[:, None]
+    Q = np.column_stack([rowdot(t, ev.su[a]), rowdot(t, ev.sv[a]), -rowdot(t, ev.su[b]), -rowdot(t, ev.sv[b])])
+    for got, want in ((g.d, dd), (g.length, length), (g.sua, ev.su[a]), (g.sva, ev.sv[a]), (g.sub, ev.su[b]),
+                      (g.svb, ev.sv[b]), (g.Q, Q)):
+        assert np.array_equal(got, want)
