@@ -261,7 +261,9 @@ def boundary_samples(surface: NurbsSurface, spacing: float, per_spacing: int = 4
                      minimum: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """(uv, xyz) of points even in arc length along the boundary, corners included,
     about ``per_spacing`` points per mesh spacing (at least ``minimum`` per edge)."""
-    lengths = edge_lengths(surface)
+    lengths = _lengths_cache.get(surface)
+    if lengths is None:  # a Gauss rule on every edge, about a millisecond; every pattern asks again
+        lengths = _lengths_cache[surface] = edge_lengths(surface)
     n_edge = tuple(int(max(minimum, np.ceil(L / spacing * per_spacing))) for L in lengths)
     per = _samples_cache.get(surface)
     if per is None:
@@ -275,6 +277,7 @@ def boundary_samples(surface: NurbsSurface, spacing: float, per_spacing: int = 4
 
 
 _samples_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # NurbsSurface -> {counts: (uv, xyz)}
+_lengths_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # NurbsSurface -> (4,) edge lengths
 
 
 @dataclass(frozen=True)
