@@ -15,7 +15,9 @@ Two cases of issue 20's core target (a warm re-solve after a dart at about
 Each round runs one child process per tree (``--old`` first, then this one,
 the order swapped every round), and each child times ``--repeat`` warm
 re-solves of both cases and reports the median; the table gives the median
-over the rounds and the results of both trees (they must agree). ``--old`` is
+over the rounds and the results of both trees (they must agree), with the
+median process CPU time beside the wall time (on a shared machine the wall
+time carries the other jobs' load). ``--old`` is
 the root of a copy of the other tree (e.g. ``git archive a0de682 | tar -x -C
 DIR``). The one-minute load average is printed with the timings.
 """
@@ -63,13 +65,15 @@ def child(repeat: int) -> dict:
     plane = dataclasses.replace(plane_base_settings,
                                 darts=(PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart"),))
     for name, settings, b in (("curve", curve, base), ("plane", plane, plane_base)):
-        times, r = [], None
+        times, cpu, r = [], [], None
         for _ in range(repeat):
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             r = flatten(s, settings, initial=b.state())
             times.append(time.perf_counter() - t)
+            cpu.append(time.process_time() - c)
         m = r.metrics
-        out[name] = {"seconds": float(np.median(times)), "iterations": m["iterations"], "nodes": m["nodes"],
+        out[name] = {"seconds": float(np.median(times)), "cpu": float(np.median(cpu)),
+                     "iterations": m["iterations"], "nodes": m["nodes"],
                      "energy": m["energy"], "boundary": m["boundary_error_pct"], "area": m["area_error_pct"],
                      "deleted": m["nodes_deleted"], "refilled": m["nodes_refilled"], "base_nodes": b.metrics["nodes"]}
     return out
@@ -107,14 +111,17 @@ def main(argv=None) -> int:
             print(name, {c: round(v["seconds"], 3) for c, v in runs[name][-1].items()}, "load", loads[-1], flush=True)
     lines = [f"Warm re-solve after a dart, {args.rounds} alternating rounds x {args.repeat} re-solves "
              f"(medians); one-minute load {', '.join(loads)}", "",
-             "| case | old (s) | new (s) | old / new | iterations old / new | nodes old / new | "
+             "| case | old (s) | new (s) | old / new | CPU old / new (s) | iterations old / new | nodes old / new | "
              "EN new / old - 1 | boundary % old / new | area % old / new | -deleted / +refilled old, new |",
-             "|---|---:|---:|---:|---|---|---:|---|---|---|"]
+             "|---|---:|---:|---:|---|---|---|---:|---|---|---|"]
     for case in ("curve", "plane"):
         o = float(np.median([r[case]["seconds"] for r in runs["old"]]))
         n = float(np.median([r[case]["seconds"] for r in runs["new"]]))
+        co = float(np.median([r[case].get("cpu", np.nan) for r in runs["old"]]))
+        cn = float(np.median([r[case]["cpu"] for r in runs["new"]]))
         a, b = runs["old"][-1][case], runs["new"][-1][case]
         lines.append(f"| {case} dart ({a['base_nodes']:,} nodes) | {o:.3f} | {n:.3f} | {o / n:.2f} | "
+                     f"{co:.3f} / {cn:.3f} | "
                      f"{a['iterations']} / {b['iterations']} | {a['nodes']} / {b['nodes']} | "
                      f"{b['energy'] / a['energy'] - 1:.2g} | {a['boundary']:.4f} / {b['boundary']:.4f} | "
                      f"{a['area']:.4f} / {b['area']:.4f} | -{a['deleted']}/+{a['refilled']}, "

@@ -342,7 +342,7 @@ class _Builder:
         self.how = np.zeros(0, dtype=np.int8)  # 0 seed, 1 path, 2 two-neighbour, 3 filling
         self._cap, self._buf = 0, {}
         self.trees = {}  # tier name -> (first node, end, k-d tree); see far_from_mesh
-        self.separated = None  # callable(uv_a, uv_b) -> bool: a dart lies between
+        self.separated = None  # callable(uv_a, uv_b, xyz_a, xyz_b) -> bool: a dart lies between
         self.on_add = None  # callable() after every batch of new nodes (progress reports)
         self.inside = None  # callable(uv) -> (k,) bool: in the piece's region (a trimmed face), else the domain
         self.rmin = min(settings.r_weft, settings.r_warp)
@@ -565,8 +565,10 @@ class _Builder:
             ok &= np.einsum("ij,ij->i", P - Cx, A + B - 2 * Cx) > 0
             ok &= np.linalg.norm(P - Cx, axis=1) > 0.5 * self.rmin
             ok &= np.linalg.norm(P - (A + B - Cx), axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
-            if self.separated is not None:  # never a spring across a dart
-                ok &= ~self.separated(self.uv[iA], uv_new) & ~self.separated(self.uv[iB], uv_new)
+            if self.separated is not None and ok.any():  # never a spring across a dart
+                w = np.flatnonzero(ok)  # the points are known: none evaluated again
+                ok[w] = ~self.separated(self.uv[iA[w]], uv_new[w], A[w], P[w]) & \
+                    ~self.separated(self.uv[iB[w]], uv_new[w], B[w], P[w])
             ok[ok] = self.far_from_mesh(P[ok])
             self.lat.kill(pos[~ok])
             if not ok.any():
@@ -613,8 +615,9 @@ class _Builder:
         guess = 2 * self.uv[src] - self.uv[prv]
         ok, uv_new, P, Pu, Pv = self.accept_uv(*_one_neighbour(self.surface, self.xyz[src], radius, normal, guess))
         ok &= np.einsum("ij,ij->i", P - self.xyz[src], chord) > 0
-        if self.separated is not None:
-            ok &= ~self.separated(self.uv[src], uv_new)
+        if self.separated is not None and ok.any():
+            w = np.flatnonzero(ok)
+            ok[w] = ~self.separated(self.uv[src[w]], uv_new[w], self.xyz[src[w]], P[w])
         ok[ok] = self.far_from_mesh(P[ok])
         # a position is dead only when no source can reach it
         g = pos + self.lat.off
@@ -728,9 +731,10 @@ def refill(surface: NurbsSurface, settings: DrapeSettings, ij: np.ndarray, uv: n
     """Node Filling from an existing mesh state (population control, paper 3.3).
 
     ij : (n, 2) lattice positions and uv : (n, 2) parameters of the current
-    nodes; dead_ij : (k, 2) positions never to refill; separated(uv_a, uv_b)
-    -> (k,) bool says where a dart lies between two points (no node is placed
-    from a neighbour across a dart). Returns the added nodes' (ij (a, 2),
+    nodes; dead_ij : (k, 2) positions never to refill; separated(uv_a, uv_b,
+    xyz_a, xyz_b) -> (k,) bool says where a dart lies between two points (their
+    (u, v) and their points on the surface; no node is placed from a neighbour
+    across a dart). Returns the added nodes' (ij (a, 2),
     uv (a, 2)); the springs they form are at rest length.
     """
     b = _Builder(surface, settings)

@@ -30,7 +30,8 @@ __all__ = ["spring_lengths", "spring_strain", "cell_shear_deg", "cell_areas", "d
 
 def spring_lengths(xyz: np.ndarray, mesh: SpringMesh) -> np.ndarray:
     """(m,) chord lengths of the springs for nodes at xyz : (n, 3)."""
-    return np.linalg.norm(xyz[mesh.ends[:, 0]] - xyz[mesh.ends[:, 1]], axis=1)
+    # rows gathered by np.take: several times quicker than fancy indexing at (n, 3)
+    return np.linalg.norm(np.take(xyz, mesh.ends[:, 0], axis=0) - np.take(xyz, mesh.ends[:, 1], axis=0), axis=1)
 
 
 def spring_strain(xyz: np.ndarray, mesh: SpringMesh) -> np.ndarray:
@@ -42,7 +43,7 @@ def cell_shear_deg(xyz: np.ndarray, mesh: SpringMesh) -> np.ndarray:
     """(c,) signed shear angle of every cell, degrees."""
     if len(mesh.cells) == 0:
         return np.zeros(0)
-    p0, p1, p2, p3 = (xyz[mesh.cells[:, c]] for c in range(4))
+    p0, p1, p2, p3 = (np.take(xyz, mesh.cells[:, c], axis=0) for c in range(4))
     # (weft edge, warp edge) at corners 0..3, both pointing along +j / +i
     pairs = ((p1 - p0, p3 - p0), (p1 - p0, p2 - p1), (p2 - p3, p2 - p1), (p2 - p3, p3 - p0))
     total = np.zeros(len(mesh.cells))
@@ -84,7 +85,7 @@ def cell_areas(xyz: np.ndarray, mesh: SpringMesh) -> np.ndarray:
     """(c,) area of every cell on the surface (its two triangles across the 0-2 diagonal)."""
     if len(mesh.cells) == 0:
         return np.zeros(0)
-    p0, p1, p2, p3 = (xyz[mesh.cells[:, c]] for c in range(4))
+    p0, p1, p2, p3 = (np.take(xyz, mesh.cells[:, c], axis=0) for c in range(4))
     return 0.5 * (np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
                   + np.linalg.norm(np.cross(p2 - p0, p3 - p0), axis=1))
 

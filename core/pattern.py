@@ -120,6 +120,12 @@ class Pattern:
         return abs(polygon_area(self.outline)) - sum(abs(polygon_area(h)) for h in self.holes)
 
 
+def _rows(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """``a[idx]`` for an index array ``idx`` of any shape: rows gathered by ``np.take``, several
+    times quicker than fancy indexing for (n, 2) and (n, 3) arrays."""
+    return np.take(a, idx, axis=0)
+
+
 def polygon_area(poly: np.ndarray) -> float:
     """Signed area of a closed polygon (k, 2) (shoelace; positive if counter-clockwise)."""
     x, y = poly[:, 0], poly[:, 1]
@@ -167,9 +173,15 @@ def node_frames(mesh: SpringMesh, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return W, P, okw & okp
 
 
+def _usable_tree(xyz: np.ndarray, frames) -> cKDTree | None:
+    """The k-d tree :func:`map_points` searches: the nodes with both frames (None if none has)."""
+    idx = np.flatnonzero(frames[2])
+    return cKDTree(xyz[idx]) if idx.size else None
+
+
 def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
                usable: np.ndarray | None = None, k: int = BLEND_K, valid=None,
-               frames=None, nearest: bool = False, _candidates: int | None = None):
+               frames=None, nearest: bool = False, _candidates: int | None = None, tree=None):
     """Map 3D points Q (q, 3) near the mesh into the 2D pattern (q, 2).
 
     Each point is expressed in the lattice frames of its k nearest usable
@@ -182,6 +194,8 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
     candidates; for a point with no valid one among them (a mesh cut into
     narrow strips by many darts) the search widens until it finds one or has
     tried every node. Points with no valid node at all get NaN.
+    ``tree``: the k-d tree of the usable nodes' xyz (those with both frames, and ``usable``;
+    :func:`_usable_tree`), if the caller has it.
     """
     W, P, ok = frames if frames is not None else node_frames(mesh, xyz)
     if usable is not None:
@@ -190,7 +204,11 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
     if idx.size == 0:
         raise ValueError("no node has both a weft and a warp neighbour")
     c = min(idx.size, _candidates or (4 * (k + 1) if valid is not None else k + 1))
-    dist, nn = cKDTree(xyz[idx]).query(Q, k=c)
+    if tree is None:
+        tree = cKDTree(xyz[idx])
+    elif tree.n != idx.size:
+        raise ValueError("the k-d tree given is not of the usable nodes")
+    dist, nn = tree.query(Q, k=c)
     dist, nn = dist.reshape(len(Q), c), idx[nn.reshape(len(Q), c)]
     val = np.ones(dist.shape, dtype=bool)
     if valid is not None:
@@ -213,8 +231,8 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
     with np.errstate(invalid="ignore", divide="ignore"):
         w = w / total
     # least squares d = a W + b P for every (point, node) pair
-    d = Q[:, None, :] - xyz[nn]
-    Wn, Pn = W[nn], P[nn]
+    d = Q[:, None, :] - _rows(xyz, nn)
+    Wn, Pn = _rows(W, nn), _rows(P, nn)
     g11 = np.einsum("qkc,qkc->qk", Wn, Wn)
     g12 = np.einsum("qkc,qkc->qk", Wn, Pn)
     g22 = np.einsum("qkc,qkc->qk", Pn, Pn)
@@ -224,7 +242,7 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
     det = np.where(det == 0, 1.0, det)
     a = (g22 * r1 - g12 * r2) / det
     b = (g11 * r2 - g12 * r1) / det
-    cand = xy[nn] + np.stack([a * mesh.r_weft, b * mesh.r_warp], axis=-1)
+    cand = _rows(xy, nn) + np.stack([a * mesh.r_weft, b * mesh.r_warp], axis=-1)
     out = np.einsum("qk,qkc->qc", np.where(sel, w, 0.0), cand) + np.where(total > 0, 0.0, np.nan)
     near = np.where(sel.any(axis=1), nn[np.arange(len(Q)), first], -1)
     lost = np.flatnonzero(near < 0)
@@ -232,7 +250,7 @@ def map_points(Q: np.ndarray, mesh: SpringMesh, xyz: np.ndarray, xy: np.ndarray,
         def valid_lost(rows, nodes):
             return valid(lost[rows], nodes)
         more, more_near = map_points(Q[lost], mesh, xyz, xy, usable, k, valid_lost, (W, P, ok), True,
-                                     _candidates=4 * c)
+                                     _candidates=4 * c, tree=tree)
         out[lost], near[lost] = more, more_near
     if nearest:
         return out, near
@@ -243,7 +261,9 @@ def boundary_samples(surface: NurbsSurface, spacing: float, per_spacing: int = 4
                      minimum: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """(uv, xyz) of points even in arc length along the boundary, corners included,
     about ``per_spacing`` points per mesh spacing (at least ``minimum`` per edge)."""
-    lengths = edge_lengths(surface)
+    lengths = _lengths_cache.get(surface)
+    if lengths is None:  # a Gauss rule on every edge, about a millisecond; every pattern asks again
+        lengths = _lengths_cache[surface] = edge_lengths(surface)
     n_edge = tuple(int(max(minimum, np.ceil(L / spacing * per_spacing))) for L in lengths)
     per = _samples_cache.get(surface)
     if per is None:
@@ -257,6 +277,7 @@ def boundary_samples(surface: NurbsSurface, spacing: float, per_spacing: int = 4
 
 
 _samples_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # NurbsSurface -> {counts: (uv, xyz)}
+_lengths_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # NurbsSurface -> (4,) edge lengths
 
 
 @dataclass(frozen=True)
@@ -337,9 +358,10 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
         samples = boundary_samples(surface, spacing)
     buv, Q = samples
     frames = node_frames(mesh, xyz)
-    sheet = _same_sheet(surface, mesh, xyz, uv, buv, spacing) if uv is not None else None
+    tree = _usable_tree(xyz, frames)  # one for every map_points call
     if darts is None or len(darts) == 0:
-        outline = map_points(Q, mesh, xyz, xy, frames=frames, valid=sheet)
+        sheet = _same_sheet(surface, mesh, xyz, uv, buv, spacing) if uv is not None else None
+        outline = map_points(Q, mesh, xyz, xy, frames=frames, valid=sheet, tree=tree)
         piece, lost = _finite_piece(Piece(outline, Q, buv, np.ones(len(Q), dtype=bool), np.arange(mesh.n_nodes)))
         if piece is None:
             raise SettingsError("no point of the boundary maps into the pattern: the mesh is too broken "
@@ -347,7 +369,7 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
         piece = _oriented(piece)
         if hole_samples:
             (piece,), more = _region_holes([piece], hole_samples, surface, mesh, xyz, xy, frames, uv, spacing,
-                                           None, np.zeros(mesh.n_nodes, dtype=np.int64))
+                                           None, np.zeros(mesh.n_nodes, dtype=np.int64), tree)
             lost += more
         return Pattern(xy, piece.outline, piece.outline3d, piece.outline_uv, piece.on_boundary, (), piece.holes,
                        (piece,), lost)
@@ -372,10 +394,10 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
                 nodes = nn.ravel()
                 # each node's side once (a node is a candidate of many curve points)
                 each, back = np.unique(nodes, return_inverse=True)
-                ok = dart.side(uv[each], xyz[each])[back] == sgn
-                ok &= ~others.crossing(cuv[rows.ravel()], uv[nodes])
+                ok = dart.side(_rows(uv, each), _rows(xyz, each))[back] == sgn
+                ok &= ~others.crossing(_rows(cuv, rows.ravel()), _rows(uv, nodes))
                 return ok.reshape(rows.shape)
-            legs[sgn] = map_points(c3, mesh, xyz, xy, valid=valid_side, frames=frames)
+            legs[sgn] = map_points(c3, mesh, xyz, xy, valid=valid_side, frames=frames, tree=tree)
         on_edge = (cover.edge_distance(cuv[[0, -1]]) if trimmed else _boundary_distance(surface, cuv[[0, -1]])) < 1e-6
         openings.append(DartOpening(dart.name, dart.kind, cuv, c3, legs[1], legs[-1], bool(on_edge[0])))
         ends.append((dart, cuv, c3, legs, on_edge))
@@ -394,10 +416,10 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
 
     def visible(rows, nn):  # the node is on the point's side of every dart, and on its sheet
         r, n_ = rows.ravel(), nn.ravel()
-        xa, xb = (bxyz[r], nxyz[n_]) if bxyz is not None else (None, None)
-        return ~darts.crossing(buv[r], uv[n_], xa, xb).reshape(rows.shape) & sheet(rows, nn)
+        xa, xb = (_rows(bxyz, r), _rows(nxyz, n_)) if bxyz is not None else (None, None)
+        return ~darts.crossing(_rows(buv, r), _rows(uv, n_), xa, xb).reshape(rows.shape) & sheet(rows, nn)
 
-    B2, near = map_points(Q, mesh, xyz, xy, valid=visible, frames=frames, nearest=True)
+    B2, near = map_points(Q, mesh, xyz, xy, valid=visible, frames=frames, nearest=True, tree=tree)
     comp = _components(mesh)
     bcomp = np.where(near >= 0, comp[np.maximum(near, 0)], -1)
     # dart ends on the boundary, as events on the boundary polygon's segments
@@ -483,7 +505,8 @@ def make_pattern(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray,
             finite_openings.append(DartOpening(o.name, o.kind, o.curve_uv[good], o.curve3d[good], o.leg_a[good],
                                                o.leg_b[good], o.mouth))
     if hole_samples:
-        kept, more = _region_holes(kept, hole_samples, surface, mesh, xyz, xy, frames, uv, spacing, darts, comp)
+        kept, more = _region_holes(kept, hole_samples, surface, mesh, xyz, xy, frames, uv, spacing, darts, comp,
+                                   tree)
         unmapped += more
     pieces = sorted((_oriented(p) for p in kept), key=lambda p: -abs(polygon_area(p.outline)))
     main = pieces[0]
@@ -508,13 +531,20 @@ def _same_sheet(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, uv: np
     """
     dom = surface.domain
     size = dom[:, 1] - dom[:, 0]
+    # one contiguous array per coordinate: the (point, candidate) arrays are made component by component
+    # (the arithmetic of np.linalg.norm over the last axis, x0^2 + x1^2 (+ x2^2), several times quicker)
+    u, v, bu, bv = uv[:, 0].copy(), uv[:, 1].copy(), buv[:, 0].copy(), buv[:, 1].copy()
+    i, j = mesh.ij[:, 0].copy(), mesh.ij[:, 1].copy()
+    x, y, z = xyz[:, 0].copy(), xyz[:, 1].copy(), xyz[:, 2].copy()
+    take = np.take
 
     def valid(rows: np.ndarray, nn: np.ndarray) -> np.ndarray:
-        duv = np.linalg.norm((uv[nn] - buv[rows]) / size, axis=2)
-        anchor = nn[np.arange(len(nn)), np.argmin(duv, axis=1)][:, None]
-        steps = np.abs(mesh.ij[nn] - mesh.ij[anchor]).max(axis=2)
-        d = np.linalg.norm(xyz[nn] - xyz[anchor], axis=2)
-        return steps <= 2.0 * d / spacing + 1
+        du = (take(u, nn) - take(bu, rows)) / size[0]
+        dv = (take(v, nn) - take(bv, rows)) / size[1]
+        anchor = nn[np.arange(len(nn)), np.argmin(np.sqrt(du * du + dv * dv), axis=1)][:, None]
+        steps = np.maximum(np.abs(take(i, nn) - take(i, anchor)), np.abs(take(j, nn) - take(j, anchor)))
+        dx, dy, dz = (take(c, nn) - take(c, anchor) for c in (x, y, z))
+        return steps <= 2.0 * np.sqrt(dx * dx + dy * dy + dz * dz) / spacing + 1
 
     return valid
 
@@ -544,7 +574,7 @@ def _oriented(p: Piece) -> Piece:
                  p.n_region_holes)
 
 
-def _region_holes(pieces, hole_samples, surface, mesh, xyz, xy, frames, uv, spacing, darts, comp):
+def _region_holes(pieces, hole_samples, surface, mesh, xyz, xy, frames, uv, spacing, darts, comp, tree=None):
     """The pieces with the region's holes mapped into the plane (clockwise),
     each put first among the holes of the piece its nearest node belongs to;
     also the count of hole points no node maps."""
@@ -559,7 +589,7 @@ def _region_holes(pieces, hole_samples, surface, mesh, xyz, xy, frames, uv, spac
                     return ~darts.crossing(huv[rows.ravel()], uv[nn.ravel()]).reshape(rows.shape) & sheet(rows, nn)
             else:
                 valid = sheet
-        h2, near = map_points(hq, mesh, xyz, xy, valid=valid, frames=frames, nearest=True)
+        h2, near = map_points(hq, mesh, xyz, xy, valid=valid, frames=frames, nearest=True, tree=tree)
         good = np.isfinite(h2).all(axis=1)
         lost += int((~good).sum())
         h2 = h2[good]

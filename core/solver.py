@@ -473,8 +473,9 @@ class _Normal:
     each owns two variables (u, v). A spring's 4 x 4 block splits into two
     diagonal blocks, summed per node by ``np.bincount``, and two off-diagonal
     blocks that are the only entries at their place (one spring joins two
-    nodes), copied straight into the block-CSR data. SuperLU then factorises
-    without reordering.
+    nodes). ``assemble_exact`` writes the node blocks and the springs' blocks
+    into one array and makes the CSC data by one gather from it (``src_take``,
+    found once per pattern); SuperLU then factorises without reordering.
     """
 
     def __init__(self, energy: Energy, fixed: int | None):
@@ -492,25 +493,26 @@ class _Normal:
         self.a, self.b = a, b
         both = (a >= 0) & (b >= 0)
         self.both = both
-        # block pattern: diagonal blocks + (a, b) and (b, a) for springs between free nodes
-        rows = np.concatenate([np.arange(nb), a[both], b[both]])
-        cols = np.concatenate([np.arange(nb), b[both], a[both]])
-        perm = np.lexsort((cols, rows))
+        inner = np.flatnonzero(both)  # springs between free nodes
+        # block pattern: diagonal blocks + (a, b) and (b, a) for springs between free nodes, in (row, column)
+        # order (the keys are unique: one spring joins two nodes; a stable sort is the quicker here)
+        rows = np.concatenate([np.arange(nb), a[inner], b[inner]])
+        cols = np.concatenate([np.arange(nb), b[inner], a[inner]])
+        perm = np.argsort(rows * max(nb, 1) + cols, kind="stable")
+        self._perm, self._k = perm, len(inner)
         self.indices = cols[perm].astype(np.int32)
-        self.indptr = np.searchsorted(rows[perm], np.arange(nb + 1)).astype(np.int32)
-        pos = np.empty_like(perm)
-        pos[perm] = np.arange(len(perm))
-        self.pos_diag = pos[:nb]
-        k = int(both.sum())
-        self.pos_ab = pos[nb:nb + k]
-        self.pos_ba = pos[nb + k:]
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=nb))]).astype(np.int32)
         self.nnzb = len(perm)
         self.dir_num = num[energy.dir_nodes]
-        # where each entry of the block data goes in the CSC matrix SuperLU takes (found once
-        # per pattern by converting entry numbers; the assembly then only gathers)
-        probe = sp.bsr_matrix((np.arange(1.0, 4 * self.nnzb + 1).reshape(-1, 2, 2), self.indices, self.indptr),
-                              shape=(self.nvar, self.nvar)).tocsc()
-        self.csc_take = probe.data.astype(np.int64) - 1
+        # Where each entry of the scalar CSC matrix is in assemble_exact's one array of the free nodes'
+        # blocks, then every spring's (a, b) block (a (b, a) block is its spring's transposed): found once
+        # per pattern by converting these places (+ 1: no zero entries), then the assembly only gathers.
+        at = np.concatenate([np.arange(nb), nb + inner, nb + inner])[:, None]
+        flat = np.concatenate([np.broadcast_to(np.arange(1, 5), (nb + len(inner), 4)),
+                               np.broadcast_to([1, 3, 2, 4], (len(inner), 4))])
+        place = np.take(4.0 * at + flat, perm, axis=0)  # in the pattern's order
+        probe = self._to_csc(place)
+        self.src_take = probe.data.astype(np.int64) - 1
         self.csc_indices, self.csc_indptr = probe.indices, probe.indptr
         # the upper triangle's entries of that CSC data, for QDLDL (which otherwise takes it by scipy's triu)
         col = np.repeat(np.arange(self.nvar), np.diff(probe.indptr))
@@ -522,6 +524,26 @@ class _Normal:
         # both ends of every spring, for one bincount per entry of the diagonal blocks
         self.ends_num = np.concatenate([a, b])
         self.ends_all = np.concatenate([energy.a, energy.b])
+
+    @functools.cached_property
+    def _pos(self) -> np.ndarray:
+        pos = np.empty_like(self._perm)
+        pos[self._perm] = np.arange(self.nnzb)
+        return pos
+
+    # the places of the node blocks and of the springs' (a, b) and (b, a) blocks in the pattern (``assemble``)
+    pos_diag = property(lambda self: self._pos[:self.nb])
+    pos_ab = property(lambda self: self._pos[self.nb:self.nb + self._k])
+    pos_ba = property(lambda self: self._pos[self.nb + self._k:])
+
+    def _to_csc(self, data: np.ndarray) -> sp.csc_matrix:
+        """The block data (nnzb, 4) (each block row-major) as a CSC matrix."""
+        return sp.bsr_matrix((data.reshape(-1, 2, 2), self.indices, self.indptr), shape=(self.nvar, self.nvar)).tocsc()
+
+    @functools.cached_property
+    def csc_take(self) -> np.ndarray:
+        """Where each entry of the CSC data is in ``assemble``'s block data (the reference path)."""
+        return self._to_csc(np.arange(1.0, 4 * self.nnzb + 1)).data.astype(np.int64) - 1
 
     def _diag_sum(self, idx: np.ndarray, blocks: np.ndarray, out: np.ndarray) -> None:
         ok = idx >= 0
@@ -569,7 +591,10 @@ class _Normal:
         ax = energy.k - kc
         q0, q1, q2, q3 = (np.ascontiguousarray(Q[:, i]) for i in range(4))
         Sua, Sva, Sub, Svb = kept.sua, kept.sva, kept.sub, kept.svb
-        cross = np.empty((len(a), 2, 2))
+        # one array holds the free nodes' blocks, then the springs' (a, b) blocks: the CSC data is one
+        # gather from it (src_take), no block data in between
+        src = np.empty(4 * (self.nb + len(a)))
+        cross = src[4 * self.nb:].reshape(-1, 2, 2)
         cross[:, 0, 0] = ax * q0 * q2 - kc * _dot(Sua, Sub)
         cross[:, 0, 1] = ax * q0 * q3 - kc * _dot(Sua, Svb)
         cross[:, 1, 0] = ax * q1 * q2 - kc * _dot(Sva, Sub)
@@ -594,32 +619,29 @@ class _Normal:
             return None, None, G, big
         if fix is not None:
             fix(D, big, G)
-        diag = D[self.order]
+        diag = src[:4 * self.nb].reshape(-1, 2, 2)
+        np.take(D, self.order, axis=0, out=diag)
         if len(Jd):
             self._diag_sum(self.dir_num, Jd[:, :, None] * Jd[:, None, :], diag)
         dd = diag[:, [0, 1], [0, 1]]
         damp = damp_rel * np.maximum(dd, 1e-12 * max(dd.max(initial=0.0), 1e-300))
         diag[:, 0, 0] += damp[:, 0]
         diag[:, 1, 1] += damp[:, 1]
-        data = np.empty((self.nnzb, 2, 2))
-        data[self.pos_diag] = diag
-        data[self.pos_ab] = cross[self.both]
-        data[self.pos_ba] = cross[self.both].transpose(0, 2, 1)
-        A = sp.csc_matrix((data.reshape(-1)[self.csc_take], self.csc_indices, self.csc_indptr),
-                          shape=(self.nvar, self.nvar))
+        A = sp.csc_matrix((src[self.src_take], self.csc_indices, self.csc_indptr), shape=(self.nvar, self.nvar))
         return A, damp.ravel(), G, big
 
     def gradient(self, Q, rs, Jd, rd, energy: Energy) -> np.ndarray:
         """J^T r over the free variables, in block order."""
         n = energy.n
         g = np.zeros((n, 2))
-        gs = Q * (np.sqrt(energy.k) * rs)[:, None]
+        w = np.sqrt(energy.k) * rs
+        m = len(w)
+        a, b = self.ends_all[:m], self.ends_all[m:]  # contiguous (energy.a, .b are views of the mesh's ends)
         for c in range(2):
-            g[:, c] = (np.bincount(energy.a, gs[:, c], minlength=n)
-                       + np.bincount(energy.b, gs[:, 2 + c], minlength=n))
+            g[:, c] = np.bincount(a, Q[:, c] * w, minlength=n) + np.bincount(b, Q[:, 2 + c] * w, minlength=n)
             if len(rd):
                 g[:, c] += np.bincount(energy.dir_nodes, Jd[:, c] * rd, minlength=n)
-        return g[self.order].ravel()
+        return np.take(g, self.order, axis=0).ravel()
 
     def upper(self, A) -> sp.csc_matrix:
         """The upper triangle (diagonal included) of a matrix ``assemble`` made, as CSC."""
@@ -641,9 +663,11 @@ class _Gathered:
     __slots__ = ("length", "sua", "sva", "sub", "svb", "d", "Q")
 
     def __init__(self, S, Su, Sv, a, b):
-        self.d = S[a] - S[b]
+        take = np.take  # rows gathered by take: about 4x quicker than S[a] at (n, 3)
+        self.d = take(S, a, axis=0) - take(S, b, axis=0)
         self.length = np.sqrt(_dot(self.d, self.d))
-        self.sua, self.sva, self.sub, self.svb = Su[a], Sv[a], Su[b], Sv[b]
+        self.sua, self.sva = take(Su, a, axis=0), take(Sv, a, axis=0)
+        self.sub, self.svb = take(Su, b, axis=0), take(Sv, b, axis=0)
         t = self.d / np.maximum(self.length, 1e-300)[:, None]
         self.Q = np.column_stack([_dot(t, self.sua), _dot(t, self.sva), -_dot(t, self.sub), -_dot(t, self.svb)])
 
@@ -876,7 +900,9 @@ class _Round:
         a, b = mesh.ends[:, 0], mesh.ends[:, 1]
         uncut = np.ones(mesh.n_springs, dtype=bool)
         if run.problem.cut is not None:
-            uncut = ~run.problem.cut(self.uv[a], self.uv[b], xyz[a], xyz[b])
+            take = np.take  # rows by take: several times quicker than fancy indexing here
+            uncut = ~run.problem.cut(take(self.uv, a, axis=0), take(self.uv, b, axis=0), take(xyz, a, axis=0),
+                                     take(xyz, b, axis=0))
         c1, c2 = self._corners[:, 0], self._corners[:, 1]
         thread = self.mesh.kind != DIAG
         while True:
@@ -909,7 +935,9 @@ class _Round:
         if cut is None or not len(on):
             return False
         a, b = self.mesh.ends[on, 0], self.mesh.ends[on, 1]
-        return bool(cut(self.uv[a], self.uv[b], xyz[a], xyz[b]).any())
+        take = np.take
+        return bool(cut(take(self.uv, a, axis=0), take(self.uv, b, axis=0), take(xyz, a, axis=0),
+                        take(xyz, b, axis=0)).any())
 
     def factorise(self, A, quick: bool = False):
         """Factorisation of A: SuperLU in the pattern's own order (nested
@@ -949,19 +977,24 @@ def _round_topology(mesh: SpringMesh) -> tuple[np.ndarray, np.ndarray]:
     warp spring; cell_edges (c, 4): the springs along the four edges of every
     cell).
     """
-    n = mesh.n_nodes
     grid, off = lattice_index(mesh.ij)
-    pa, pb = mesh.ij[mesh.ends[:, 0]] - off, mesh.ij[mesh.ends[:, 1]] - off
+    take = np.take  # rows by take: several times quicker than fancy indexing at (n, 2)
+    pa, pb = take(mesh.ij, mesh.ends[:, 0], axis=0) - off, take(mesh.ij, mesh.ends[:, 1], axis=0) - off
     corners = np.column_stack([grid[pa[:, 0], pb[:, 1]], grid[pb[:, 0], pa[:, 1]]])
-    corners[mesh.kind != DIAG] = -1
-    e = np.sort(mesh.ends, axis=1)
-    keys = e[:, 0] * n + e[:, 1]
-    order = np.argsort(keys)
+    thread = mesh.kind != DIAG
+    corners[thread] = -1
+    # every weft (warp) spring by the lattice position of its end with the smaller j (i): two lookup grids
+    t = np.flatnonzero(thread)
+    lo = np.minimum(pa[t], pb[t])
+    weft = pa[t, 0] == pb[t, 0]
+    by_lo = np.full((2,) + grid.shape, -1, dtype=np.int64)  # [0]: weft springs, [1]: warp springs
+    by_lo[np.where(weft, 0, 1), lo[:, 0], lo[:, 1]] = t
     cells = mesh.cells
     edges = np.empty((len(cells), 4), dtype=np.int64)
-    for c, (s, t) in enumerate(((0, 1), (1, 2), (3, 2), (0, 3))):
-        k = np.minimum(cells[:, s], cells[:, t]) * n + np.maximum(cells[:, s], cells[:, t])
-        edges[:, c] = order[np.searchsorted(keys[order], k)]  # every edge of a cell is a spring
+    for c, (s, u) in enumerate(((0, 1), (1, 2), (3, 2), (0, 3))):
+        ps, pu = take(mesh.ij, cells[:, s], axis=0) - off, take(mesh.ij, cells[:, u], axis=0) - off
+        lo = np.minimum(ps, pu)
+        edges[:, c] = by_lo[np.where(ps[:, 0] == pu[:, 0], 0, 1), lo[:, 0], lo[:, 1]]  # every edge is a spring
     return corners, edges
 
 

@@ -54,6 +54,23 @@ def test_keep_removes_springs_and_cells():
     assert not np.any(m.kind == WEFT) and len(m.cells) == 0
 
 
+def test_a_cell_is_kept_exactly_when_its_four_thread_edges_are():
+    """Random springs cut from a lattice with a hole: the cells kept are those whose four weft and
+    warp edges (either way round) are still springs, whatever the diagonals."""
+    ij = rect(9, 11)
+    ij = ij[~((ij[:, 0] == 4) & (ij[:, 1] == 5))]
+    rng = np.random.default_rng(3)
+    for share in (0.0, 0.05, 0.3, 1.0):
+        cut = rng.random(10_000) < share
+        m = build_mesh(ij, 1, 1, MATERIALS["woven"], keep=lambda ends, kind: ~cut[:len(ends)])
+        full = build_mesh(ij, 1, 1, MATERIALS["woven"])
+        pairs = {frozenset(e) for e, k in zip(m.ends.tolist(), m.kind) if k != DIAG}
+        want = [c for c in full.cells.tolist()
+                if all(frozenset((c[s], c[t])) in pairs for s, t in ((0, 1), (1, 2), (3, 2), (0, 3)))]
+        assert m.cells.tolist() == want
+        assert (share == 0.0) == (len(want) == len(full.cells)) and (share < 1.0) == (len(want) > 0)
+
+
 @pytest.mark.parametrize("text, ratio", [("woven", "500:500:1"), ("Isotropic", "100:100:50"),
                                          ("paper-isotropic", "100:100:100"),
                                          ("10:20:3", "10:20:3")])

@@ -145,3 +145,37 @@ def test_a_mesh_shredded_by_crossing_darts_still_gives_a_finite_pattern(tmp_path
 def test_an_ordinary_pattern_leaves_nothing_out():
     r = flatten(load_example("octant"), FlattenSettings(spacing=0.1))
     assert r.pattern.unmapped == 0 and r.metrics["unmapped_points"] == 0
+
+
+def test_the_sheet_veto_is_its_norm_formula_bitwise():
+    """``_same_sheet``'s veto works coordinate by coordinate; it must keep exactly the (point,
+    candidate) pairs of its formula with np.linalg.norm (the anchor: the candidate nearest in scaled
+    (u, v); a candidate counts while its lattice distance from the anchor is at most 2 d / spacing + 1),
+    on a closed tube (candidates from both sides of the seam are vetoed) and an open piece."""
+    from scipy.spatial import cKDTree
+
+    from core.pattern import _same_sheet
+    from tests import test_hard_surfaces as hard_surfaces
+
+    rng = np.random.default_rng(2)
+    u, v = rng.normal(size=(2, 200_000))
+    assert np.array_equal(np.sqrt(u * u + v * v), np.linalg.norm(np.column_stack([u, v]), axis=1))
+    w = rng.normal(size=200_000)
+    assert np.array_equal(np.sqrt(u * u + v * v + w * w), np.linalg.norm(np.column_stack([u, v, w]), axis=1))
+    tube = hard_surfaces.tube()
+    vetoed = 0
+    for s, spacing in ((tube, 0.08), (load_example("saddle"), 0.1)):
+        r = flatten(s, FlattenSettings(spacing))
+        mesh, xyz, uv = r.mesh, r.xyz, r.uv
+        buv, Q = boundary_samples(s, spacing)
+        nn = cKDTree(xyz).query(Q, k=28)[1]
+        rows = np.repeat(np.arange(len(Q))[:, None], 28, axis=1)
+        size = s.domain[:, 1] - s.domain[:, 0]
+        duv = np.linalg.norm((uv[nn] - buv[rows]) / size, axis=2)
+        anchor = nn[np.arange(len(nn)), np.argmin(duv, axis=1)][:, None]
+        steps = np.abs(mesh.ij[nn] - mesh.ij[anchor]).max(axis=2)
+        ref = steps <= 2.0 * np.linalg.norm(xyz[nn] - xyz[anchor], axis=2) / spacing + 1
+        got = _same_sheet(s, mesh, xyz, uv, buv, spacing)(rows, nn)
+        assert np.array_equal(got, ref)
+        vetoed += int((~ref).sum())
+    assert vetoed > 0

@@ -263,3 +263,125 @@ def test_snapshot_strain_is_the_meshes_strain():
         assert np.array_equal(snap.strain, spring_strain(snap.xyz, snap.mesh))
         changed += snap.population_changed
     assert changed >= 2  # nodes left and came back
+
+
+def _round_meshes():
+    """Meshes a round is made of: solved pieces with a plane or curve dart (springs cut, cells dropped)."""
+    for name, dart in (("octant", DART), ("garment", CURVE), ("saddle", DART)):
+        s, settings = _settings(name, 500)
+        yield name, flatten(s, dataclasses.replace(settings, darts=(dart,))).mesh
+
+
+def test_the_newton_pattern_is_scipys_block_conversion():
+    """``_Normal``'s CSC pattern and its gathers (``src_take`` from assemble_exact's node and spring
+    blocks, ``csc_take`` from the block data, the upper triangle) are bitwise what scipy's bsr -> csc
+    conversion and triu make of the block-CSR data the assembly formed before (lexsorted pattern)."""
+    rng = np.random.default_rng(5)
+    for name, mesh in _round_meshes():
+        energy = Energy(load_example(name), mesh)
+        for fixed in (None, 0, mesh.n_nodes // 2):
+            normal = solver._Normal(energy, fixed)
+            nb, a, b, both = normal.nb, normal.a, normal.b, normal.both
+            rows = np.concatenate([np.arange(nb), a[both], b[both]])
+            cols = np.concatenate([np.arange(nb), b[both], a[both]])
+            perm = np.lexsort((cols, rows))
+            assert np.array_equal(normal.indices, cols[perm])
+            assert np.array_equal(normal.indptr, np.searchsorted(rows[perm], np.arange(nb + 1)))
+            src = rng.random(4 * (nb + mesh.n_springs))
+            diag, cross = src[:4 * nb].reshape(-1, 2, 2), src[4 * nb:].reshape(-1, 2, 2)
+            data = np.empty((normal.nnzb, 2, 2))
+            data[normal.pos_diag] = diag
+            data[normal.pos_ab] = cross[both]
+            data[normal.pos_ba] = cross[both].transpose(0, 2, 1)
+            ref = sp.bsr_matrix((data, normal.indices, normal.indptr), shape=(normal.nvar, normal.nvar)).tocsc()
+            A = sp.csc_matrix((src[normal.src_take], normal.csc_indices, normal.csc_indptr), shape=ref.shape)
+            assert np.array_equal(A.indptr, ref.indptr) and np.array_equal(A.indices, ref.indices)
+            assert np.array_equal(A.data, ref.data) and np.array_equal(data.reshape(-1)[normal.csc_take], ref.data)
+            assert A.indices.dtype == ref.indices.dtype and A.indptr.dtype == ref.indptr.dtype
+            U, up = normal.upper(A), sp.triu(ref, format="csc")
+            assert np.array_equal(U.indptr, up.indptr) and np.array_equal(U.indices, up.indices)
+            assert np.array_equal(U.data, up.data)
+
+
+def test_round_topology_finds_each_cells_edges_and_each_diagonals_corners():
+    """``_round_topology`` (lattice lookups) against a search of the springs by their sorted ends, on
+    meshes with cut springs, and with every spring's ends swapped."""
+    from core.mesh import DIAG, lattice_index
+
+    for _, mesh in _round_meshes():
+        for m in (mesh, dataclasses.replace(mesh, ends=mesh.ends[:, ::-1].copy())):
+            corners, edges = solver._round_topology(m)
+            n = m.n_nodes
+            e = np.sort(m.ends, axis=1)
+            keys = e[:, 0] * n + e[:, 1]
+            for c, (s, t) in enumerate(((0, 1), (1, 2), (3, 2), (0, 3))):
+                lo = np.minimum(m.cells[:, s], m.cells[:, t])
+                hi = np.maximum(m.cells[:, s], m.cells[:, t])
+                assert np.array_equal(keys[edges[:, c]], lo * n + hi)
+            grid, off = lattice_index(m.ij)
+            diag = m.kind == DIAG
+            pa, pb = m.ij[m.ends[:, 0]] - off, m.ij[m.ends[:, 1]] - off
+            assert np.array_equal(corners[diag, 0], grid[pa[diag, 0], pb[diag, 1]])
+            assert np.array_equal(corners[diag, 1], grid[pb[diag, 0], pa[diag, 1]])
+            assert (corners[~diag] == -1).all() and (corners[diag] >= -1).all() and diag.any()
+
+
+def test_a_refill_tests_the_darts_on_the_points_it_has():
+    """The drape's refill hands the dart test the points it already has (the nodes', the Newton's)
+    instead of evaluating the surface again: every refill of a warm plane-dart and curve-dart
+    re-solve (nodes added, and none) gives bitwise the nodes the evaluating test gives."""
+    import core.pipeline as pipeline
+    from core.darts import DartSet
+
+    s, settings = _settings("octant", 700)
+    base = flatten(s, settings)
+    added = []
+    for dart in (DART, CURVE):
+        with_dart = dataclasses.replace(settings, darts=(dart,))
+        calls = []
+        refill = pipeline.refill
+
+        def recorded(*a, **k):
+            calls.append((a, k))
+            return refill(*a, **k)
+
+        pipeline.refill = recorded
+        try:
+            flatten(s, with_dart, initial=base.state())
+        finally:
+            pipeline.refill = refill
+        darts = DartSet(s, with_dart.darts)
+        tested = [0]
+
+        def checked(ua, ub, xa, xb):  # the points handed over are the surface's, bit for bit
+            assert np.array_equal(xa, s.points(ua)) and np.array_equal(xb, s.points(ub))
+            tested[0] += len(ua)
+            return darts.crossing(ua, ub, xa, xb)
+
+        for a, k in calls:
+            ij, uv = refill(*a, **k)
+            ij0, uv0 = refill(*a, **{**k, "separated": lambda ua, ub, xa, xb: darts.crossing(ua, ub)})
+            ij1, uv1 = refill(*a, **{**k, "separated": checked})
+            assert np.array_equal(ij, ij0) and np.array_equal(uv, uv0)
+            assert np.array_equal(ij, ij1) and np.array_equal(uv, uv1)
+            added.append(len(ij))
+        assert tested[0] > 0
+    assert max(added) > 0 and min(added) == 0
+
+
+def test_gathered_rows_are_the_fancy_indexed_ones():
+    """``_Gathered`` takes the springs' rows with np.take: the same arrays, bit for bit, as indexing."""
+    from core.geom import rowdot
+
+    s, settings = _settings("saddle", 500)
+    d = drape(s, settings.drape_settings(), settings.material)
+    ev = s.evaluate(d.uv + 1e-3 * np.cos(5 * d.uv), second=False, normals=False)
+    a, b = d.mesh.ends[:, 0], d.mesh.ends[:, 1]
+    g = solver._Gathered(ev.xyz, ev.su, ev.sv, a, b)
+    dd = ev.xyz[a] - ev.xyz[b]
+    length = np.sqrt(rowdot(dd, dd))
+    t = dd / np.maximum(length, 1e-300)[:, None]
+    Q = np.column_stack([rowdot(t, ev.su[a]), rowdot(t, ev.sv[a]), -rowdot(t, ev.su[b]), -rowdot(t, ev.sv[b])])
+    for got, want in ((g.d, dd), (g.length, length), (g.sua, ev.su[a]), (g.sva, ev.sv[a]), (g.sub, ev.su[b]),
+                      (g.svb, ev.sv[b]), (g.Q, Q)):
+        assert np.array_equal(got, want)
