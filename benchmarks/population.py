@@ -24,6 +24,14 @@ tried and dropped, a refilled node deleted again is never refilled), alternating
 on CASES (``surface:material:nodes,...``): seconds, iterations, nodes, EN, the
 boundary and area errors and the uncovered share.
 
+``--trees OLD,NEW`` runs ``core.pipeline.flatten`` in each tree (a checkout of
+the code before and after a change; this script runs there with ``--root``, one
+process per tree and repeat, alternating) on ``--cases`` (``surface:material:
+nodes[:dart]``; ``dart``: the curve dart of tests/test_solver_speed.py):
+median seconds, iterations, the rejected Levenberg-Marquardt steps (iterations
+whose energy is the one before), factorisations, nodes, EN, the boundary and
+area errors and the uncovered share.
+
 Timings depend on the load (2 cores, other work running): the one-minute load
 average is printed before and after.
 """
@@ -41,7 +49,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+if "--root" in sys.argv:  # measure another tree (an old one, for --trees) with this script
+    sys.path.insert(0, sys.argv[sys.argv.index("--root") + 1])
+else:
+    sys.path.insert(0, str(ROOT))
 
 import core.solver as solver  # noqa: E402
 from core.drape import drape  # noqa: E402
@@ -217,6 +228,75 @@ HEAD_CMP = ["case", "rule", "file to pattern s (median)", "iterations", "nodes",
             "area error %", "uncovered %", "refilled"]
 
 
+CURVE = ((1.0, 0.5), (0.75, 0.52), (0.45, 0.5))  # tests/test_solver_speed.py's CURVE
+
+
+def measure(cases: str) -> list[dict]:
+    """Each case solved once in this process's tree (``--root``): one dict per case."""
+    import json
+
+    from core.darts import CurveDart
+
+    count = [0]
+    factorise = solver._Round.factorise
+
+    def counted(*a, **k):
+        count[0] += 1
+        return factorise(*a, **k)
+
+    solver._Round.factorise = counted
+    out = []
+    for case in cases.split(","):
+        name, material, nodes, *dart = case.split(":")
+        s = load_example(name)
+        st = FlattenSettings(float(np.sqrt(region_area(s) / int(nodes))), material=MATERIALS[material],
+                             darts=(CurveDart(np.array(CURVE), name="curve dart"),) if dart else ())
+        count[0] = 0
+        t0 = time.perf_counter()
+        r = flatten(s, st)
+        secs = time.perf_counter() - t0
+        h = np.asarray(r.history)
+        m = r.metrics
+        out.append({"case": case, "seconds": secs, "iterations": m["iterations"],
+                    "rejected": int((np.diff(h) == 0).sum()) if len(h) > 1 else 0, "factorisations": count[0],
+                    "nodes": m["nodes"], "energy": m["energy"], "boundary": m["boundary_error_pct"],
+                    "area": m["area_error_pct"], "uncovered": m["uncovered_pct"], "status": m["solver_status"]})
+        print(json.dumps(out[-1]), flush=True)
+    return out
+
+
+HEAD_TREES = ["case", "tree", "s (median)", "iterations", "rejected", "factorisations", "nodes", "EN",
+              "boundary error %", "area error %", "uncovered %"]
+
+
+def trees(paths: str, cases: str, repeat: int) -> str:
+    """Each case in each tree, alternating, ``repeat`` times (a process per tree and run)."""
+    import json
+    import subprocess
+
+    names = paths.split(",")
+    rows = []
+    for case in cases.split(","):
+        got = {p: [] for p in names}
+        for _ in range(repeat):
+            for p in names:
+                done = subprocess.run([sys.executable, __file__, "--root", p, "--measure", case],
+                                      capture_output=True, text=True, check=True)
+                got[p].append(json.loads(done.stdout.strip().splitlines()[-1]))
+        for p, runs in got.items():
+            m = runs[0]
+            same = all({k: v for k, v in r.items() if k != "seconds"} == {k: v for k, v in m.items() if k != "seconds"}
+                       for r in runs)
+            name, material, nodes, *dart = case.split(":")
+            rows.append([f"{name}, {material}, ~{int(nodes):,}" + (", curve dart" if dart else ""),
+                         p if same else f"{p} (repeats differ: the first shown)",
+                         f"{np.median([r['seconds'] for r in runs]):.2f}", m["iterations"], m["rejected"],
+                         m["factorisations"], f"{m['nodes']:,}", f"{m['energy']:.6e}", f"{m['boundary']:.4f}",
+                         f"{m['area']:.4f}", f"{m['uncovered']:.3f}"])
+        print(table(HEAD_TREES, rows[-len(names):]), flush=True)
+    return table(HEAD_TREES, rows)
+
+
 def table(head, rows) -> str:
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
@@ -231,8 +311,24 @@ def main(argv=None) -> int:
     ap.add_argument("--compare", default=None, help="surface:material:nodes,...")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--rules", default="before,today", help="refill rules to compare: " + ",".join(RULES))
+    ap.add_argument("--trees", default=None, help="OLD,NEW: checkouts to compare on --cases")
+    ap.add_argument("--cases", default="octant:isotropic:10000", help="surface:material:nodes[:dart],...")
+    ap.add_argument("--root", default=None, help="the tree this process measures (set by --trees)")
+    ap.add_argument("--measure", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.measure:
+        measure(args.measure)
+        return 0
     load0 = os.getloadavg()[0]
+    if args.trees:
+        text = trees(args.trees, args.cases, args.repeat)
+        load1 = os.getloadavg()[0]
+        head = (f"# Trees {args.trees} ({_dt.date.today().isoformat()})\n\n"
+                f"`benchmarks/population.py --trees {args.trees} --cases {args.cases} --repeat {args.repeat}`; "
+                f"{platform.node()}, {os.cpu_count()} cores, load {load0:.2f} before, {load1:.2f} after; "
+                "alternating runs.\n\n")
+        Path(args.out).write_text(head + text + "\n")
+        return 0
     if args.compare:
         text = compare(args.compare, args.repeat, args.rules)
         load1 = os.getloadavg()[0]
