@@ -376,6 +376,12 @@ def _on_lattice(surface: NurbsSurface, settings: FlattenSettings, mesh: SpringMe
     return State(mesh, uv)
 
 
+def _carried(options: SolverOptions, stats: dict) -> SolverOptions:
+    """The solver's options for a level: a start carried from a coarser level (``stats``
+    has its ``levels``) never refills a position its solve emptied (``dead_after`` 1)."""
+    return replace(options, dead_after=1) if stats.get("levels") else options
+
+
 def _counted_from(gen, done: int):
     """``yield from gen`` (a solve), its snapshots' iterations counted on from ``done``
     (the iterations of the coarser levels before it: one count over a coarse-to-fine run)."""
@@ -421,7 +427,7 @@ def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, c
     if coarse.yarns:
         cproblem.yarns = resolve_yarns(coarse.yarns, state.mesh, surface.points(state.uv))
     done = sum(lv["iterations"] for lv in stats.get("levels", ()))
-    solve = yield from _counted_from(iterate(cproblem, state, coarse.solver_options()), done)
+    solve = yield from _counted_from(iterate(cproblem, state, _carried(coarse.solver_options(), stats)), done)
     if solve.nit == 0 and solve.status == 0:
         # the coarse drape was already at the minimum (a developable piece): so is this level's,
         # which a refined net only approaches
@@ -575,7 +581,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         problem.yarns = yarns
     solve = None
     if solver_entry(settings.solver).iterative:
-        solve = yield from _counted_from(iterate(problem, state, settings.solver_options()),
+        solve = yield from _counted_from(iterate(problem, state, _carried(settings.solver_options(), stats)),
                                          sum(lv["iterations"] for lv in stats.get("levels", ())))
         state = State(solve.mesh, solve.uv)
     xyz = surface.points(state.uv)

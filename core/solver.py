@@ -111,6 +111,12 @@ class SolverOptions:
         On (the default), a round's convergence also drops springs that
         came to cross a dart. Off: Newton in (u, v), the chart's exact
         Hessian and straight steps (the solver before 2026-12-02).
+    dead_after : a lattice position that has lost its node this many times is
+        never refilled. 2 from the drape, where the net slides and a position
+        emptied once is often needed again; 1 for a start carried from a
+        coarser level (:mod:`core.multilevel`), whose population is already
+        the piece's: a node that leaves it was carried a little beyond the
+        edge, and refilling it only starts another round that empties it again.
     """
 
     method: str = "fast"
@@ -122,6 +128,7 @@ class SolverOptions:
     delete: bool = True
     reuse: bool = True
     surface_newton: bool = True
+    dead_after: int = 2
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -130,6 +137,8 @@ class SolverOptions:
             raise SettingsError(f"tolerance must be a positive number, got {self.tol!r}")
         if not (isinstance(self.max_iter, int) and self.max_iter >= 0):
             raise SettingsError(f"max iterations must be a non-negative integer, got {self.max_iter!r}")
+        if not (isinstance(self.dead_after, int) and self.dead_after >= 1):
+            raise SettingsError(f"dead_after must be a positive integer, got {self.dead_after!r}")
 
 
 @dataclass(frozen=True)
@@ -228,10 +237,11 @@ class Problem:
 class _Population:
     """Deletion bookkeeping: how often each lattice position lost its node."""
 
-    def __init__(self):
+    def __init__(self, dead_after: int = 2):
         self.counts: dict[tuple[int, int], int] = {}
         self.deleted = 0
         self.added = 0
+        self.dead_after = dead_after
 
     def record(self, ij: np.ndarray) -> None:
         for key in map(tuple, ij.tolist()):
@@ -239,12 +249,12 @@ class _Population:
         self.deleted += len(ij)
 
     def all_dead(self, ij: np.ndarray) -> bool:
-        """True if every position ij (k, 2) was deleted twice or more (is never refilled)."""
-        return all(self.counts.get(key, 0) >= 2 for key in map(tuple, ij.tolist()))
+        """True if every position ij (k, 2) was deleted ``dead_after`` times or more (is never refilled)."""
+        return all(self.counts.get(key, 0) >= self.dead_after for key in map(tuple, ij.tolist()))
 
     def dead(self) -> np.ndarray:
-        """(k, 2) positions deleted twice or more: never refilled."""
-        dead = [k for k, c in self.counts.items() if c >= 2]
+        """(k, 2) positions deleted ``dead_after`` times or more: never refilled."""
+        dead = [k for k, c in self.counts.items() if c >= self.dead_after]
         return np.array(dead, dtype=np.int64).reshape(-1, 2)
 
 
@@ -714,7 +724,7 @@ class _Run:
         self.options = options
         self.mesh = state.mesh
         self.uv = np.array(state.uv, dtype=float)
-        self.pop = _Population()
+        self.pop = _Population(options.dead_after)
         self.nit = 0
         self.nfev = 0
         self.t0 = time.perf_counter()

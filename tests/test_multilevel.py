@@ -215,9 +215,10 @@ def test_a_trimmed_piece_with_a_hole_starts_coarse_and_reaches_the_same_result()
     assert coarse.metrics["coarse_levels"] == 1
     assert cover.contains(coarse.uv).all()  # no node in the hole or outside
     f, r = coarse.metrics, plain.metrics
-    # the same minimum, or a fuller population: the drape's path deletes a few edge nodes twice on the
-    # way (never refilled after), the coarse start does not; EN then counts their springs too
-    fuller = set(map(tuple, coarse.mesh.ij.tolist())) > set(map(tuple, plain.mesh.ij.tolist()))
+    # the same minimum, or a fuller population: the drape's path (44 iterations, 255 nodes deleted on
+    # the way, positions deleted twice never refilled) keeps fewer edge nodes than the coarse start
+    # (a handful more, the surface as covered); EN then counts their springs too
+    fuller = f["nodes"] > r["nodes"] and f["uncovered_pct"] <= r["uncovered_pct"]
     assert f["energy"] <= r["energy"] * (1 + 1e-3) or fuller
     assert abs(f["boundary_error_pct"] - r["boundary_error_pct"]) <= 0.02
     assert abs(f["area_error_pct"] - r["area_error_pct"]) <= 0.02
@@ -239,3 +240,19 @@ def test_one_iteration_count_and_energy_trace_over_the_levels():
     assert result.metrics["coarse_iterations"] < result.metrics["iterations"]
     assert list(result.history) == [sn.energy for sn in snaps]
     assert "history" not in result.drape_stats["levels"][0]  # the trace is the result's, once
+
+
+def test_a_carried_start_never_refills_a_position_its_solve_emptied():
+    from core.solver import SolverOptions, _Population
+    from core.errors import SettingsError
+    once, twice = _Population(1), _Population(2)
+    for pop in (once, twice):
+        pop.record(np.array([[3, -4]]))
+    assert once.dead().tolist() == [[3, -4]] and once.all_dead(np.array([[3, -4]]))
+    assert twice.dead().shape == (0, 2) and not twice.all_dead(np.array([[3, -4]]))
+    with pytest.raises(SettingsError, match="dead_after"):
+        SolverOptions(dead_after=0)
+    # the pipeline asks it of every level carried from a coarser one, and only of those
+    from core.pipeline import _carried
+    opts = SolverOptions()
+    assert _carried(opts, {"levels": [{}]}).dead_after == 1 and _carried(opts, {}).dead_after == 2
