@@ -72,6 +72,7 @@ class Runner(QObject):
         self.frame_seconds: list[float] = []  # GUI time on each delivered frame, its repaint included
         self._next_frame = 0.0  # no live frame before this (perf_counter seconds)
         self._drawing = False  # a frame was handed out and its repaint has not been done yet
+        self._live_shown = False  # the run in flight has shown a live frame of its solve (not the drape's)
         # the frame being drawn: (pump's start, its thread, GUI seconds in its slots); the paint's start
         self._drawing_for: tuple[float, SolveThread, float] | None = None
         self._paint_start: float | None = None
@@ -192,6 +193,7 @@ class Runner(QObject):
         self._seen = 0
         self._drawn()  # a frame of an earlier run still waiting for its repaint paces nothing of this one
         self._next_frame = 0.0  # a new run's first frame goes out at once
+        self._live_shown = False  # and so does its solve's first live frame, after the drape's
         self._outcome = None
         self._error = None
         self.runs_started += 1
@@ -210,9 +212,13 @@ class Runner(QObject):
         seq, frame = t.take_frame(self._seen)
         if frame is None:
             return
+        first_live = not frame.draping and not frame.final and not self._live_shown
         if not final and not frame.draping and not t.pause_requested \
-                and (t0 < self._next_frame or self._drawing):
-            return  # the frames' share of the run is spent for now (the newest frame waits in its slot)
+                and ((t0 < self._next_frame and not first_live) or self._drawing):
+            # the frames' share of the run is spent for now (the newest frame waits in its slot); the solve's
+            # first frame waits only for a drape frame being drawn (the drape's frames pace the drape's)
+            return
+        self._live_shown = self._live_shown or first_live
         self._seen = seq
         t.frames_from = math.inf  # no live frame is wanted while this one is drawn
         if self._drawing:

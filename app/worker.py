@@ -264,10 +264,11 @@ class SolveThread(QThread):
                 self.history.append((snap.iteration, snap.energy, snap.population_changed))
                 now = time.perf_counter()
                 step = now - t_next
-                if now + step < self.frames_from or self._live_seq > self._taken_seq:
+                if self.frames_made and (now + step < self.frames_from or self._live_seq > self._taken_seq):
                     # the GUI would not take its frame before the next snapshot's, or has not taken the last one
                     # yet (the run's first: it was busy repainting for the edit; a newer frame made meanwhile cost
-                    # the solve 7-30 ms and was never drawn)
+                    # the solve 7-30 ms and was never drawn). The first is made at once: the drape's frames'
+                    # share paces the drape's, not the solve's first
                     self._unframed = snap
                     continue
                 self._unframed = None
