@@ -28,6 +28,13 @@ __all__ = ["Presenter", "surface_grid", "piece_grid", "history_rows", "fit_summa
 
 GRID_POINTS = 60
 CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
+KEEP_PATTERN_FOR_LIVE_FRAMES = True
+"""A live frame without a pattern leaves the pattern view as it is when that shows a pattern (the
+last result's, or an earlier frame's): it changes when the run has a pattern of its own. The first
+frame of a re-solve has none (``app.worker.FIRST_PATTERN_AT_ONCE``), and drawing its mesh in the pattern
+view (the grain label placed anew, a second view repainted) was about a third of the GUI's time on it
+(docs/decisions.md, "Live frames within a tenth of the run"). A paused run's frame and a dragged
+point's previews go to both views as before (the designer is looking at that state)."""
 
 
 def surface_grid(surface: NurbsSurface, n: int = GRID_POINTS):
@@ -105,6 +112,7 @@ class Presenter:
         self.hover_label, self.name_label, self.info_label = hover, name, info
         self.view_options = ViewOptions()
         self.frame = None  # the frame on screen
+        self.pattern_frame = None  # the frame the pattern view shows (it may be older than ``frame``)
         self.first_nodes: int | None = None  # nodes of the run's first frame after the drape
         self.surface_info = ""  # the surface's description (the status bar's, with no result)
         self._curve_cache: dict = {}
@@ -172,7 +180,7 @@ class Presenter:
         self._fit_drawn = None  # a new surface drops the old one's mesh
         self.show_fit_mesh(surface)
         self.pattern_view.clear_frame()
-        self.frame = None
+        self.frame = self.pattern_frame = None
         kind = "rational" if surface.rational else "polynomial"
         (nu, nv), p, q = surface.shape, surface.degree_u, surface.degree_v
         self.surface_info = f"{kind}, degree {p}x{q}, {nu}x{nv} control points"
@@ -267,7 +275,7 @@ class Presenter:
         w = self.window
         r = project.result
         if r is None or r.surface is not project.surface:
-            self.frame = None
+            self.frame = self.pattern_frame = None
             self.view.clear_frame()
             self.pattern_view.clear_frame()
             self.view.render()
@@ -287,7 +295,14 @@ class Presenter:
         opts = self.view_options
         # Both views repaint in one paint pass: cheaper than a pass each (docs/decisions.md, App).
         self.view.show_frame(frame, opts)
-        self.pattern_view.show_frame(frame, opts)
+        shown = self.pattern_frame
+        runs = getattr(w, "runs", None)
+        # a paused run shows its state, and a dragged point's preview its cut, in both views
+        if not (KEEP_PATTERN_FOR_LIVE_FRAMES and frame.pattern is None and not frame.final and not frame.draping
+                and shown is not None and shown.pattern is not None and not w.runner.paused
+                and not (runs is not None and runs.previewing)):
+            self.pattern_view.show_frame(frame, opts)
+            self.pattern_frame = frame
         project = w.project
         if project is not None and project.settings.yarns:
             self.show_yarns(project, frame)

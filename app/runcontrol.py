@@ -118,6 +118,7 @@ class RunControl:
         self.previews_adopted = 0  # previews that answered the edit made at the release
         r = self.runner
         r.frame.connect(window.presenter.draw_frame)
+        r.watch_paints([window.view.widget, window.pattern_view.widget])  # a frame's repaint is its cost too
         r.frame.connect(self._preview_frame)
         r.started.connect(self._started)
         r.finished.connect(self._finished)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import time
 
-from PySide6.QtCore import QObject, QTimer, Signal
+from PySide6.QtCore import QCoreApplication, QEvent, QObject, QTimer, Signal
 
 from core.project import Project
 from core.solver import State
@@ -23,15 +23,25 @@ __all__ = ["Runner"]
 
 FRAME_INTERVAL_MS = 30
 """The frame pump's period: at most about 33 frames a second reach the views."""
-FRAME_SHARE = 0.03
+FRAME_SHARE = 0.06
 """At most about this share of a run goes into drawing its live frames: after a
 frame that took the GUI c seconds (its slots and the repaint they asked for),
-the next waits c (1 / FRAME_SHARE - 1). With software OpenGL on a loaded
-2-core machine a frame can take 0.1 s, and drawing every one made the run 40 %
-longer (docs/decisions.md, "Window latency, session 7"); 0.06 let a 0.4 s dart
-re-solve draw 3 live frames and cost it a fifth (session 9). None: every pump period.
-The drape's frames are paced by the drape itself (``app.worker.DRAPE_FRAME_INTERVAL``),
-and a paused run shows its newest state at once."""
+the next waits c (1 / FRAME_SHARE - 1); with ``app.worker.PATTERN_SHARE`` for
+the live patterns, a tenth of the run. With software OpenGL on a loaded 2-core
+machine a frame can take 0.1 s, and drawing every one made the run 40 % longer
+(docs/decisions.md, "Window latency, session 7"). The repaint is most of a frame's
+cost (a 2,500-node frame: 20-30 ms in its slots, 40-80 ms repainting both views);
+counting only the slots, as sessions 7 to 9 did, spent three to four times the
+share (docs/decisions.md, "Live frames within a tenth of the run"). None: every
+pump period. The run's first live frame goes out at once (a re-solve's answer
+starts there); the drape's frames are paced by the drape itself
+(``app.worker.DRAPE_FRAME_INTERVAL``), and a paused run shows its newest state at once."""
+PAINT_WAIT_MS = 250
+"""How long a frame's drawing waits for the repaint of the watched views (``Runner.watch_paints``)
+before it counts as drawn without one (a hidden or minimised window paints nothing)."""
+
+
+_PAINTED = QEvent.Type(QEvent.registerEventType())  # posted to the runner when the views have repainted
 
 
 class Runner(QObject):
@@ -62,6 +72,13 @@ class Runner(QObject):
         self.frame_seconds: list[float] = []  # GUI time on each delivered frame, its repaint included
         self._next_frame = 0.0  # no live frame before this (perf_counter seconds)
         self._drawing = False  # a frame was handed out and its repaint has not been done yet
+        self._live_shown = False  # the run in flight has shown a live frame of its solve (not the drape's)
+        # the frame being drawn: (pump's start, its thread, GUI seconds in its slots); the paint's start
+        self._drawing_for: tuple[float, SolveThread, float] | None = None
+        self._paint_start: float | None = None
+        self._watched: list = []  # the views' widgets, whose repaint ends a frame's drawing
+        self._paint_wait = QTimer(self, singleShot=True, interval=PAINT_WAIT_MS)
+        self._paint_wait.timeout.connect(self._drawn)
         self.runs_started = 0
         self.last_history: list = []  # the history of the last run that ended
         self.last_pattern_seconds = 0.0  # its solve thread's time in live patterns (for the benchmark)
@@ -105,6 +122,11 @@ class Runner(QObject):
     @property
     def stage(self) -> str:
         return self.thread.stage if self.thread is not None else "idle"
+
+    def watch_paints(self, widgets) -> None:
+        """A frame counts as drawn when these widgets (the views) have repainted for it, and its cost
+        is the GUI's time in its slots and in that repaint. Without them the frame's slots alone count."""
+        self._watched = list(widgets)
 
     # ------------------------------------------------------------------ commands
     def start(self, project: Project, initial: State | None = None) -> None:
@@ -169,7 +191,9 @@ class Runner(QObject):
         t.finished.connect(self._on_thread_finished)
         self.thread = t
         self._seen = 0
+        self._drawn()  # a frame of an earlier run still waiting for its repaint paces nothing of this one
         self._next_frame = 0.0  # a new run's first frame goes out at once
+        self._live_shown = False  # and so does its solve's first live frame, after the drape's
         self._outcome = None
         self._error = None
         self.runs_started += 1
@@ -188,22 +212,63 @@ class Runner(QObject):
         seq, frame = t.take_frame(self._seen)
         if frame is None:
             return
+        first_live = not frame.draping and not frame.final and not self._live_shown
         if not final and not frame.draping and not t.pause_requested \
-                and (t0 < self._next_frame or self._drawing):
-            return  # the frames' share of the run is spent for now (the newest frame waits in its slot)
+                and ((t0 < self._next_frame and not first_live) or self._drawing):
+            # the frames' share of the run is spent for now (the newest frame waits in its slot); the solve's
+            # first frame waits only for a drape frame being drawn (the drape's frames pace the drape's)
+            return
+        self._live_shown = self._live_shown or first_live
         self._seen = seq
         t.frames_from = math.inf  # no live frame is wanted while this one is drawn
+        if self._drawing:
+            self._drawn()  # the last frame's repaint has not come (it paints with this one's)
         self.frame.emit(frame)
         self.frames_shown += 1
         self._drawing = True
-        # the views repaint when the event loop next runs: a zero timer fires after that repaint
-        QTimer.singleShot(0, lambda: self._drawn(t0, t))
+        self._drawing_for = (t0, t, time.perf_counter() - t0)
+        self._paint_start = None
+        watched = [w for w in self._watched if w.isVisible()]
+        if not watched:
+            QTimer.singleShot(0, self._drawn)
+            return
+        # the views repaint when the event loop next runs, after zero timers (Qt asks for a window's
+        # update on a timer of its own): the frame is drawn when its repaint has been done
+        for w in watched:
+            w.installEventFilter(self)
+        self._paint_wait.start()
 
-    def _drawn(self, t0: float, t: SolveThread) -> None:
-        now = time.perf_counter()
-        cost = now - t0
-        self.frame_seconds.append(cost)
+    def eventFilter(self, obj, event) -> bool:
+        if event.type() == QEvent.Type.Paint and self._drawing_for is not None and self._paint_start is None:
+            self._paint_start = time.perf_counter()
+            # delivered once the paint pass (both views) is over and the event loop runs again
+            QCoreApplication.postEvent(self, QEvent(_PAINTED))
+        return False
+
+    def event(self, event) -> bool:
+        if event.type() == _PAINTED:
+            if self._paint_start is not None:  # else an earlier frame's, ended already
+                self._drawn()
+            return True
+        return super().event(event)
+
+    def _drawn(self) -> None:
+        """The frame handed out is drawn (its repaint done, or not coming): the next may go after its share."""
+        self._paint_wait.stop()
+        for w in self._watched:
+            w.removeEventFilter(self)
+        drawing, self._drawing_for = self._drawing_for, None
         self._drawing = False
+        if drawing is None:
+            return
+        t0, t, slots = drawing
+        now = time.perf_counter()
+        # the GUI's time on the frame: its slots, and the repaint (not the idle wait between them)
+        cost = slots + (now - self._paint_start if self._paint_start is not None else 0.0)
+        self._paint_start = None
+        self.frame_seconds.append(cost)
+        if t is not self.thread:
+            return  # a frame of a run that has ended paces nothing
         self._next_frame = now + (0.0 if FRAME_SHARE is None else cost * (1 / FRAME_SHARE - 1))
         t.frames_from = self._next_frame  # the solve thread makes the next frame for then
 

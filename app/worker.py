@@ -58,9 +58,13 @@ PATTERN_SHARE = 0.04
 """At most about this share of a run goes into its live patterns (a pattern's
 cost sets the wait for the next one); with ``app.runner.FRAME_SHARE`` for
 drawing them, live frames stay within a tenth of the run."""
-FIRST_PATTERN_AT_ONCE = True
+FIRST_PATTERN_AT_ONCE = False
 """The solve's first snapshot gets a pattern (after its frame without one is
-published): the opening of a new dart shows as soon as the solve moves."""
+published). Off: a live pattern is made only for a frame the GUI takes, and the
+GUI takes the first frame at once, before a pattern could be ready, and the
+next one only when the frames' share allows (app.runner.FRAME_SHARE): in a
+short re-solve that is never, so the first pattern cost the run 20-90 ms and
+was seldom drawn (docs/decisions.md, "Live frames within a tenth of the run")."""
 
 
 def one_line(exc: BaseException) -> str:
@@ -131,6 +135,8 @@ class SolveThread(QThread):
         self._lock = threading.Lock()
         self._frame: Frame | None = None
         self._frame_seq = 0
+        self._taken_seq = 0  # the newest frame the GUI has taken
+        self._live_seq = 0  # the newest live frame published
         self.history: list[tuple[int, float, bool]] = []  # (iteration, energy, population changed)
         self.stage = "starting"
         self.pattern_seconds = 0.0
@@ -183,13 +189,16 @@ class SolveThread(QThread):
         with self._lock:
             if self._frame_seq == seen:
                 return seen, None
+            self._taken_seq = self._frame_seq
             return self._frame_seq, self._frame
 
     # ------------------------------------------------------------------ the thread
-    def _publish(self, frame: Frame) -> None:
+    def _publish(self, frame: Frame, live: bool = False) -> None:
         with self._lock:
             self._frame = frame
             self._frame_seq += 1
+            if live:
+                self._live_seq = self._frame_seq
 
     def run(self) -> None:
         _lower_priority()
@@ -255,15 +264,19 @@ class SolveThread(QThread):
                 self.history.append((snap.iteration, snap.energy, snap.population_changed))
                 now = time.perf_counter()
                 step = now - t_next
-                new_pattern = now >= next_pattern
-                if not new_pattern and now + step < self.frames_from:
-                    self._unframed = snap  # the GUI would not take its frame before the next snapshot's
+                if self.frames_made and (now + step < self.frames_from or self._live_seq > self._taken_seq):
+                    # the GUI would not take its frame before the next snapshot's, or has not taken the last one
+                    # yet (the run's first: it was busy repainting for the edit; a newer frame made meanwhile cost
+                    # the solve 7-30 ms and was never drawn). The first is made at once: the drape's frames'
+                    # share paces the drape's, not the solve's first
+                    self._unframed = snap
                     continue
                 self._unframed = None
+                first = self.frames_made == 0
                 frame = self._live_frame(maker, snap)
-                if new_pattern:
-                    # the frame goes out first (the views need not wait for its pattern), then again with it
-                    self._publish(frame)
+                if now >= next_pattern:
+                    if first:  # the run's first frame goes out at once (the views need not wait for its pattern)
+                        self._publish(frame, live=True)
                     t_pattern = time.perf_counter()
                     pattern = maker.pattern(snap.mesh, snap.uv, snap.xyz)
                     pattern_stats = maker.pattern_stats(pattern)
@@ -272,7 +285,7 @@ class SolveThread(QThread):
                     next_pattern = t_pattern + max(PATTERN_INTERVAL, cost * (1 / PATTERN_SHARE - 1))
                 if pattern is not None:  # the newest pattern rides on later frames (the GUI may skip frames)
                     frame = replace(frame, pattern=pattern, stats={**frame.stats, **pattern_stats})
-                self._publish(frame)
+                self._publish(frame, live=True)
         finally:
             gen.close()
         if self._abandon.is_set():

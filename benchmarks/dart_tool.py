@@ -10,27 +10,32 @@ designer does, and measures:
 
 * click ms: the GUI's work for one click (viewing ray onto the surface, biarc
   preview; the median of the clicks);
-* Enter to first frame: until the warm-started re-solve shows its first live
-  frame (includes the window's 250 ms edit-coalescing delay);
+* Enter to first frame: until the warm-started re-solve hands its first live
+  frame to the views;
 * Enter to result: until the re-solve's result is in the document;
 * iterations, frames shown, longest event-loop gap (10 ms timer) during the re-solve.
 
 * Enter to the first pattern with the dart's opening (the V in the pattern view);
 * the share of the run in live frames: the solve thread's live patterns plus
-  the GUI's time drawing frames, over Enter to result.
+  the GUI's time drawing frames (their slots and repaints, as the runner counts
+  them), over Enter to result.
 
 Each repeat undoes the dart first (undo restores the earlier result without a
 solve), so every row answers the same edit. The window's behaviour is set per
-row (variants, run alternately, medians at the end): "before" is session 6's
-window (edits re-run after a 250 ms delay, the first live pattern 0.25 s into
-the run, live patterns up to a seventh of it, every frame drawn), "after" is
-this one's (an edit with no run in flight re-runs at once, the first snapshot
-gets a pattern, live patterns up to 4 % and drawing up to 6 % of the run),
-each with the solve thread at the app's lower OS priority
-(``app.worker.SOLVE_NICENESS``) or at normal priority; "no live frames" makes
-and draws no live frame and no live pattern, only the result (what the frames
-cost). A result is waited for on ``run_finished`` (no timer of the benchmark's
-wakes the GUI thread then but the 10 ms tick that measures its gaps). Then a drag of the dart's middle point
+row (variants, run alternately, medians at the end): "after" is the window as it
+is (``DEFAULTS``: the app's own settings), with the solve thread at the app's
+lower OS priority (``app.worker.SOLVE_NICENESS``, "nice 5") or at normal
+priority; "no live frames" makes and draws no live frame and no live pattern,
+only the result (what the frames cost: the line under the medians gives 1 - the
+median without them / the median with them, the README's row); "live frames
+in both views" draws a live frame without a pattern in the pattern view too
+(``app.presenter.KEEP_PATTERN_FOR_LIVE_FRAMES`` off), and "no live frames, pump
+on" keeps the runner's 30 ms pump running with nothing to draw. "before" is
+session 6's settings on today's code (edits re-run after a 250 ms delay, live
+patterns up to a seventh of the run, every frame drawn); to compare with an
+older window, run that tree's own copy of this script. A result is waited for
+on ``run_finished`` (no timer of the benchmark's wakes the GUI thread then but
+the 10 ms tick that measures its gaps). Then a drag of the dart's middle point
 across four positions: from each move to the first frame of that position's
 preview, and from the release to the result in the document. Not a test:
 numbers depend on the machine (software OpenGL under Xvfb here) and its load
@@ -61,7 +66,7 @@ from PySide6.QtCore import QEventLoop, QPoint, Qt, QTimer  # noqa: E402
 from PySide6.QtTest import QTest  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app import runcontrol, runner, worker as solve_worker  # noqa: E402
+from app import presenter, runcontrol, runner, worker as solve_worker  # noqa: E402
 from app.mainwindow import MainWindow  # noqa: E402
 from core.examples import example_path, load_example  # noqa: E402
 from core.project import new_project  # noqa: E402
@@ -115,26 +120,36 @@ def wait(app, condition, timeout=600.0, signal=None):
         waker.stop()
 
 
+DEFAULTS = {"rerun_at_once": runcontrol.RERUN_AT_ONCE, "first_pattern": solve_worker.FIRST_PATTERN_AT_ONCE,
+            "pattern_share": solve_worker.PATTERN_SHARE, "frame_share": runner.FRAME_SHARE,
+            "keep_pattern": presenter.KEEP_PATTERN_FOR_LIVE_FRAMES}
+"""The app's own settings: the "after" variants run the window as it is."""
 VARIANTS = {
-    # name: (re-run at once, first pattern at once, pattern share, drawing share, nice, live frames)
-    "before (nice 5)": (False, False, 1 / 7, None, True, True),
-    "after (nice 5)": (True, True, 0.04, 0.06, True, True),
-    "after (normal priority)": (True, True, 0.04, 0.06, False, True),
-    "after (no live frames)": (True, True, 0.04, 0.06, True, False),
+    # name: what differs from the app's settings (DEFAULTS), the solve thread's nice value and live frames
+    "before (nice 5)": {"rerun_at_once": False, "first_pattern": False, "pattern_share": 1 / 7, "frame_share": None},
+    "after (nice 5)": {},
+    "after (normal priority)": {"nice": False},
+    "after (no live frames)": {"live": False},
+    "after (live frames in both views)": {"keep_pattern": False},
+    "after (no live frames, pump on)": {"live": False, "pump": True},
+    "after (normal priority, no live frames)": {"nice": False, "live": False},
 }
 
 
 def set_variant(win, name, lower_priority):
-    at_once, first, share, drawing, nice, live = VARIANTS[name]
-    runcontrol.RERUN_AT_ONCE = at_once
-    runner.FRAME_SHARE = drawing
-    solve_worker.FIRST_PATTERN_AT_ONCE = first and live
-    solve_worker.PATTERN_SHARE = share
+    v = {**DEFAULTS, "nice": True, "live": True, "pump": None, **VARIANTS[name]}
+    live = v["live"]
+    runcontrol.RERUN_AT_ONCE = v["rerun_at_once"]
+    runner.FRAME_SHARE = v["frame_share"]
+    solve_worker.FIRST_PATTERN_AT_ONCE = v["first_pattern"] and live
+    solve_worker.PATTERN_SHARE = v["pattern_share"]
+    presenter.KEEP_PATTERN_FOR_LIVE_FRAMES = v["keep_pattern"]
     solve_worker.PATTERN_INTERVAL = 0.25 if live else 1e9
     global LIVE
     LIVE = live
-    solve_worker._lower_priority = lower_priority if nice else (lambda *a: None)
-    win.runner._timer.setInterval(30 if live else 10 ** 8)  # the pump (the final frame is drawn at the end)
+    solve_worker._lower_priority = lower_priority if v["nice"] else (lambda *a: None)
+    pump = live if v["pump"] is None else v["pump"]
+    win.runner._timer.setInterval(30 if pump else 10 ** 8)  # the pump (the final frame is drawn at the end)
 
 
 LIVE = True
@@ -155,14 +170,15 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--spacing", type=float, default=0.025)
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--variants", default=",".join(VARIANTS))
+    ap.add_argument("--variants", default=";".join(VARIANTS),
+                    help="names from VARIANTS, separated by commas (or by semicolons when a name has a comma)")
     ap.add_argument("--out", type=Path)
     ap.add_argument("--poll", action="store_true", help="wait by polling the event loop (session 6's benchmark)")
     ap.add_argument("--no-drag", action="store_true")
     args = ap.parse_args()
     global POLL
     POLL = args.poll
-    variants = [v for v in args.variants.split(",") if v]
+    variants = [v.strip() for v in args.variants.split(";" if ";" in args.variants else ",") if v.strip()]
 
     app = QApplication.instance() or QApplication([])
     win = MainWindow()
@@ -257,8 +273,13 @@ def main() -> int:
     for name in variants:
         sel = [r for r in rows if r["variant"] == name]
         med = lambda k: float(np.nanmedian([r[k] for r in sel]))  # noqa: E731
-        lines.append(f"| {name} | {med('first_s'):.2f} | {med('vee_s'):.2f} | {med('total_s'):.2f} | "
+        lines.append(f"| {name} | {med('first_s'):.2f} | {med('vee_s'):.2f} | {med('total_s'):.3f} | "
                      f"{100 * med('frame_share'):.0f} % | {med('gap_ms'):.0f} |")
+    totals = {name: float(np.median([r["total_s"] for r in rows if r["variant"] == name])) for name in variants}
+    if "after (nice 5)" in totals and "after (no live frames)" in totals:
+        cost = 1 - totals["after (no live frames)"] / totals["after (nice 5)"]
+        lines += ["", f"Live frames' cost: {100 * cost:.1f} % of Enter to result (1 - the median without live "
+                  "frames / the median with them)."]
     if drags:
         lines += ["", "Dragging the dart's middle point (the \"after (nice 5)\" window), four positions a drag, "
                   f"{args.repeat} drags:", "",

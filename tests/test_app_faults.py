@@ -70,16 +70,19 @@ def test_an_exception_in_the_worker_mid_run_changes_nothing(make_window, qtbot, 
     real = FrameMaker.from_snapshot
     calls = []
 
-    def breaking(self, snap, pattern=None):  # the worker's frame for each snapshot
+    def breaking(self, snap, pattern=None):  # the worker's live frames (made when the GUI takes one)
         calls.append(snap.iteration)
-        if len(calls) == 4:
+        if len(calls) == 2:
             raise ValueError("frames broke\nsecond line")
         return real(self, snap, pattern)
 
     monkeypatch.setattr(FrameMaker, "from_snapshot", breaking)
+    # a frame every pump period: the frames' share (which counts the repaint) would leave a short run
+    # with only its first live frame, and the second is the one that breaks, mid-run
+    monkeypatch.setattr(app.runner, "FRAME_SHARE", None)
     with qtbot.waitSignal(win.run_failed, timeout=RUN_TIMEOUT_MS) as blocker:
         win.run()
-    assert blocker.args[0] == "ValueError: frames broke" and len(calls) == 4
+    assert blocker.args[0] == "ValueError: frames broke" and len(calls) == 2
     qtbot.waitUntil(lambda: win.error_box is not None and win.error_box.isVisible())
     assert win.error_box.text() == "Solve failed: ValueError: frames broke" == win.last_error
     assert "Traceback" in capsys.readouterr().err  # a bug, not a user error: its traceback is kept

@@ -177,6 +177,71 @@ def test_a_paused_run_shows_its_newest_iteration(make_window, qtbot, monkeypatch
         win.stop()
 
 
+def test_a_frames_cost_counts_the_repaint_it_asked_for(make_window, qtbot, monkeypatch):
+    """The frames' share paces by the GUI's whole time on a frame: its slots and the views' repaint
+    that follows them (Qt repaints after zero timers; counting the slots alone spent 3-4 times the share)."""
+    import app.canvas
+
+    slow = 0.06
+    paint = app.canvas.Canvas.paintEvent
+
+    def slow_paint(self, event):  # a repaint as dear as a big mesh's with software OpenGL
+        time.sleep(slow)
+        paint(self, event)
+
+    monkeypatch.setattr(app.canvas.Canvas, "paintEvent", slow_paint)
+    win = make_window(small_project(0.05))
+    if not isinstance(win.view.widget, app.canvas.Canvas):
+        pytest.skip("the views are not raster canvases here (a hardware OpenGL renderer): their paint is not slowed")
+    costs = win.runner.frame_seconds
+    run_to_end(qtbot, win)
+    qtbot.waitUntil(lambda: not win.runner._drawing, timeout=5000)  # the result's frame repainted too
+    assert len(costs) >= 2
+    assert np.median(costs) >= slow  # every frame repainted at least one view
+
+
+def test_a_live_frame_is_made_only_once_the_gui_took_the_last(qtbot, monkeypatch):
+    """With nobody taking frames the solve thread makes the run's first live frame and no other
+    (a frame made while the last one waits for the GUI is never drawn and costs the solve)."""
+    import app.worker
+    from app.worker import SolveThread
+
+    monkeypatch.setattr(app.worker, "_lower_priority", lambda *a: None)  # this thread is the tests' own
+    t = SolveThread(small_project(0.1))
+    t.run()  # in this thread: no runner takes its frames
+    assert len(t.history) >= 3 and t.stage == "done"
+    assert t.frames_made == 1
+    seq, frame = t.take_frame(0)
+    assert frame is not None and frame.final
+
+
+def test_a_re_solve_keeps_the_pattern_view_until_it_has_a_pattern(make_window, qtbot):
+    """The first live frame of a warm re-run has no pattern: the 3D view draws it, the pattern view
+    keeps the last result's pattern; a paused run's frame and a frame with the run's own pattern go to
+    both views."""
+    win = make_window(small_project(0.05, solver="paper", max_iter=5))
+    first = run_to_end(qtbot, win).result
+    p = win.presenter
+    assert p.pattern_frame is not None and p.pattern_frame.final and p.pattern_frame.mesh is first.mesh
+    win.edit_settings("Solver", {"max_iter": 100000})  # a warm re-run, a long one
+    qtbot.waitUntil(lambda: p.frame is not None and not p.frame.final, timeout=RUN_TIMEOUT_MS)
+    live = p.frame
+    assert win.runner.last_start[1] is not None and live.pattern is None and not live.draping
+    assert win.view.layer.frame is live  # the 3D view shows the run
+    assert p.pattern_frame.mesh is first.mesh and win.pattern_view.layer.frame is p.pattern_frame
+    qtbot.waitUntil(lambda: p.frame.pattern is not None, timeout=RUN_TIMEOUT_MS)
+    assert p.pattern_frame is p.frame and win.pattern_view.layer.frame is p.frame  # the run's own pattern
+    win.actions["pause"].trigger()
+    qtbot.waitUntil(lambda: win.runner.thread.paused, timeout=5000)
+    last = win.runner.history[-1][0]
+    qtbot.waitUntil(lambda: p.frame.iteration == last, timeout=5000)
+    assert p.pattern_frame is p.frame  # a paused run shows its state in both views
+    win.actions["pause"].trigger()
+    with qtbot.waitSignal(win.run_finished, timeout=10000):
+        win.stop()
+    assert p.pattern_frame.final and p.pattern_frame.mesh is win.project.result.mesh
+
+
 def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatch):
     """The mesh is drawn as it is laid, and Stop (or Pause) acts during the drape."""
     import core.drape
