@@ -131,6 +131,7 @@ VARIANTS = {
     "after (normal priority)": {"nice": False},
     "after (no live frames)": {"live": False},
     "after (live frames in both views)": {"keep_pattern": False},
+    "after (the V at once)": {"first_pattern": True, "keep_pattern": False},
     "after (no live frames, pump on)": {"live": False, "pump": True},
     "after (normal priority, no live frames)": {"nice": False, "live": False},
 }
