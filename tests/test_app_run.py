@@ -190,7 +190,9 @@ def test_a_frames_cost_counts_the_repaint_it_asked_for(make_window, qtbot, monke
         paint(self, event)
 
     monkeypatch.setattr(app.canvas.Canvas, "paintEvent", slow_paint)
-    win = make_window(small_project(0.05))
+    # a run of a second or more (the paper's scheme): paced by the share, a 0.06 s paint allows a frame
+    # a second, and the fast solve of a small piece (0.3 s) drew only its result's: a coin toss
+    win = make_window(small_project(0.05, solver="paper", max_iter=150))
     if not isinstance(win.view.widget, app.canvas.Canvas):
         pytest.skip("the views are not raster canvases here (a hardware OpenGL renderer): their paint is not slowed")
     costs = win.runner.frame_seconds

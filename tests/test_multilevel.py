@@ -40,6 +40,16 @@ def _settings(name: str, nodes: int, material: str = "woven") -> tuple[NurbsSurf
     return s, FlattenSettings(float(np.sqrt(region_area(s) / nodes)), material=MATERIALS[material])
 
 
+def _drain(gen):
+    """A flatten_iter run to its end: (its snapshots, its result)."""
+    snaps = []
+    while True:
+        try:
+            snaps.append(next(gen))
+        except StopIteration as done:
+            return snaps, done.value
+
+
 def test_levels_grow_with_the_piece_and_keep_the_coarsest_large_enough():
     assert multilevel.levels_for(multilevel.MIN_NODES - 1) == 0
     previous = 0
@@ -142,15 +152,9 @@ def test_a_large_piece_starts_from_coarser_levels_and_reaches_the_same_result():
 
 def test_the_coarse_levels_snapshots_come_first_each_with_its_own_mesh():
     s, settings = _settings("octant", 3_000)
-    gen = flatten_iter(s, settings, multilevel=2)
-    spacings = []
-    while True:
-        try:
-            snap = next(gen)
-        except StopIteration as done:
-            result = done.value
-            break
-        spacings.append(snap.mesh.r_weft)
+    snaps, result = _drain(flatten_iter(s, settings, multilevel=2))
+    spacings = [snap.mesh.r_weft for snap in snaps]
+    for snap in snaps:
         assert len(snap.uv) == snap.mesh.n_nodes and len(snap.strain) == snap.mesh.n_springs
     h = settings.spacing
     levels = sorted(set(spacings), reverse=True)
@@ -227,14 +231,7 @@ def test_a_trimmed_piece_with_a_hole_starts_coarse_and_reaches_the_same_result()
 
 def test_one_iteration_count_and_energy_trace_over_the_levels():
     s, settings = _settings("octant", 3_000)
-    snaps = []
-    gen = flatten_iter(s, settings, multilevel=2)
-    while True:
-        try:
-            snaps.append(next(gen))
-        except StopIteration as done:
-            result = done.value
-            break
+    snaps, result = _drain(flatten_iter(s, settings, multilevel=2))
     its = [sn.iteration for sn in snaps]
     assert its == sorted(its) and its[-1] == result.metrics["iterations"]
     assert result.metrics["coarse_iterations"] < result.metrics["iterations"]
