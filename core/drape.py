@@ -38,7 +38,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from core.errors import SettingsError, SolverError
-from core.geom import nonfinite_rows
+from core.geom import nonfinite_rows, solve2
 from core.mesh import DIAG, Material, SpringMesh, build_mesh
 from core.nurbs import NurbsSurface
 
@@ -146,18 +146,6 @@ def _bytes(n: float) -> str:
 
 
 # ---------------------------------------------------------------- Newton kernels
-def _solve2(J: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Solve J d = -F for stacks of 2x2 systems; returns (d (k, 2), ok (k,))."""
-    a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]
-    det = a * d - b * c
-    scale = np.abs(a * d) + np.abs(b * c) + 1e-300
-    ok = np.abs(det) > 1e-14 * scale
-    det = np.where(ok, det, 1.0)
-    du = -(d * F[:, 0] - b * F[:, 1]) / det
-    dv = -(-c * F[:, 0] + a * F[:, 1]) / det
-    return np.column_stack([du, dv]), ok
-
-
 def _newton(surface: NurbsSurface, uv0: np.ndarray, residual, tol: np.ndarray):
     """Vectorised Newton for k independent 2x2 systems on the surface.
 
@@ -196,10 +184,10 @@ def _newton(surface: NurbsSurface, uv0: np.ndarray, residual, tol: np.ndarray):
                 o[active[done]] = a[done]
         go = finite & ~done
         if go.all():  # no copies of the whole batch when every row goes on
-            step, ok = _solve2(J, F)
+            step, ok = solve2(J, F)
             idx = active
         else:
-            step, ok = _solve2(J[go], F[go])
+            step, ok = solve2(J[go], F[go])
             idx = active[go]
         if not ok.all():
             idx, step = idx[ok], step[ok]

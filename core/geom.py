@@ -15,7 +15,7 @@ from core.errors import SolverError
 
 __all__ = ["rowdot", "unit_rows", "polyline_sq_distances", "polyline_distance", "nearest_segment", "nearest_segments",
            "cumulative_length", "interp_rows", "resample_at_lengths", "nonfinite_rows", "nan_word",
-           "require_finite", "outline_errors"]
+           "require_finite", "outline_errors", "solve2"]
 
 
 def rowdot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -32,6 +32,18 @@ def unit_rows(v: np.ndarray) -> np.ndarray:
     """Rows of v (n, k) scaled to unit length (zero rows stay zero)."""
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.where(n > 0, n, 1.0)
+
+
+def solve2(J: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solve J d = -F for stacks of 2x2 systems; returns (d (k, 2), ok (k,))."""
+    a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]
+    det = a * d - b * c
+    scale = np.abs(a * d) + np.abs(b * c) + 1e-300
+    ok = np.abs(det) > 1e-14 * scale
+    det = np.where(ok, det, 1.0)
+    du = -(d * F[:, 0] - b * F[:, 1]) / det
+    dv = -(-c * F[:, 0] + a * F[:, 1]) / det
+    return np.column_stack([du, dv]), ok
 
 
 def _seg_sq_distances(p, a, ab, abab):

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.geom import rowdot, solve2
 from core.mesh import DIAG, Material, SpringMesh
 from core.solver import Problem, State
 
@@ -89,16 +90,10 @@ def refine(surface, mesh: SpringMesh, uv: np.ndarray, inside=None) -> tuple[np.n
     ev = surface.evaluate(nuv)
     r = target - ev.xyz
     # one Gauss-Newton step of min |S(uv) - target|^2: (J^T J) d = J^T r, J = [S_u S_v]
-    g11 = np.einsum("ij,ij->i", ev.su, ev.su)
-    g12 = np.einsum("ij,ij->i", ev.su, ev.sv)
-    g22 = np.einsum("ij,ij->i", ev.sv, ev.sv)
-    b1 = np.einsum("ij,ij->i", ev.su, r)
-    b2 = np.einsum("ij,ij->i", ev.sv, r)
-    det = g11 * g22 - g12 * g12
-    ok = det > 1e-12 * (g11 * g22 + 1e-300)  # a degenerate frame (a pole) keeps the average
-    d = np.zeros_like(nuv)
-    d[ok, 0] = (g22[ok] * b1[ok] - g12[ok] * b2[ok]) / det[ok]
-    d[ok, 1] = (g11[ok] * b2[ok] - g12[ok] * b1[ok]) / det[ok]
+    g12 = rowdot(ev.su, ev.sv)
+    JtJ = np.stack([np.stack([rowdot(ev.su, ev.su), g12], -1), np.stack([g12, rowdot(ev.sv, ev.sv)], -1)], -2)
+    d, ok = solve2(JtJ, -np.column_stack([rowdot(ev.su, r), rowdot(ev.sv, r)]))
+    d[~ok] = 0.0  # a degenerate frame (a pole) keeps the average
     nuv = nuv + d
     keep = np.isfinite(nuv).all(axis=1)
     keep[keep] = surface.in_domain(nuv[keep])

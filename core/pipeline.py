@@ -376,6 +376,11 @@ def _on_lattice(surface: NurbsSurface, settings: FlattenSettings, mesh: SpringMe
     return State(mesh, uv)
 
 
+def _coarse_iterations(stats: dict) -> int:
+    """The iterations of a coarse-to-fine start's coarser levels (0 from the drape)."""
+    return sum(lv["iterations"] for lv in stats.get("levels", ()))
+
+
 def _carried(options: SolverOptions, stats: dict) -> SolverOptions:
     """The solver's options for a level: a start carried from a coarser level (``stats``
     has its ``levels``) never refills a position its solve emptied (``dead_after`` 1)."""
@@ -426,7 +431,7 @@ def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, c
                                      drape_interval)
     if coarse.yarns:
         cproblem.yarns = resolve_yarns(coarse.yarns, state.mesh, surface.points(state.uv))
-    done = sum(lv["iterations"] for lv in stats.get("levels", ()))
+    done = _coarse_iterations(stats)
     solve = yield from _counted_from(iterate(cproblem, state, _carried(coarse.solver_options(), stats)), done)
     if solve.nit == 0 and solve.status == 0:
         # the coarse drape was already at the minimum (a developable piece): so is this level's,
@@ -582,7 +587,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     solve = None
     if solver_entry(settings.solver).iterative:
         solve = yield from _counted_from(iterate(problem, state, _carried(settings.solver_options(), stats)),
-                                         sum(lv["iterations"] for lv in stats.get("levels", ())))
+                                         _coarse_iterations(stats))
         state = State(solve.mesh, solve.uv)
     xyz = surface.points(state.uv)
     check_result_finite(state.uv, xyz)
@@ -599,7 +604,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     metrics = compute_metrics(surface, state.mesh, xyz, pattern, settings.yarns, A3=A3, cover=cover)
     metrics.update({
         # every level's: the snapshots count on over a coarse-to-fine run, and a stopped one's count is theirs
-        "iterations": (solve.nit if solve else 0) + sum(lv["iterations"] for lv in stats.get("levels", ())),
+        "iterations": (solve.nit if solve else 0) + _coarse_iterations(stats),
         "energy_evaluations": solve.nfev if solve else 0,
         "solver_status": solve.message if solve else "no solver",
         "nodes_deleted": solve.deleted if solve else 0,
@@ -612,7 +617,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "solve_seconds": (solve.seconds if solve else 0.0) + sum(
             lv["solve_seconds"] + lv["refine_seconds"] for lv in stats.get("levels", ())),
         "coarse_levels": len(stats.get("levels", ())),
-        "coarse_iterations": sum(lv["iterations"] for lv in stats.get("levels", ())),
+        "coarse_iterations": _coarse_iterations(stats),
         "seconds": time.perf_counter() - t0,
         "pieces": len(pattern.pieces),
         "unmapped_points": pattern.unmapped,
