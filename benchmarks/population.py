@@ -158,9 +158,9 @@ class RefilledOnce:
                 pop.counts[key] = pop.counts.get(key, 0) + (2 if key in born else 1)
             pop.deleted += len(ij)
 
-        def try_refill(run, _refill=self._refill):
+        def try_refill(run, at=None, _refill=self._refill):
             before = set(map(tuple, run.mesh.ij.tolist()))
-            added = _refill(run)
+            added = _refill(run, at)
             if added:
                 run.pop.born = getattr(run.pop, "born", set()) | (set(map(tuple, run.mesh.ij.tolist())) - before)
             return added
@@ -178,9 +178,9 @@ class RepeatsRefills:
     def __enter__(self):
         self._refill = solver._Run.try_refill
 
-        def try_refill(run, _refill=self._refill):
+        def try_refill(run, at=None, _refill=self._refill):
             run.refills.clear()
-            return _refill(run)
+            return _refill(run, at)
 
         solver._Run.try_refill = try_refill
         return self

@@ -715,20 +715,21 @@ def drape(surface: NurbsSurface, settings: DrapeSettings, material: Material,
 
 def refill(surface: NurbsSurface, settings: DrapeSettings, ij: np.ndarray, uv: np.ndarray,
            dead_ij: np.ndarray = np.zeros((0, 2), dtype=np.int64),
-           separated=None, inside=None) -> tuple[np.ndarray, np.ndarray]:
+           separated=None, inside=None, at=None) -> tuple[np.ndarray, np.ndarray]:
     """Node Filling from an existing mesh state (population control, paper 3.3).
 
     ij : (n, 2) lattice positions and uv : (n, 2) parameters of the current
     nodes; dead_ij : (k, 2) positions never to refill; separated(uv_a, uv_b,
     xyz_a, xyz_b) -> (k,) bool says where a dart lies between two points (their
     (u, v) and their points on the surface; no node is placed from a neighbour
-    across a dart). Returns the added nodes' (ij (a, 2),
+    across a dart); at : (xyz, su, sv) (n, 3) each, the surface at uv if the
+    caller has it (the solver does), or None. Returns the added nodes' (ij (a, 2),
     uv (a, 2)); the springs they form are at rest length.
     """
     b = _Builder(surface, settings)
     b.separated = separated
     b.inside = inside  # the region (a trimmed face): nodes only inside it
-    b.add(np.asarray(ij, dtype=np.int64), np.asarray(uv, dtype=float), 0)
+    b.add(np.asarray(ij, dtype=np.int64), np.asarray(uv, dtype=float), 0, *(at or ()))
     n0 = len(b.uv)
     dead = np.asarray(dead_ij, dtype=np.int64).reshape(-1, 2)
     if len(dead):

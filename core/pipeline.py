@@ -296,9 +296,9 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
         keep = darts.keep_springs(np.asarray(uv)) if len(darts) else None
         return build_mesh(ij, ds.r_weft, ds.r_warp, material, keep=keep)
 
-    def refill_nodes(mesh, uv, dead):
+    def refill_nodes(mesh, uv, dead, at=None):
         return refill(surface, ds, mesh.ij, uv, dead, separated=darts.crossing if len(darts) else None,
-                      inside=inside)
+                      inside=inside, at=at)
 
     # a node whose step would carry it through a dart is deleted (3.3)
     cut = darts.crossing if len(darts) else None

@@ -203,8 +203,9 @@ class Problem:
     the springs from a to b that build would not form (they cross a dart),
     or None; invalid(uv_old, uv_new) -> (n,) bool, or
     invalid(uv_old, uv_new, xyz_old, xyz_new) when the solver has the nodes on
-    the surface at hand (S(uv_old), S(uv_new)); refill(mesh, uv, dead_ij) ->
-    (ij_new, uv_new) of added nodes
+    the surface at hand (S(uv_old), S(uv_new)); refill(mesh, uv, dead_ij, at) ->
+    (ij_new, uv_new) of added nodes, ``at`` the surface (xyz, su, sv) at uv if
+    the solver has it (or None)
     """
 
     def __init__(self, surface, build, yarns=(), refill=None, invalid=None, cut=None):
@@ -227,10 +228,10 @@ class Problem:
                 bad |= self._invalid(uv_old, uv_new, xyz_old, xyz_new)
         return bad
 
-    def refill(self, mesh, uv, dead_ij):
+    def refill(self, mesh, uv, dead_ij, at=None):
         if self._refill is None:
             return np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2))
-        return self._refill(mesh, uv, dead_ij)
+        return self._refill(mesh, uv, dead_ij, at)
 
 
 # ------------------------------------------------------------------ population control
@@ -765,10 +766,11 @@ class _Run:
         self.mesh, self.uv = _delete(self.problem, self.mesh, uv_new, bad, self.pop, fixed)
         return True
 
-    def try_refill(self) -> bool:
+    def try_refill(self, at=None) -> bool:
+        """Refill the population; ``at`` (xyz, su, sv): the surface at ``self.uv``, if known."""
         if not self.options.refill:
             return False
-        ij, uv = self.problem.refill(self.mesh, self.uv, self.pop.dead())
+        ij, uv = self.problem.refill(self.mesh, self.uv, self.pop.dead(), at)
         if len(ij) == 0:
             return False
         # the same refill of the same population again: its round emptied those positions once and
@@ -935,6 +937,12 @@ class _Round:
                                        rest=mesh.rest[on], k=mesh.k[on], cells=num[cells])
         run.uv = self.uv[idx]
         return gone
+
+    def surface_at(self, ev) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(xyz, su, sv) of the live nodes (``run.uv``), from the round's evaluation ``ev``."""
+        if self.alive.all():
+            return ev.xyz, ev.su, ev.sv
+        return ev.xyz[self.alive], ev.su[self.alive], ev.sv[self.alive]
 
     def crossing(self, xyz: np.ndarray) -> bool:
         """True if a live spring crosses a dart where its nodes are now (xyz : (n, 3))."""
@@ -1218,12 +1226,20 @@ def _iterate_fast(run: _Run):
                 stale, held = None, None
                 gone = rnd.switch_off(np.zeros(rnd.mesh.n_nodes, dtype=bool), ev.xyz)
                 quiet = quiet and opts.reuse and run.pop.all_dead(gone)
+                # before settling the round would only confirm its loose convergence on the springs left
+                # (one more factorisation) and then refill: refill at once (docs/decisions.md "Population churn")
+                if opts.reuse and not rnd.settled and not quiet:
+                    if run.try_refill(rnd.surface_at(ev)):
+                        rnd, ev, (rs, Q, rd, Jd), E, kept = start()
+                        yield run.snapshot(E, ev.xyz, True, kept.length)
+                        continue
+                    quiet = True  # found nothing, and no node has left since
                 kept, (rs, Q, rd, Jd) = _gathered_residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=kept)
                 E = 0.5 * (rs @ rs + rd @ rd)
                 yield run.snapshot(E, ev.xyz[rnd.alive], True, kept.length[rnd.spring_on])
                 continue
             # a refill that found nothing finds nothing again while no node has left since
-            if not (opts.reuse and quiet) and run.try_refill():
+            if not (opts.reuse and quiet) and run.try_refill(rnd.surface_at(ev)):
                 stale, held, quiet = None, None, False
                 rnd, ev, (rs, Q, rd, Jd), E, kept = start()
                 yield run.snapshot(E, ev.xyz, True, kept.length)

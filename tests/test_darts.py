@@ -99,7 +99,9 @@ def test_dart_opens_into_a_v(octant_with_dart):
     assert o.mouth
     la, lb = o.leg_lengths
     assert abs(la - lb) < 0.02 * la  # the two legs, to be sewn together, match
-    assert la == pytest.approx(np.linalg.norm(np.diff(o.curve3d, axis=0), axis=1).sum(), rel=0.03)
+    # the octant and its isotropic net are symmetric in the dart's plane x = y: a solve may end in either of
+    # two mirror images (equal EN), which swap the legs (0.597 and 0.599 here), so their mean is tested
+    assert 0.5 * (la + lb) == pytest.approx(np.linalg.norm(np.diff(o.curve3d, axis=0), axis=1).sum(), rel=0.03)
     assert 10 < o.opening_deg < 40
     # the tip closes: both sides map the tip to nearly one point; the mouths are apart
     assert np.linalg.norm(o.leg_a[-1] - o.leg_b[-1]) < 0.02

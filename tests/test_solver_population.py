@@ -66,9 +66,9 @@ def test_a_repeated_refill_is_not_made_and_the_result_is_the_same(monkeypatch):
     new = flatten(s, st, multilevel=0)  # from the drape: the churn this rule ends (a coarse start has little)
     refill = solver._Run.try_refill
 
-    def every_refill(run):  # before the check: no refill is known to repeat
+    def every_refill(run, *a):  # before the check: no refill is known to repeat
         run.refills.clear()
-        return refill(run)
+        return refill(run, *a)
 
     monkeypatch.setattr(solver._Run, "try_refill", every_refill)
     old = flatten(s, st, multilevel=0)

@@ -50,9 +50,9 @@ def _solve(s, settings, initial, monkeypatch, reuse=True, all_dead=None):
     calls = [0]
     refill = solver._Run.try_refill
 
-    def counted(self):
+    def counted(self, *a):
         calls[0] += 1
-        return refill(self)
+        return refill(self, *a)
 
     with monkeypatch.context() as m:
         m.setattr(FlattenSettings, "solver_options", lambda self: dataclasses.replace(made(self), reuse=reuse))
