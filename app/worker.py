@@ -65,6 +65,12 @@ GUI takes the first frame at once, before a pattern could be ready, and the
 next one only when the frames' share allows (app.runner.FRAME_SHARE): in a
 short re-solve that is never, so the first pattern cost the run 20-90 ms and
 was seldom drawn (docs/decisions.md, "Live frames within a tenth of the run")."""
+FIRST_FRAME_WITH_PATTERN = True
+"""The solve's first live frame waits for its own pattern and goes out once, with it: the
+dart's opening (the V) in both views from the first frame, for one frame's drawing
+(docs/decisions.md, "The V in the first live frame"). Only on meshes of at most
+FIRST_PATTERN_NODES nodes, where a pattern takes a few tens of milliseconds."""
+FIRST_PATTERN_NODES = 10_000
 
 
 def one_line(exc: BaseException) -> str:
@@ -274,8 +280,9 @@ class SolveThread(QThread):
                 self._unframed = None
                 first = self.frames_made == 0
                 frame = self._live_frame(maker, snap)
-                if now >= next_pattern:
-                    if first:  # the run's first frame goes out at once (the views need not wait for its pattern)
+                waits = first and FIRST_FRAME_WITH_PATTERN and snap.mesh.n_nodes <= FIRST_PATTERN_NODES
+                if waits or now >= next_pattern:
+                    if first and not waits:  # out at once: the views need not wait for its pattern
                         self._publish(frame, live=True)
                     t_pattern = time.perf_counter()
                     pattern = maker.pattern(snap.mesh, snap.uv, snap.xyz)

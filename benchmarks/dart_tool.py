@@ -121,17 +121,20 @@ def wait(app, condition, timeout=600.0, signal=None):
 
 
 DEFAULTS = {"rerun_at_once": runcontrol.RERUN_AT_ONCE, "first_pattern": solve_worker.FIRST_PATTERN_AT_ONCE,
+            "first_frame_pattern": solve_worker.FIRST_FRAME_WITH_PATTERN,
             "pattern_share": solve_worker.PATTERN_SHARE, "frame_share": runner.FRAME_SHARE,
             "keep_pattern": presenter.KEEP_PATTERN_FOR_LIVE_FRAMES}
 """The app's own settings: the "after" variants run the window as it is."""
 VARIANTS = {
     # name: what differs from the app's settings (DEFAULTS), the solve thread's nice value and live frames
-    "before (nice 5)": {"rerun_at_once": False, "first_pattern": False, "pattern_share": 1 / 7, "frame_share": None},
+    "before (nice 5)": {"rerun_at_once": False, "first_pattern": False, "first_frame_pattern": False,
+                        "pattern_share": 1 / 7, "frame_share": None},
     "after (nice 5)": {},
     "after (normal priority)": {"nice": False},
     "after (no live frames)": {"live": False},
     "after (live frames in both views)": {"keep_pattern": False},
     "after (the V at once)": {"first_pattern": True, "keep_pattern": False},
+    "after (first frame without its pattern)": {"first_frame_pattern": False},
     "after (no live frames, pump on)": {"live": False, "pump": True},
     "after (normal priority, no live frames)": {"nice": False, "live": False},
 }
@@ -143,6 +146,7 @@ def set_variant(win, name, lower_priority):
     runcontrol.RERUN_AT_ONCE = v["rerun_at_once"]
     runner.FRAME_SHARE = v["frame_share"]
     solve_worker.FIRST_PATTERN_AT_ONCE = v["first_pattern"] and live
+    solve_worker.FIRST_FRAME_WITH_PATTERN = v["first_frame_pattern"] and live
     solve_worker.PATTERN_SHARE = v["pattern_share"]
     presenter.KEEP_PATTERN_FOR_LIVE_FRAMES = v["keep_pattern"]
     solve_worker.PATTERN_INTERVAL = 0.25 if live else 1e9

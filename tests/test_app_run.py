@@ -217,10 +217,13 @@ def test_a_live_frame_is_made_only_once_the_gui_took_the_last(qtbot, monkeypatch
     assert frame is not None and frame.final
 
 
-def test_a_re_solve_keeps_the_pattern_view_until_it_has_a_pattern(make_window, qtbot):
-    """The first live frame of a warm re-run has no pattern: the 3D view draws it, the pattern view
-    keeps the last result's pattern; a paused run's frame and a frame with the run's own pattern go to
-    both views."""
+def test_a_re_solve_keeps_the_pattern_view_until_it_has_a_pattern(make_window, qtbot, monkeypatch):
+    """A live frame without a pattern (here the first of a warm re-run, told not to wait for its
+    own): the 3D view draws it, the pattern view keeps the last result's pattern; a paused run's frame
+    and a frame with the run's own pattern go to both views."""
+    import app.worker
+
+    monkeypatch.setattr(app.worker, "FIRST_FRAME_WITH_PATTERN", False)
     win = make_window(small_project(0.05, solver="paper", max_iter=5))
     first = run_to_end(qtbot, win).result
     p = win.presenter
@@ -242,6 +245,23 @@ def test_a_re_solve_keeps_the_pattern_view_until_it_has_a_pattern(make_window, q
     with qtbot.waitSignal(win.run_finished, timeout=10000):
         win.stop()
     assert p.pattern_frame.final and p.pattern_frame.mesh is win.project.result.mesh
+
+
+def test_a_re_solves_first_live_frame_brings_its_pattern(make_window, qtbot):
+    """The first live frame of a warm re-run carries its own pattern (a dart's V from the first
+    frame), and both views draw it; the frames after it carry that pattern until a newer one."""
+    win = make_window(small_project(0.05, solver="paper", max_iter=5))
+    run_to_end(qtbot, win)
+    p = win.presenter
+    win.edit_settings("Solver", {"max_iter": 100000})  # a warm re-run, a long one
+    qtbot.waitUntil(lambda: p.frame is not None and not p.frame.final, timeout=RUN_TIMEOUT_MS)
+    live = p.frame
+    assert win.runner.last_start[1] is not None and not live.draping
+    assert live.pattern is not None and live.pattern.outline.shape[0] > 3
+    assert win.view.layer.frame is live and p.pattern_frame is live and win.pattern_view.layer.frame is live
+    win.actions["pause"].trigger()
+    with qtbot.waitSignal(win.run_finished, timeout=10000):
+        win.stop()
 
 
 def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatch):
