@@ -310,6 +310,14 @@ def report(results: list[dict], dart: dict, budget: float, gui: str | None,
             f"{window['result']:.2f} s", "< 0.5 s", window["result"] < TARGETS["window_result_s"])
         row("window: Enter to the first live frame", f"{window['first']:.2f} s", "< 0.15 s",
             window["first"] < TARGETS["window_first_s"])
+        if window.get("v") is not None:
+            row("window: Enter to the first live frame with the dart's opening (the V)", f"{window['v']:.2f} s",
+                "< 0.15 s", window["v"] < TARGETS["window_first_s"])
+        if window.get("drag") is not None:
+            move, release, previews = window["drag"]
+            row("window: a dragged dart point re-solves as it moves (dart_tool.py's drags)",
+                f"{previews} previews during the drags; move to its first frame {move:.2f} s, release to "
+                f"result {release:.2f} s", "re-solves while dragging", previews > 0)
         if window.get("frames_share") is not None:
             row("window: live frames' cost (Enter to result with frames against without)",
                 f"{100 * window['frames_share']:.0f} % of the run", "<= 10 %",
@@ -360,7 +368,16 @@ def _dart_tool(text: str | None) -> dict | None:
     if not text:
         return None
     head, medians, out = None, {}, {}
-    for line in text.splitlines():
+    lines = text.splitlines()
+    for k, line in enumerate(lines):
+        if line.startswith("| move to that position's first frame") and k + 2 < len(lines):
+            cells = [c.strip() for c in lines[k + 2].strip().strip("|").split("|")]
+            try:  # move (median), (max), release (median), (max), previews
+                out["drag"] = (float(cells[0]), float(cells[2]), int(cells[4]))
+            except (ValueError, IndexError):
+                pass
+            continue
+
         if line.startswith("`benchmarks/dart_tool.py"):
             out["stamp"] = line.split("`, ", 1)[1].split(". ", 1)[0] if "`, " in line else ""
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
@@ -374,6 +391,7 @@ def _dart_tool(text: str | None) -> dict | None:
     try:
         out["result"] = float(with_frames["Enter to result (s)"])
         out["first"] = float(with_frames["Enter to first live frame (s)"])
+        out["v"] = float(with_frames["Enter to the V (s)"]) if "Enter to the V (s)" in with_frames else None
         without = float(medians["after (no live frames)"]["Enter to result (s)"])
         out["frames_share"] = max(0.0, 1.0 - without / out["result"])
     except (KeyError, ValueError):
