@@ -315,6 +315,52 @@ _CONFIG_NEIGHBOURS = [(_BEHIND.index((a, 0)), _BEHIND.index((0, b)), _BEHIND.ind
 """For each of ``_CONFIGS``: the indices into ``_BEHIND`` of its A, B and C."""
 _BEHIND = np.array(_BEHIND)
 
+_BAND_START = 2
+"""Fronts in the first band of a Two-Neighbour fill (:meth:`_Builder.two_neighbour_fill`)."""
+_BAND_MAX = 32
+"""The most fronts in one band."""
+
+
+def _choose_configs(pos: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """(k, 2) the configuration of each position: of those serving it (V), the
+    one whose C is nearest the seed in lattice steps (the first of a tie)."""
+    C = pos[:, None, :] - _CONFIGS[None, :, :]
+    score = np.where(V, np.abs(C).sum(axis=2), np.iinfo(np.int64).max)
+    return _CONFIGS[np.argmin(score, axis=1)]
+
+
+def _valid_near_grid(grid: np.ndarray, dead: np.ndarray, off: np.ndarray,
+                     new: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`_Builder._valid_near` on a lattice grid given as arrays (node
+    index or -1, dead, offset): the lattice's own or a band's copy with the
+    positions it speculates on taken."""
+    g = (new[:, None, :] + _EIGHT[None, :, :]).reshape(-1, 2) + off
+    width = grid.shape[1]
+    key = np.unique(g[:, 0] * width + g[:, 1])  # row-major, as np.argwhere
+    key = key[(grid.ravel()[key] < 0) & ~dead.ravel()[key]]
+    gi, gj = key // width, key % width
+    occ = [grid[gi - d[0], gj - d[1]] >= 0 for d in _BEHIND]
+    V = np.stack([occ[ia] & occ[ib] & occ[ic] for ia, ib, ic in _CONFIG_NEIGHBOURS], axis=1)
+    keep = V.any(axis=1)
+    return np.column_stack([gi, gj])[keep] - off, V[keep]
+
+
+class _Refs:
+    """A band's references to one neighbour (A, B or C) of each of its nodes:
+    a mesh node (row below n) or a node of the band (n + its band row)."""
+
+    def __init__(self, rows: np.ndarray, n: int, uv: np.ndarray, xyz: np.ndarray):
+        self.dep = rows >= n
+        self.j = np.where(self.dep, rows - n, 0)
+        mesh = np.where(self.dep, 0, rows)
+        self.mesh = {"uv": uv[mesh], "xyz": xyz[mesh]}
+
+    def pick(self, band: np.ndarray, sl: slice, kind: str) -> np.ndarray:
+        """The neighbour's values for the band rows ``sl``: from ``band`` (the
+        band's values, by band row) or the mesh's ``kind`` ("uv" or "xyz")."""
+        return np.where(self.dep[sl, None], band[self.j[sl]], self.mesh[kind][sl])
+
+
 
 class _Builder:
     """Mutable state of one drape: nodes so far and the lattice."""
@@ -532,38 +578,267 @@ class _Builder:
 
         start : (k, 2) positions of the only nodes placed since the last fill
         (the filling seeds), or None to look at the whole lattice.
+
+        The fronts go in bands: a band is the next few fronts as they would be
+        if every node were accepted, solved by one coupled Newton iteration and
+        checked at once (:meth:`_band`); the band is kept up to its first front
+        with a rejection (that front included), which is where the fronts
+        after it would differ from the guess. Each front is then what the
+        front-by-front sweep makes of it, to round-off, at a fraction of the
+        calls (a front of a few nodes costs its calls, whatever its size).
         """
         added = 0
-        configs = _CONFIGS
         pos, V = self._valid_everywhere() if start is None else self._valid_near(start)
-        while True:
+        m = _BAND_START
+        while len(pos):
+            new, fronts, whole = self._band(pos, V, m)
+            added += len(new)
+            if len(new) == 0:
+                return added
+            pos, V = self._valid_near(new)
+            # more fronts at once while bands are kept whole; fewer after a cut
+            m = min(2 * m, _BAND_MAX) if whole else max(_BAND_START, fronts)
+        return added
+
+    def _speculate(self, pos: np.ndarray, V: np.ndarray, m: int):
+        """The next ``m`` fronts (fewer if they end) as they are if every node
+        is accepted: (positions (b, 2) front after front, the rows of their A,
+        B and C (b,) each: nodes below ``len(self.uv)`` are the mesh's, the
+        others the band's own, ``len(self.uv) + row``, and the fronts' starts
+        (fronts + 1,)). The rule is :meth:`_valid_near`'s on a copy of the
+        lattice where the band's positions are taken."""
+        lat = self.lat
+        # a front is within one position of the last: the lattice is grown once for the whole band
+        lat.ensure(np.array([pos.min(axis=0) - m - 1, pos.max(axis=0) + m + 1]))
+        grid, off = lat.grid.copy(), lat.off
+        n = len(self.uv)
+        parts, bounds = [], [0]
+        for f in range(m):
+            cfg = _choose_configs(pos, V)
+            g = pos + off
+            gi, gj = g[:, 0], g[:, 1]
+            parts.append((pos, grid[gi - cfg[:, 0], gj], grid[gi, gj - cfg[:, 1]],
+                          grid[gi - cfg[:, 0], gj - cfg[:, 1]]))
+            grid[gi, gj] = n + bounds[-1] + np.arange(len(pos))
+            bounds.append(bounds[-1] + len(pos))
+            if f + 1 == m:
+                break
+            pos, V = _valid_near_grid(grid, lat.dead, off, pos)
             if len(pos) == 0:
-                return added
-            C = pos[:, None, :] - configs[None, :, :]
-            score = np.where(V, np.abs(C).sum(axis=2), np.iinfo(np.int64).max)
-            cfg = configs[np.argmin(score, axis=1)]
-            iA = self.lat.at(pos - np.column_stack([cfg[:, 0], np.zeros(len(pos), int)]))
-            iB = self.lat.at(pos - np.column_stack([np.zeros(len(pos), int), cfg[:, 1]]))
-            iC = self.lat.at(pos - cfg)
-            A, B, Cx = self.xyz[iA], self.xyz[iB], self.xyz[iC]
-            guess = self.uv[iA] + self.uv[iB] - self.uv[iC]
-            k = len(pos)
-            ok, uv_new, P, Pu, Pv = self.accept_uv(*_two_neighbour(self.surface, A, np.full(k, self.s.r_warp),
-                                                                   B, np.full(k, self.s.r_weft), guess))
-            ok &= np.einsum("ij,ij->i", P - Cx, A + B - 2 * Cx) > 0
-            ok &= np.linalg.norm(P - Cx, axis=1) > 0.5 * self.rmin
-            ok &= np.linalg.norm(P - (A + B - Cx), axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
-            if self.separated is not None and ok.any():  # never a spring across a dart
-                w = np.flatnonzero(ok)  # the points are known: none evaluated again
-                ok[w] = ~self.separated(self.uv[iA[w]], uv_new[w], A[w], P[w]) & \
-                    ~self.separated(self.uv[iB[w]], uv_new[w], B[w], P[w])
-            ok[ok] = self.far_from_mesh(P[ok])
-            self.lat.kill(pos[~ok])
-            if not ok.any():
-                return added
-            self.add(pos[ok], uv_new[ok], 2, P[ok], Pu[ok], Pv[ok])
-            added += int(ok.sum())
-            pos, V = self._valid_near(pos[ok])
+                break
+        return (*(np.concatenate(x) for x in zip(*parts)), np.array(bounds))
+
+    def _band(self, pos: np.ndarray, V: np.ndarray, m: int) -> tuple[np.ndarray, int, bool]:
+        """Speculate, solve, check and add up to ``m`` fronts starting with the
+        front ``pos, V``; returns (the positions added in the band's last kept
+        front, fronts kept, whether the band was kept whole)."""
+        n = len(self.uv)
+        P, iA, iB, iC, bounds = self._speculate(pos, V, m)
+        nf = len(bounds) - 1
+        front = np.repeat(np.arange(nf), np.diff(bounds))
+        rows = [_Refs(i, n, self.uv, self.xyz) for i in (iA, iB, iC)]
+        A, B, C = rows
+        # guesses front after front: A + B - C, the band's own from their guesses
+        X = np.empty((len(P), 2))
+        for f in range(nf):
+            sl = slice(bounds[f], bounds[f + 1])
+            X[sl] = A.pick(X, sl, "uv") + B.pick(X, sl, "uv") - C.pick(X, sl, "uv")
+        X, conv, S, Su, Sv, L = self._band_newton(X, A, B, bounds)
+        nL = bounds[L]
+        front, P, X, conv = front[:nL], P[:nL], X[:nL], conv[:nL]
+        ok, Xc, S, Su, Sv = self.accept_uv(X, conv, S[:nL], Su[:nL], Sv[:nL])
+        moved = ok & np.any(Xc != X, axis=1)
+        sl = slice(0, nL)
+        PA, PB, PC = (r.pick(S, sl, "xyz") for r in rows)
+        par = PA + PB - PC
+        # a later front's root is trusted as the front-by-front one when it is the one near A + B - C (the
+        # other root of the two spheres and the surface is near C): else the band ends before that front
+        far_root = (front > 0) & conv & (np.linalg.norm(S - par, axis=1) >= 0.25 * self.rmin)
+        if far_root.any():
+            L = int(front[far_root].min())
+            nL = bounds[L]
+            front, P, Xc, S, Su, Sv, ok, moved, PA, PB, PC, par = (
+                x[:nL] for x in (front, P, Xc, S, Su, Sv, ok, moved, PA, PB, PC, par))
+        ok &= np.einsum("ij,ij->i", S - PC, PA + PB - 2 * PC) > 0
+        ok &= np.linalg.norm(S - PC, axis=1) > 0.5 * self.rmin
+        ok &= np.linalg.norm(S - par, axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
+        if self.separated is not None and ok.any():  # never a spring across a dart
+            w = np.flatnonzero(ok)
+            sl = slice(0, nL)
+            uA, uB = A.pick(Xc, sl, "uv")[w], B.pick(Xc, sl, "uv")[w]
+            ok[w] = ~self.separated(uA, Xc[w], PA[w], S[w]) & ~self.separated(uB, Xc[w], PB[w], S[w])
+        ok[ok] = self._far_from_trees(S[ok])
+        self._drop_close(S, ok, front)
+        # the band ends at its first front with a rejection or a node the domain's clip moved (the fronts
+        # after it were guessed from nodes as they are not)
+        cut = ~ok | moved
+        last = int(front[cut].min()) if cut.any() else L - 1
+        keep = front <= last
+        self.lat.kill(P[keep & ~ok])
+        take = keep & ok
+        if take.any():
+            self.add(P[take], Xc[take], 2, S[take], Su[take], Sv[take])
+        return P[take & (front == last)], last + 1, last + 1 == nf and nf == m and not cut.any()
+
+    def _band_newton(self, X: np.ndarray, A: "_Refs", B: "_Refs", bounds: np.ndarray):
+        """Newton for a band's nodes at once: each at r_warp from its A and
+        r_weft from its B (:func:`_two_neighbour`), A and B the mesh's or the
+        band's own, unknowns too. The Jacobian is block lower triangular
+        (a node depends on itself and on earlier fronts), so the step is
+        forward substitution front after front: dx = -J^-1 (F + F_A dx_A +
+        F_B dx_B). A node is done when its residual is within the tolerance
+        and its A and B are done. A node that fails (not finite, a singular
+        Jacobian, out of bounds, or not done in Newton's iterations counted
+        from when its front could start) ends the band before its front; the
+        first front keeps its failures: its Newton is :func:`_newton`'s, A
+        and B fixed, step for step. Returns (X, converged, S, Su, Sv for the
+        rows kept, fronts kept)."""
+        surface = self.surface
+        ra, rb = self.s.r_warp, self.s.r_weft
+        dom = surface.domain
+        size = dom[:, 1] - dom[:, 0]
+        lo, hi = dom[:, 0] - 0.5 * size, dom[:, 1] + 0.5 * size
+        max_step = 0.25 * size
+        tol = max(1e-12 * min(ra, rb), 16 * np.finfo(float).eps * float(np.abs(surface.ctrlpts).max()))
+        b = len(X)
+        X = X.copy()
+        S, Su, Sv = np.zeros((b, 3)), np.zeros((b, 3)), np.zeros((b, 3))
+        done = np.zeros(b, dtype=bool)
+        failed = np.zeros(b, dtype=bool)
+        dx = np.zeros((b, 2))
+        L = len(bounds) - 1  # fronts still in the band
+        f0 = 0  # the fronts before f0 are done
+        for it in range(_NEWTON_MAXIT + L - 1):
+            lo_row, nL = bounds[f0], bounds[L]
+            sl = slice(lo_row, nL)
+            todo = ~(done[sl] | failed[sl])
+            act = lo_row + np.flatnonzero(todo)
+            if act.size == 0:
+                break
+            S[act], Su[act], Sv[act] = surface.derivatives(X[act])
+            Ss, Sus, Svs = S[sl], Su[sl], Sv[sl]
+            ja, jb, da, db = A.j[sl], B.j[sl], A.dep[sl], B.dep[sl]
+            d_a = Ss - A.pick(S, sl, "xyz")
+            d_b = Ss - B.pick(S, sl, "xyz")
+            F = np.column_stack([(np.einsum("ij,ij->i", d_a, d_a) - ra ** 2) / (2 * ra),
+                                 (np.einsum("ij,ij->i", d_b, d_b) - rb ** 2) / (2 * rb)])
+            J = np.empty((nL - lo_row, 2, 2))
+            J[:, 0, 0] = np.einsum("ij,ij->i", d_a, Sus) / ra
+            J[:, 0, 1] = np.einsum("ij,ij->i", d_a, Svs) / ra
+            J[:, 1, 0] = np.einsum("ij,ij->i", d_b, Sus) / rb
+            J[:, 1, 1] = np.einsum("ij,ij->i", d_b, Svs) / rb
+            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+                finite = np.isfinite(F).all(axis=1) & np.isfinite(J).reshape(-1, 4).all(axis=1)
+                small = finite & (np.abs(F).max(axis=1) <= tol)
+                step0, solved = solve2(J, F)  # the step with A and B held
+                # J^-1's columns, for the steps of A and B: dx = step0 - J^-1 (e0 F_A dx_A + e1 F_B dx_B)
+                det = np.where(solved, J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0], 1.0)
+                k0 = np.column_stack([J[:, 1, 1], -J[:, 1, 0]]) / det[:, None]
+                k1 = np.column_stack([-J[:, 0, 1], J[:, 0, 0]]) / det[:, None]
+                # how the residuals move with A's and B's steps (zero for the mesh's nodes)
+                cA = np.where(da[:, None], -np.column_stack([np.einsum("ij,ij->i", d_a, Su[ja]),
+                                                              np.einsum("ij,ij->i", d_a, Sv[ja])]) / ra, 0.0)
+                cB = np.where(db[:, None], -np.column_stack([np.einsum("ij,ij->i", d_b, Su[jb]),
+                                                              np.einsum("ij,ij->i", d_b, Sv[jb])]) / rb, 0.0)
+            good = finite & solved
+            dx[sl] = 0.0
+            moving = np.zeros(nL - lo_row, dtype=bool)
+            new_f0 = None
+            for f in range(f0, L):
+                s = slice(bounds[f] - lo_row, bounds[f + 1] - lo_row)
+                t = todo[s]
+                if not t.any():
+                    continue
+                g = slice(bounds[f], bounds[f + 1])
+                fa, fb = ja[s], jb[s]
+                now = t & small[s] & (~da[s] | done[fa]) & (~db[s] | done[fb])
+                done[g] |= now
+                if new_f0 is None and not done[g].all():
+                    new_f0 = f
+                go = t & ~now & good[s]
+                moving[s] = go
+                if go.any():
+                    if f == 0 or not (da[s].any() or db[s].any()):
+                        dx[g] = np.where(go[:, None], step0[s], 0.0)
+                    else:
+                        sA = np.einsum("ij,ij->i", cA[s], dx[fa])
+                        sB = np.einsum("ij,ij->i", cB[s], dx[fb])
+                        dx[g] = np.where(go[:, None], step0[s] - k0[s] * sA[:, None] - k1[s] * sB[:, None], 0.0)
+            f0 = L if new_f0 is None else new_f0
+            failed[sl] |= todo & ~done[sl] & ~good
+            if moving.any():
+                rows = lo_row + np.flatnonzero(moving)
+                step = dx[rows]
+                factor = np.min(max_step / np.maximum(np.abs(step), 1e-300), axis=1, initial=1.0)
+                X[rows] += step * np.minimum(1.0, factor)[:, None]
+                failed[rows[~np.all((X[rows] >= lo) & (X[rows] <= hi), axis=1)]] = True
+            # Newton's iteration limit, counted for each front from when its A and B could settle
+            fl = it + 1 - _NEWTON_MAXIT
+            if 0 <= fl < L:
+                g = slice(bounds[fl], bounds[fl + 1])
+                failed[g] |= ~done[g]
+            bad = np.flatnonzero(failed[:bounds[L]])
+            if bad.size:
+                first = int(np.searchsorted(bounds, bad[0], side="right") - 1)
+                L = max(first, 1)  # the first front keeps its failures (rejections); a later one goes
+                f0 = min(f0, L)
+        nL = bounds[L]
+        conv = done[:nL] & ~failed[:nL]
+        return X[:nL], conv, S[:nL], Su[:nL], Sv[:nL], L
+
+    def _far_from_trees(self, P: np.ndarray) -> np.ndarray:
+        """(k,) bool: points at least half a spacing from every node (the
+        k-d trees of :meth:`far_from_mesh`, kept by its rules; no test
+        between the points themselves)."""
+        n = len(self.xyz)
+        t = self.trees
+        if "old" not in t or n - t["old"][1] > max(256, t["old"][1] // 8):
+            t.clear()
+            t["old"] = self._tree(0, n)
+        a = t["old"][1]
+        b = t["mid"][1] if "mid" in t else a
+        if n - b > max(32, (b - a) // 8):
+            t["mid"] = self._tree(a, n)
+            b = n
+        if n == b:
+            t.pop("new", None)
+        elif "new" not in t or t["new"][:2] != (b, n):
+            t["new"] = self._tree(b, n)
+        ok = np.ones(len(P), dtype=bool)
+        if len(P) == 0:
+            return ok
+        r = 0.5 * self.rmin
+        for _, _, tree in t.values():
+            d, _ = tree.query(P, k=1, distance_upper_bound=r)
+            ok &= d >= r
+        return ok
+
+    def _drop_close(self, P: np.ndarray, ok: np.ndarray, front: np.ndarray) -> None:
+        """Clear ``ok`` where a band's point is within half a spacing of another
+        still ok: of a later front's (the node is in the mesh by then), or of
+        its own front's first (as :meth:`far_from_mesh` keeps the first of a
+        close pair). Exact up to the band's first front with a rejection (the
+        fronts after it are not kept)."""
+        if ok.sum() < 2:
+            return
+        r = 0.5 * self.rmin
+        idx = np.flatnonzero(ok)
+        if len(idx) <= 32:
+            Q = P[idx]
+            d2 = np.sum((Q[:, None, :] - Q[None, :, :]) ** 2, axis=2)
+            i, j = np.nonzero(np.triu(d2 <= r * r, 1))
+        else:
+            pairs = cKDTree(P[idx]).query_pairs(r, output_type="ndarray")
+            if len(pairs) == 0:
+                return
+            i, j = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
+        if len(i) == 0:
+            return
+        i, j = idx[i], idx[j]
+        across = front[i] < front[j]
+        ok[j[across]] = False
+        same = ~across & ok[i] & ok[j]
+        ok[j[same]] = False
 
     def fill(self) -> None:
         """Two-Neighbour fronts and Node Filling seeds in turn until neither adds a node."""
