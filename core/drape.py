@@ -631,11 +631,20 @@ class _Builder:
     def _band(self, pos: np.ndarray, V: np.ndarray, m: int) -> tuple[np.ndarray, int, bool]:
         """Speculate, solve, check and add up to ``m`` fronts starting with the
         front ``pos, V``; returns (the positions added in the band's last kept
-        front, fronts kept, whether the band was kept whole)."""
+        front, fronts kept, whether the band was kept whole).
+
+        A rejection in a front changes the fronts after it only where a node
+        hangs on the rejected one (its A, B or C, or theirs): the others are
+        in the same front with the same configuration (a position's
+        configurations can only be fewer, and the chosen one is still among
+        them and still the first best). So after a rejection each front is
+        found again from the lattice as it now is and kept if it is the
+        speculated one less the nodes hanging on a rejection; the band ends
+        at the first front where it is not (a position whose configuration
+        changed)."""
         n = len(self.uv)
         P, iA, iB, iC, bounds = self._speculate(pos, V, m)
         nf = len(bounds) - 1
-        front = np.repeat(np.arange(nf), np.diff(bounds))
         rows = [_Refs(i, n, self.uv, self.xyz) for i in (iA, iB, iC)]
         A, B, C = rows
         # guesses front after front: A + B - C, the band's own from their guesses
@@ -645,11 +654,12 @@ class _Builder:
             X[sl] = A.pick(X, sl, "uv") + B.pick(X, sl, "uv") - C.pick(X, sl, "uv")
         X, conv, S, Su, Sv, L = self._band_newton(X, A, B, bounds)
         nL = bounds[L]
-        front, P, X, conv = front[:nL], P[:nL], X[:nL], conv[:nL]
-        ok, Xc, S, Su, Sv = self.accept_uv(X, conv, S[:nL], Su[:nL], Sv[:nL])
+        front = np.repeat(np.arange(L), np.diff(bounds[:L + 1]))
+        P = P[:nL]
+        ok, Xc, S, Su, Sv = self.accept_uv(X, conv, S, Su, Sv)
         moved = ok & np.any(Xc != X, axis=1)
-        sl = slice(0, nL)
-        PA, PB, PC = (r.pick(S, sl, "xyz") for r in rows)
+        every = slice(0, nL)
+        PA, PB, PC = (r.pick(S, every, "xyz") for r in rows)
         par = PA + PB - PC
         # a later front's root is trusted as the front-by-front one when it is the one near A + B - C (the
         # other root of the two spheres and the surface is near C): else the band ends before that front
@@ -659,26 +669,85 @@ class _Builder:
             nL = bounds[L]
             front, P, Xc, S, Su, Sv, ok, moved, PA, PB, PC, par = (
                 x[:nL] for x in (front, P, Xc, S, Su, Sv, ok, moved, PA, PB, PC, par))
+            every = slice(0, nL)
         ok &= np.einsum("ij,ij->i", S - PC, PA + PB - 2 * PC) > 0
         ok &= np.linalg.norm(S - PC, axis=1) > 0.5 * self.rmin
         ok &= np.linalg.norm(S - par, axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
         if self.separated is not None and ok.any():  # never a spring across a dart
             w = np.flatnonzero(ok)
-            sl = slice(0, nL)
-            uA, uB = A.pick(Xc, sl, "uv")[w], B.pick(Xc, sl, "uv")[w]
+            uA, uB = A.pick(Xc, every, "uv")[w], B.pick(Xc, every, "uv")[w]
             ok[w] = ~self.separated(uA, Xc[w], PA[w], S[w]) & ~self.separated(uB, Xc[w], PB[w], S[w])
         ok[ok] = self._far_from_trees(S[ok])
-        self._drop_close(S, ok, front)
-        # the band ends at its first front with a rejection or a node the domain's clip moved (the fronts
-        # after it were guessed from nodes as they are not)
-        cut = ~ok | moved
-        last = int(front[cut].min()) if cut.any() else L - 1
+        pi, pj = self._close_pairs(S, ok)
+        # the fronts in turn, as the front-by-front sweep takes them
+        status = np.zeros(nL, dtype=np.int8)  # 1 added, 2 rejected, 0 neither (hangs on a rejection)
+        lat = self.lat
+        grid = dead = None  # the lattice as the kept fronts leave it, once a front has a rejection
+        last = L - 1
+        for f in range(L):
+            lo_row, hi_row = bounds[f], bounds[f + 1]
+            if grid is None:
+                idx = np.arange(lo_row, hi_row)
+            else:
+                g = slice(lo_row, hi_row)
+                held = np.ones(hi_row - lo_row, dtype=bool)
+                for r in rows:
+                    held &= ~r.dep[g] | (status[r.j[g]] == 1)
+                idx = lo_row + np.flatnonzero(held)
+                prev = P[(front == f - 1) & (status == 1)]
+                found, _ = _valid_near_grid(grid, dead, lat.off, prev)
+                if found.shape != P[idx].shape or not np.array_equal(found, P[idx]):
+                    last = f - 1
+                    break
+            okf = ok[idx]
+            if len(pi):
+                into = front[pj] == f
+                # near a node of an earlier front (in the mesh by now), or the second of a close pair in this front
+                hit = into & (front[pi] < f) & (status[pi] == 1)
+                okf[np.isin(idx, pj[hit])] = False
+                surv = np.zeros(nL, dtype=bool)
+                surv[idx[okf]] = True
+                same = into & (front[pi] == f) & surv[pi] & surv[pj]
+                okf[np.isin(idx, pj[same])] = False
+            status[idx] = np.where(okf, 1, 2)
+            bad = not okf.all()
+            if not okf.any() or moved[idx[okf]].any():
+                last = f  # no node to go on from, or the next front hangs on a node the domain's clip moved
+                break
+            if bad and grid is None:
+                grid, dead = lat.grid.copy(), lat.dead.copy()
+                taken = P[:hi_row][status[:hi_row] == 1] + lat.off
+                grid[taken[:, 0], taken[:, 1]] = 0
+            if grid is not None:
+                g = P[idx] + lat.off
+                grid[g[okf, 0], g[okf, 1]] = 0
+                dead[g[~okf, 0], g[~okf, 1]] = True
         keep = front <= last
-        self.lat.kill(P[keep & ~ok])
-        take = keep & ok
+        self.lat.kill(P[keep & (status == 2)])
+        take = keep & (status == 1)
         if take.any():
             self.add(P[take], Xc[take], 2, S[take], Su[take], Sv[take])
-        return P[take & (front == last)], last + 1, last + 1 == nf and nf == m and not cut.any()
+        whole = last + 1 == nf and nf == m
+        return P[take & (front == last)], last + 1, whole
+
+    def _close_pairs(self, P: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pairs (i, j), i < j, of rows still ``ok`` whose points are within
+        half a spacing (as :meth:`far_from_mesh` finds them)."""
+        none = np.zeros(0, dtype=np.int64)
+        idx = np.flatnonzero(ok)
+        if len(idx) < 2:
+            return none, none
+        r = 0.5 * self.rmin
+        if len(idx) <= 32:
+            Q = P[idx]
+            d2 = np.sum((Q[:, None, :] - Q[None, :, :]) ** 2, axis=2)
+            i, j = np.nonzero(np.triu(d2 <= r * r, 1))
+        else:
+            pairs = cKDTree(P[idx]).query_pairs(r, output_type="ndarray")
+            if len(pairs) == 0:
+                return none, none
+            i, j = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
+        return idx[i], idx[j]
 
     def _band_newton(self, X: np.ndarray, A: "_Refs", B: "_Refs", bounds: np.ndarray):
         """Newton for a band's nodes at once: each at r_warp from its A and
@@ -812,33 +881,6 @@ class _Builder:
             d, _ = tree.query(P, k=1, distance_upper_bound=r)
             ok &= d >= r
         return ok
-
-    def _drop_close(self, P: np.ndarray, ok: np.ndarray, front: np.ndarray) -> None:
-        """Clear ``ok`` where a band's point is within half a spacing of another
-        still ok: of a later front's (the node is in the mesh by then), or of
-        its own front's first (as :meth:`far_from_mesh` keeps the first of a
-        close pair). Exact up to the band's first front with a rejection (the
-        fronts after it are not kept)."""
-        if ok.sum() < 2:
-            return
-        r = 0.5 * self.rmin
-        idx = np.flatnonzero(ok)
-        if len(idx) <= 32:
-            Q = P[idx]
-            d2 = np.sum((Q[:, None, :] - Q[None, :, :]) ** 2, axis=2)
-            i, j = np.nonzero(np.triu(d2 <= r * r, 1))
-        else:
-            pairs = cKDTree(P[idx]).query_pairs(r, output_type="ndarray")
-            if len(pairs) == 0:
-                return
-            i, j = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
-        if len(i) == 0:
-            return
-        i, j = idx[i], idx[j]
-        across = front[i] < front[j]
-        ok[j[across]] = False
-        same = ~across & ok[i] & ok[j]
-        ok[j[same]] = False
 
     def fill(self) -> None:
         """Two-Neighbour fronts and Node Filling seeds in turn until neither adds a node."""
