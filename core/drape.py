@@ -319,6 +319,9 @@ _BAND_START = 2
 """Fronts in the first band of a Two-Neighbour fill (:meth:`_Builder.two_neighbour_fill`)."""
 _BAND_MAX = 32
 """The most fronts in one band."""
+_BAND_ITERATIONS = 12
+"""Newton iterations for a band's second front (one more for each front after it): a node not done
+by then ends the band before its front (the next band solves it with A and B fixed)."""
 
 
 def _choose_configs(pos: np.ndarray, V: np.ndarray) -> np.ndarray:
@@ -652,24 +655,18 @@ class _Builder:
         for f in range(nf):
             sl = slice(bounds[f], bounds[f + 1])
             X[sl] = A.pick(X, sl, "uv") + B.pick(X, sl, "uv") - C.pick(X, sl, "uv")
-        X, conv, S, Su, Sv, L = self._band_newton(X, A, B, bounds)
-        nL = bounds[L]
-        front = np.repeat(np.arange(L), np.diff(bounds[:L + 1]))
-        P = P[:nL]
+        X, conv, failed, S, Su, Sv = self._band_newton(X, A, B, bounds)
+        L, nL = nf, bounds[nf]
+        front = np.repeat(np.arange(L), np.diff(bounds))
         ok, Xc, S, Su, Sv = self.accept_uv(X, conv, S, Su, Sv)
         moved = ok & np.any(Xc != X, axis=1)
         every = slice(0, nL)
         PA, PB, PC = (r.pick(S, every, "xyz") for r in rows)
         par = PA + PB - PC
-        # a later front's root is trusted as the front-by-front one when it is the one near A + B - C (the
-        # other root of the two spheres and the surface is near C): else the band ends before that front
-        far_root = (front > 0) & conv & (np.linalg.norm(S - par, axis=1) >= 0.25 * self.rmin)
-        if far_root.any():
-            L = int(front[far_root].min())
-            nL = bounds[L]
-            front, P, Xc, S, Su, Sv, ok, moved, PA, PB, PC, par = (
-                x[:nL] for x in (front, P, Xc, S, Su, Sv, ok, moved, PA, PB, PC, par))
-            every = slice(0, nL)
+        # a later front's node is the front-by-front one when it converged to the root near A + B - C (the
+        # other root of the two spheres and the surface is near C); one that is not ends the band before
+        # its front, if the sweep reaches it
+        suspect = (front > 0) & (failed | (conv & (np.linalg.norm(S - par, axis=1) >= 0.25 * self.rmin)))
         ok &= np.einsum("ij,ij->i", S - PC, PA + PB - 2 * PC) > 0
         ok &= np.linalg.norm(S - PC, axis=1) > 0.5 * self.rmin
         ok &= np.linalg.norm(S - par, axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
@@ -699,6 +696,9 @@ class _Builder:
                 if found.shape != P[idx].shape or not np.array_equal(found, P[idx]):
                     last = f - 1
                     break
+            if suspect[idx].any():
+                last = f - 1
+                break
             okf = ok[idx]
             if len(pi):
                 into = front[pj] == f
@@ -756,12 +756,11 @@ class _Builder:
         (a node depends on itself and on earlier fronts), so the step is
         forward substitution front after front: dx = -J^-1 (F + F_A dx_A +
         F_B dx_B). A node is done when its residual is within the tolerance
-        and its A and B are done. A node that fails (not finite, a singular
-        Jacobian, out of bounds, or not done in Newton's iterations counted
-        from when its front could start) ends the band before its front; the
-        first front keeps its failures: its Newton is :func:`_newton`'s, A
-        and B fixed, step for step. Returns (X, converged, S, Su, Sv for the
-        rows kept, fronts kept)."""
+        and its A and B are done; it fails when not finite, its Jacobian
+        singular, out of bounds, not done in its iterations, or its A or B
+        failed. The first front's failures are the front-by-front ones: its
+        Newton is :func:`_newton`'s, A and B fixed, step for step. Returns
+        (X, converged, failed, S, Su, Sv)."""
         surface = self.surface
         ra, rb = self.s.r_warp, self.s.r_weft
         dom = surface.domain
@@ -775,9 +774,9 @@ class _Builder:
         done = np.zeros(b, dtype=bool)
         failed = np.zeros(b, dtype=bool)
         dx = np.zeros((b, 2))
-        L = len(bounds) - 1  # fronts still in the band
+        L = len(bounds) - 1
         f0 = 0  # the fronts before f0 are done
-        for it in range(_NEWTON_MAXIT + L - 1):
+        for it in range(max(_NEWTON_MAXIT, _BAND_ITERATIONS + L - 1)):
             lo_row, nL = bounds[f0], bounds[L]
             sl = slice(lo_row, nL)
             todo = ~(done[sl] | failed[sl])
@@ -820,6 +819,9 @@ class _Builder:
                     continue
                 g = slice(bounds[f], bounds[f + 1])
                 fa, fb = ja[s], jb[s]
+                # a node hanging on a failed one cannot be done
+                failed[g] |= t & ((da[s] & failed[fa]) | (db[s] & failed[fb]))
+                t = t & ~failed[g]
                 now = t & small[s] & (~da[s] | done[fa]) & (~db[s] | done[fb])
                 done[g] |= now
                 if new_f0 is None and not done[g].all():
@@ -841,19 +843,15 @@ class _Builder:
                 factor = np.min(max_step / np.maximum(np.abs(step), 1e-300), axis=1, initial=1.0)
                 X[rows] += step * np.minimum(1.0, factor)[:, None]
                 failed[rows[~np.all((X[rows] >= lo) & (X[rows] <= hi), axis=1)]] = True
-            # Newton's iteration limit, counted for each front from when its A and B could settle
-            fl = it + 1 - _NEWTON_MAXIT
-            if 0 <= fl < L:
+            # Newton's iteration limit for the first front; a later front's failure only ends the band
+            # before it, so it gets fewer, counted from when its A and B could settle
+            if it + 1 == _NEWTON_MAXIT:
+                failed[:bounds[1]] |= ~done[:bounds[1]]
+            fl = it + 1 - _BAND_ITERATIONS
+            if 1 <= fl < L:
                 g = slice(bounds[fl], bounds[fl + 1])
                 failed[g] |= ~done[g]
-            bad = np.flatnonzero(failed[:bounds[L]])
-            if bad.size:
-                first = int(np.searchsorted(bounds, bad[0], side="right") - 1)
-                L = max(first, 1)  # the first front keeps its failures (rejections); a later one goes
-                f0 = min(f0, L)
-        nL = bounds[L]
-        conv = done[:nL] & ~failed[:nL]
-        return X[:nL], conv, S[:nL], Su[:nL], Sv[:nL], L
+        return X, done & ~failed, failed, S, Su, Sv
 
     def _far_from_trees(self, P: np.ndarray) -> np.ndarray:
         """(k,) bool: points at least half a spacing from every node (the
