@@ -315,7 +315,7 @@ _CONFIG_NEIGHBOURS = [(_BEHIND.index((a, 0)), _BEHIND.index((0, b)), _BEHIND.ind
 """For each of ``_CONFIGS``: the indices into ``_BEHIND`` of its A, B and C."""
 _BEHIND = np.array(_BEHIND)
 
-_BAND_START = 2
+_BAND_START = 16
 """Fronts in the first band of a Two-Neighbour fill (:meth:`_Builder.two_neighbour_fill`)."""
 _BAND_MAX = 32
 """The most fronts in one band."""
@@ -332,20 +332,33 @@ def _choose_configs(pos: np.ndarray, V: np.ndarray) -> np.ndarray:
     return _CONFIGS[np.argmin(score, axis=1)]
 
 
-def _valid_near_grid(grid: np.ndarray, dead: np.ndarray, off: np.ndarray,
-                     new: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:meth:`_Builder._valid_near` on a lattice grid given as arrays (node
-    index or -1, dead, offset): the lattice's own or a band's copy with the
-    positions it speculates on taken."""
-    g = (new[:, None, :] + _EIGHT[None, :, :]).reshape(-1, 2) + off
-    width = grid.shape[1]
-    key = np.unique(g[:, 0] * width + g[:, 1])  # row-major, as np.argwhere
-    key = key[(grid.ravel()[key] < 0) & ~dead.ravel()[key]]
-    gi, gj = key // width, key % width
-    occ = [grid[gi - d[0], gj - d[1]] >= 0 for d in _BEHIND]
-    V = np.stack([occ[ia] & occ[ib] & occ[ic] for ia, ib, ic in _CONFIG_NEIGHBOURS], axis=1)
-    keep = V.any(axis=1)
-    return np.column_stack([gi, gj])[keep] - off, V[keep]
+class _Marks:
+    """Positions of the lattice taken or killed for a while (a band's guess of
+    the fronts, or the fronts it keeps so far), undone on leaving the
+    ``with`` block: the band's positions are free before it."""
+
+    def __init__(self, lat: _Lattice):
+        self.lat = lat
+        self.cells = []
+
+    def take(self, ij: np.ndarray, rows: np.ndarray) -> None:
+        g = ij + self.lat.off
+        self.lat.grid[g[:, 0], g[:, 1]] = rows
+        self.cells.append(g)
+
+    def kill(self, ij: np.ndarray) -> None:
+        g = ij + self.lat.off
+        self.lat.dead[g[:, 0], g[:, 1]] = True
+        self.cells.append(g)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.cells:
+            g = np.concatenate(self.cells)
+            self.lat.grid[g[:, 0], g[:, 1]] = -1
+            self.lat.dead[g[:, 0], g[:, 1]] = False
 
 
 class _Refs:
@@ -605,31 +618,45 @@ class _Builder:
 
     def _speculate(self, pos: np.ndarray, V: np.ndarray, m: int):
         """The next ``m`` fronts (fewer if they end) as they are if every node
-        is accepted: (positions (b, 2) front after front, the rows of their A,
-        B and C (b,) each: nodes below ``len(self.uv)`` are the mesh's, the
-        others the band's own, ``len(self.uv) + row``, and the fronts' starts
-        (fronts + 1,)). The rule is :meth:`_valid_near`'s on a copy of the
-        lattice where the band's positions are taken."""
+        is accepted but those guessed well outside the domain: (positions
+        (b, 2) front after front, the rows of their A, B and C (b,) each:
+        nodes below ``len(self.uv)`` are the mesh's, the others the band's
+        own, ``len(self.uv) + row``, their guesses (b, 2), and the fronts'
+        starts (fronts + 1,)). Each front is :meth:`_valid_near`'s after the
+        last, the lattice marked meanwhile with the band's positions taken
+        (or, guessed outside, dead: the fronts are not grown from nodes that
+        will not be there; a wrong guess of it only ends the band where the
+        sweep differs)."""
         lat = self.lat
         # a front is within one position of the last: the lattice is grown once for the whole band
         lat.ensure(np.array([pos.min(axis=0) - m - 1, pos.max(axis=0) + m + 1]))
-        grid, off = lat.grid.copy(), lat.off
         n = len(self.uv)
-        parts, bounds = [], [0]
-        for f in range(m):
-            cfg = _choose_configs(pos, V)
-            g = pos + off
-            gi, gj = g[:, 0], g[:, 1]
-            parts.append((pos, grid[gi - cfg[:, 0], gj], grid[gi, gj - cfg[:, 1]],
-                          grid[gi - cfg[:, 0], gj - cfg[:, 1]]))
-            grid[gi, gj] = n + bounds[-1] + np.arange(len(pos))
-            bounds.append(bounds[-1] + len(pos))
-            if f + 1 == m:
-                break
-            pos, V = _valid_near_grid(grid, lat.dead, off, pos)
-            if len(pos) == 0:
-                break
-        return (*(np.concatenate(x) for x in zip(*parts)), np.array(bounds))
+        lo, hi = self.dom[:, 0], self.dom[:, 1]
+        parts, bounds, guesses = [], [0], []
+        band = np.zeros((0, 2))  # the guesses of the fronts so far
+        with _Marks(lat) as marks:
+            for f in range(m):
+                cfg = _choose_configs(pos, V)
+                ref = [lat.at(pos - np.column_stack([cfg[:, 0], np.zeros(len(pos), int)])),
+                       lat.at(pos - np.column_stack([np.zeros(len(pos), int), cfg[:, 1]])), lat.at(pos - cfg)]
+                U = [np.where((r >= n)[:, None], band[np.maximum(r - n, 0)],
+                              self.uv[np.minimum(r, n - 1)]) if f else self.uv[r] for r in ref]
+                X = U[0] + U[1] - U[2]
+                parts.append((pos, *ref))
+                guesses.append(X)
+                # outside the domain by more than half the guess's step from A: the node will not be there
+                reach = 0.5 * np.abs(X - U[0]).max(axis=1, keepdims=True)
+                out = np.any((X < lo - reach) | (X > hi + reach), axis=1)
+                marks.take(pos[~out], n + bounds[-1] + np.flatnonzero(~out))
+                marks.kill(pos[out])
+                bounds.append(bounds[-1] + len(pos))
+                if f + 1 == m:
+                    break
+                band = np.concatenate(guesses)
+                pos, V = self._valid_near(pos[~out])
+                if len(pos) == 0:
+                    break
+        return (*(np.concatenate(x) for x in zip(*parts)), np.concatenate(guesses), np.array(bounds))
 
     def _band(self, pos: np.ndarray, V: np.ndarray, m: int) -> tuple[np.ndarray, int, bool]:
         """Speculate, solve, check and add up to ``m`` fronts starting with the
@@ -646,15 +673,10 @@ class _Builder:
         at the first front where it is not (a position whose configuration
         changed)."""
         n = len(self.uv)
-        P, iA, iB, iC, bounds = self._speculate(pos, V, m)
+        P, iA, iB, iC, X, bounds = self._speculate(pos, V, m)
         nf = len(bounds) - 1
         rows = [_Refs(i, n, self.uv, self.xyz) for i in (iA, iB, iC)]
         A, B, C = rows
-        # guesses front after front: A + B - C, the band's own from their guesses
-        X = np.empty((len(P), 2))
-        for f in range(nf):
-            sl = slice(bounds[f], bounds[f + 1])
-            X[sl] = A.pick(X, sl, "uv") + B.pick(X, sl, "uv") - C.pick(X, sl, "uv")
         X, conv, failed, S, Su, Sv = self._band_newton(X, A, B, bounds)
         L, nL = nf, bounds[nf]
         front = np.repeat(np.arange(L), np.diff(bounds))
@@ -678,12 +700,28 @@ class _Builder:
         pi, pj = self._close_pairs(S, ok)
         # the fronts in turn, as the front-by-front sweep takes them
         status = np.zeros(nL, dtype=np.int8)  # 1 added, 2 rejected, 0 neither (hangs on a rejection)
-        lat = self.lat
-        grid = dead = None  # the lattice as the kept fronts leave it, once a front has a rejection
+        with _Marks(self.lat) as marks:
+            last = self._sweep_band(P, front, bounds, L, rows, ok, moved, suspect, pi, pj, status, marks)
+        keep = front <= last
+        self.lat.kill(P[keep & (status == 2)])
+        take = keep & (status == 1)
+        if take.any():
+            self.add(P[take], Xc[take], 2, S[take], Su[take], Sv[take])
+        whole = last + 1 == nf and nf == m
+        return P[take & (front == last)], last + 1, whole
+
+    def _sweep_band(self, P, front, bounds, L, rows, ok, moved, suspect, pi, pj, status, marks) -> int:
+        """Take a checked band's fronts in turn as the front-by-front sweep
+        would: sets ``status`` (1 added, 2 rejected) and returns the last front
+        kept. Once a front has a rejection, the lattice is marked as the kept
+        fronts leave it (``marks``) and each front is found again on it."""
+        n = len(self.uv)
+        nL = len(front)
+        slow = False
         last = L - 1
         for f in range(L):
             lo_row, hi_row = bounds[f], bounds[f + 1]
-            if grid is None:
+            if not slow:
                 idx = np.arange(lo_row, hi_row)
             else:
                 g = slice(lo_row, hi_row)
@@ -692,7 +730,7 @@ class _Builder:
                     held &= ~r.dep[g] | (status[r.j[g]] == 1)
                 idx = lo_row + np.flatnonzero(held)
                 prev = P[(front == f - 1) & (status == 1)]
-                found, _ = _valid_near_grid(grid, dead, lat.off, prev)
+                found, _ = self._valid_near(prev)
                 if found.shape != P[idx].shape or not np.array_equal(found, P[idx]):
                     last = f - 1
                     break
@@ -714,21 +752,14 @@ class _Builder:
             if not okf.any() or moved[idx[okf]].any():
                 last = f  # no node to go on from, or the next front hangs on a node the domain's clip moved
                 break
-            if bad and grid is None:
-                grid, dead = lat.grid.copy(), lat.dead.copy()
-                taken = P[:hi_row][status[:hi_row] == 1] + lat.off
-                grid[taken[:, 0], taken[:, 1]] = 0
-            if grid is not None:
-                g = P[idx] + lat.off
-                grid[g[okf, 0], g[okf, 1]] = 0
-                dead[g[~okf, 0], g[~okf, 1]] = True
-        keep = front <= last
-        self.lat.kill(P[keep & (status == 2)])
-        take = keep & (status == 1)
-        if take.any():
-            self.add(P[take], Xc[take], 2, S[take], Su[take], Sv[take])
-        whole = last + 1 == nf and nf == m
-        return P[take & (front == last)], last + 1, whole
+            if bad and not slow:
+                slow = True
+                done = np.flatnonzero(status[:lo_row] == 1)
+                marks.take(P[done], n + done)
+            if slow:
+                marks.take(P[idx[okf]], n + idx[okf])
+                marks.kill(P[idx[~okf]])
+        return last
 
     def _close_pairs(self, P: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The pairs (i, j), i < j, of rows still ``ok`` whose points are within
