@@ -315,13 +315,16 @@ _CONFIG_NEIGHBOURS = [(_BEHIND.index((a, 0)), _BEHIND.index((0, b)), _BEHIND.ind
 """For each of ``_CONFIGS``: the indices into ``_BEHIND`` of its A, B and C."""
 _BEHIND = np.array(_BEHIND)
 
-_BAND_START = 16
-"""Fronts in the first band of a Two-Neighbour fill (:meth:`_Builder.two_neighbour_fill`)."""
+_BAND_START = 2
+"""Fronts in the first band of a Two-Neighbour fill from the whole lattice (:meth:`_Builder.two_neighbour_fill`)."""
+_BAND_MIN = 4
+"""The fewest fronts a band speculates on after one was cut short."""
 _BAND_MAX = 32
 """The most fronts in one band."""
-_BAND_ITERATIONS = 12
-"""Newton iterations for a band's second front (one more for each front after it): a node not done
-by then ends the band before its front (the next band solves it with A and B fixed)."""
+_BAND_ITERATIONS = 4
+"""Newton iterations a node of a band's later front gets once its A and B are done: a node not
+done by then ends the band before its front (the next band solves it with A and B fixed, with all of
+Newton's iterations)."""
 
 
 def _choose_configs(pos: np.ndarray, V: np.ndarray) -> np.ndarray:
@@ -605,7 +608,10 @@ class _Builder:
         """
         added = 0
         pos, V = self._valid_everywhere() if start is None else self._valid_near(start)
-        m = _BAND_START
+        # a scan of the whole lattice (a drape's first fill, a refill's) starts with a short band: a refill's
+        # first front is scattered over the lattice and often all rejected; Node Filling goes on from the
+        # last fill's band size
+        m = getattr(self, "_band_m", _BAND_START) if start is not None else _BAND_START
         while len(pos):
             new, fronts, whole = self._band(pos, V, m)
             added += len(new)
@@ -613,7 +619,8 @@ class _Builder:
                 return added
             pos, V = self._valid_near(new)
             # more fronts at once while bands are kept whole; fewer after a cut
-            m = min(2 * m, _BAND_MAX) if whole else max(_BAND_START, fronts)
+            m = min(2 * m, _BAND_MAX) if whole else max(_BAND_MIN, fronts)
+            self._band_m = m
         return added
 
     def _speculate(self, pos: np.ndarray, V: np.ndarray, m: int):
@@ -804,10 +811,13 @@ class _Builder:
         S, Su, Sv = np.zeros((b, 3)), np.zeros((b, 3)), np.zeros((b, 3))
         done = np.zeros(b, dtype=bool)
         failed = np.zeros(b, dtype=bool)
+        stop = np.zeros(b, dtype=bool)  # failed, or done outside the domain
+        waited = np.zeros(b, dtype=np.int64)
         dx = np.zeros((b, 2))
         L = len(bounds) - 1
+        front = np.repeat(np.arange(L), np.diff(bounds))
         f0 = 0  # the fronts before f0 are done
-        for it in range(max(_NEWTON_MAXIT, _BAND_ITERATIONS + L - 1)):
+        for it in range(_NEWTON_MAXIT + (L - 1) * (_BAND_ITERATIONS + 1)):
             lo_row, nL = bounds[f0], bounds[L]
             sl = slice(lo_row, nL)
             todo = ~(done[sl] | failed[sl])
@@ -840,33 +850,42 @@ class _Builder:
                 cB = np.where(db[:, None], -np.column_stack([np.einsum("ij,ij->i", d_b, Su[jb]),
                                                               np.einsum("ij,ij->i", d_b, Sv[jb])]) / rb, 0.0)
             good = finite & solved
-            dx[sl] = 0.0
-            moving = np.zeros(nL - lo_row, dtype=bool)
-            new_f0 = None
-            for f in range(f0, L):
-                s = slice(bounds[f] - lo_row, bounds[f + 1] - lo_row)
-                t = todo[s]
-                if not t.any():
-                    continue
-                g = slice(bounds[f], bounds[f + 1])
-                fa, fb = ja[s], jb[s]
-                # a node hanging on a failed one cannot be done
-                failed[g] |= t & ((da[s] & failed[fa]) | (db[s] & failed[fb]))
-                t = t & ~failed[g]
-                now = t & small[s] & (~da[s] | done[fa]) & (~db[s] | done[fb])
-                done[g] |= now
-                if new_f0 is None and not done[g].all():
-                    new_f0 = f
-                go = t & ~now & good[s]
-                moving[s] = go
-                if go.any():
-                    if f == 0 or not (da[s].any() or db[s].any()):
-                        dx[g] = np.where(go[:, None], step0[s], 0.0)
-                    else:
-                        sA = np.einsum("ij,ij->i", cA[s], dx[fa])
-                        sB = np.einsum("ij,ij->i", cB[s], dx[fb])
-                        dx[g] = np.where(go[:, None], step0[s] - k0[s] * sA[:, None] - k1[s] * sB[:, None], 0.0)
-            f0 = L if new_f0 is None else new_f0
+            fr = front[sl]
+            # a node hanging on a failed one, or on one done outside the domain (to be rejected), is not solved
+            hang = todo & ((da & stop[ja]) | (db & stop[jb]))
+            failed[lo_row + np.flatnonzero(hang)] = True
+            todo &= ~hang
+            # done: within the tolerance, A and B done. Every node of the fronts before the first with one not
+            # within it is done (its A and B are in those fronts or done before); after it, those whose A and B
+            # were done before this iteration (one done with them only now is done at the next)
+            held = (~da | done[ja]) & (~db | done[jb])
+            wide = np.flatnonzero(todo & ~small)
+            k = fr[wide[0]] if wide.size else L
+            now = todo & small & (held | (fr < k))
+            if now.any():
+                rows = lo_row + np.flatnonzero(now)
+                done[rows] = True
+                x = X[rows]
+                stop[rows] = np.any((x < dom[:, 0] - self.tol_uv) | (x > dom[:, 1] + self.tol_uv), axis=1)
+            # a later front's node gets a few iterations once its A and B are done
+            waited[sl] += todo & held & ~now & (fr > 0)
+            failed[sl] |= waited[sl] > _BAND_ITERATIONS
+            go = todo & ~now & good & ~failed[sl]
+            nd = np.flatnonzero(~done[lo_row:nL])
+            f0 = fr[nd[0]] if nd.size else L
+            # the step front after front: A's and B's steps (zero for the mesh's nodes and those done) move it
+            moving = go
+            dx[sl] = np.where(go[:, None], step0, 0.0)
+            if go.any():
+                busy = np.add.reduceat(go, bounds[f0:L] - lo_row) if f0 < L else np.zeros(0, int)
+                for f in range(max(f0, 1), L):
+                    if not busy[f - f0]:
+                        continue
+                    s = slice(bounds[f] - lo_row, bounds[f + 1] - lo_row)
+                    g = slice(bounds[f], bounds[f + 1])
+                    sA = np.einsum("ij,ij->i", cA[s], dx[ja[s]])
+                    sB = np.einsum("ij,ij->i", cB[s], dx[jb[s]])
+                    dx[g] -= np.where(go[s, None], k0[s] * sA[:, None] + k1[s] * sB[:, None], 0.0)
             failed[sl] |= todo & ~done[sl] & ~good
             if moving.any():
                 rows = lo_row + np.flatnonzero(moving)
@@ -874,14 +893,9 @@ class _Builder:
                 factor = np.min(max_step / np.maximum(np.abs(step), 1e-300), axis=1, initial=1.0)
                 X[rows] += step * np.minimum(1.0, factor)[:, None]
                 failed[rows[~np.all((X[rows] >= lo) & (X[rows] <= hi), axis=1)]] = True
-            # Newton's iteration limit for the first front; a later front's failure only ends the band
-            # before it, so it gets fewer, counted from when its A and B could settle
-            if it + 1 == _NEWTON_MAXIT:
+            stop |= failed
+            if it + 1 == _NEWTON_MAXIT:  # Newton's iteration limit, for the first front
                 failed[:bounds[1]] |= ~done[:bounds[1]]
-            fl = it + 1 - _BAND_ITERATIONS
-            if 1 <= fl < L:
-                g = slice(bounds[fl], bounds[fl + 1])
-                failed[g] |= ~done[g]
         return X, done & ~failed, failed, S, Su, Sv
 
     def _far_from_trees(self, P: np.ndarray) -> np.ndarray:
