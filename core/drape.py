@@ -640,14 +640,15 @@ class _Builder:
         n = len(self.uv)
         lo, hi = self.dom[:, 0], self.dom[:, 1]
         parts, bounds, guesses = [], [0], []
-        band = np.zeros((0, 2))  # the guesses of the fronts so far
+        flat, width = lat.grid.ravel(), lat.grid.shape[1]
+        uv = self.uv  # then the mesh's (u, v) and the band's guesses, by row
         with _Marks(lat) as marks:
             for f in range(m):
                 cfg = _choose_configs(pos, V)
-                ref = [lat.at(pos - np.column_stack([cfg[:, 0], np.zeros(len(pos), int)])),
-                       lat.at(pos - np.column_stack([np.zeros(len(pos), int), cfg[:, 1]])), lat.at(pos - cfg)]
-                U = [np.where((r >= n)[:, None], band[np.maximum(r - n, 0)],
-                              self.uv[np.minimum(r, n - 1)]) if f else self.uv[r] for r in ref]
+                g = (pos[:, 0] + lat.off[0]) * width + pos[:, 1] + lat.off[1]
+                da, db = cfg[:, 0] * width, cfg[:, 1]
+                ref = (flat[g - da], flat[g - db], flat[g - da - db])
+                U = [uv[r] for r in ref]
                 X = U[0] + U[1] - U[2]
                 parts.append((pos, *ref))
                 guesses.append(X)
@@ -659,7 +660,7 @@ class _Builder:
                 bounds.append(bounds[-1] + len(pos))
                 if f + 1 == m:
                     break
-                band = np.concatenate(guesses)
+                uv = np.concatenate([uv, X])
                 pos, V = self._valid_near(pos[~out])
                 if len(pos) == 0:
                     break
@@ -813,6 +814,8 @@ class _Builder:
         failed = np.zeros(b, dtype=bool)
         stop = np.zeros(b, dtype=bool)  # failed, or done outside the domain
         waited = np.zeros(b, dtype=np.int64)
+        small_b, good_b = np.zeros(b, dtype=bool), np.zeros(b, dtype=bool)
+        step0_b, k0_b, k1_b, cA_b, cB_b = (np.zeros((b, 2)) for _ in range(5))
         dx = np.zeros((b, 2))
         L = len(bounds) - 1
         front = np.repeat(np.arange(L), np.diff(bounds))
@@ -825,43 +828,54 @@ class _Builder:
             if act.size == 0:
                 break
             S[act], Su[act], Sv[act] = surface.derivatives(X[act])
-            Ss, Sus, Svs = S[sl], Su[sl], Sv[sl]
             ja, jb, da, db = A.j[sl], B.j[sl], A.dep[sl], B.dep[sl]
-            d_a = Ss - A.pick(S, sl, "xyz")
-            d_b = Ss - B.pick(S, sl, "xyz")
+            # residuals, Jacobians and steps of the rows evaluated (the others' are not used)
+            Sa, Sua, Sva = S[act], Su[act], Sv[act]
+            d_a = Sa - np.where(A.dep[act, None], S[A.j[act]], A.mesh["xyz"][act])
+            d_b = Sa - np.where(B.dep[act, None], S[B.j[act]], B.mesh["xyz"][act])
             F = np.column_stack([(np.einsum("ij,ij->i", d_a, d_a) - ra ** 2) / (2 * ra),
                                  (np.einsum("ij,ij->i", d_b, d_b) - rb ** 2) / (2 * rb)])
-            J = np.empty((nL - lo_row, 2, 2))
-            J[:, 0, 0] = np.einsum("ij,ij->i", d_a, Sus) / ra
-            J[:, 0, 1] = np.einsum("ij,ij->i", d_a, Svs) / ra
-            J[:, 1, 0] = np.einsum("ij,ij->i", d_b, Sus) / rb
-            J[:, 1, 1] = np.einsum("ij,ij->i", d_b, Svs) / rb
+            J = np.empty((len(act), 2, 2))
+            J[:, 0, 0] = np.einsum("ij,ij->i", d_a, Sua) / ra
+            J[:, 0, 1] = np.einsum("ij,ij->i", d_a, Sva) / ra
+            J[:, 1, 0] = np.einsum("ij,ij->i", d_b, Sua) / rb
+            J[:, 1, 1] = np.einsum("ij,ij->i", d_b, Sva) / rb
             with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
                 finite = np.isfinite(F).all(axis=1) & np.isfinite(J).reshape(-1, 4).all(axis=1)
-                small = finite & (np.abs(F).max(axis=1) <= tol)
-                step0, solved = solve2(J, F)  # the step with A and B held
+                small_b[act] = finite & (np.abs(F).max(axis=1) <= tol)
+                step0_b[act], solved = solve2(J, F)  # the step with A and B held
+                good_b[act] = finite & solved
                 # J^-1's columns, for the steps of A and B: dx = step0 - J^-1 (e0 F_A dx_A + e1 F_B dx_B)
                 det = np.where(solved, J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0], 1.0)
-                k0 = np.column_stack([J[:, 1, 1], -J[:, 1, 0]]) / det[:, None]
-                k1 = np.column_stack([-J[:, 0, 1], J[:, 0, 0]]) / det[:, None]
+                k0_b[act] = np.column_stack([J[:, 1, 1], -J[:, 1, 0]]) / det[:, None]
+                k1_b[act] = np.column_stack([-J[:, 0, 1], J[:, 0, 0]]) / det[:, None]
                 # how the residuals move with A's and B's steps (zero for the mesh's nodes)
-                cA = np.where(da[:, None], -np.column_stack([np.einsum("ij,ij->i", d_a, Su[ja]),
-                                                              np.einsum("ij,ij->i", d_a, Sv[ja])]) / ra, 0.0)
-                cB = np.where(db[:, None], -np.column_stack([np.einsum("ij,ij->i", d_b, Su[jb]),
-                                                              np.einsum("ij,ij->i", d_b, Sv[jb])]) / rb, 0.0)
-            good = finite & solved
+                for c, r, d, rr in ((cA_b, A, d_a, ra), (cB_b, B, d_b, rb)):
+                    j = r.j[act]
+                    c[act] = np.where(r.dep[act, None], -np.column_stack([np.einsum("ij,ij->i", d, Su[j]),
+                                                                          np.einsum("ij,ij->i", d, Sv[j])]) / rr, 0.0)
+            small, good, step0 = small_b[sl], good_b[sl], step0_b[sl]
+            k0, k1, cA, cB = k0_b[sl], k1_b[sl], cA_b[sl], cB_b[sl]
             fr = front[sl]
             # a node hanging on a failed one, or on one done outside the domain (to be rejected), is not solved
             hang = todo & ((da & stop[ja]) | (db & stop[jb]))
             failed[lo_row + np.flatnonzero(hang)] = True
             todo &= ~hang
             # done: within the tolerance, A and B done. Every node of the fronts before the first with one not
-            # within it is done (its A and B are in those fronts or done before); after it, those whose A and B
-            # were done before this iteration (one done with them only now is done at the next)
+            # within it is done (its A and B are in those fronts or done before); after it, A and B are
+            # looked up until no more are done
             held = (~da | done[ja]) & (~db | done[jb])
             wide = np.flatnonzero(todo & ~small)
             k = fr[wide[0]] if wide.size else L
             now = todo & small & (held | (fr < k))
+            cand = todo & small & ~now
+            while cand.any():
+                done[lo_row + np.flatnonzero(now)] = True
+                more = cand & (~da | done[ja]) & (~db | done[jb])
+                if not more.any():
+                    break
+                now |= more
+                cand &= ~more
             if now.any():
                 rows = lo_row + np.flatnonzero(now)
                 done[rows] = True
