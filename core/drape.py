@@ -599,12 +599,13 @@ class _Builder:
         (the filling seeds), or None to look at the whole lattice.
 
         The fronts go in bands: a band is the next few fronts as they would be
-        if every node were accepted, solved by one coupled Newton iteration and
-        checked at once (:meth:`_band`); the band is kept up to its first front
-        with a rejection (that front included), which is where the fronts
-        after it would differ from the guess. Each front is then what the
-        front-by-front sweep makes of it, to round-off, at a fraction of the
-        calls (a front of a few nodes costs its calls, whatever its size).
+        if every node were accepted (:meth:`_speculate`), solved by one
+        coupled Newton iteration (:meth:`_band_newton`) and checked at once
+        (:meth:`_band`); then taken front by front as the sweep would take
+        them (:meth:`_sweep_band`), up to the first front that is not the
+        speculated one. Each front is what the front-by-front sweep makes of
+        it, to round-off, at a fraction of the calls (a front of a few nodes
+        costs the calls of a large one).
         """
         added = 0
         pos, V = self._valid_everywhere() if start is None else self._valid_near(start)
@@ -628,8 +629,8 @@ class _Builder:
         is accepted but those guessed well outside the domain: (positions
         (b, 2) front after front, the rows of their A, B and C (b,) each:
         nodes below ``len(self.uv)`` are the mesh's, the others the band's
-        own, ``len(self.uv) + row``, their guesses (b, 2), and the fronts'
-        starts (fronts + 1,)). Each front is :meth:`_valid_near`'s after the
+        own, ``len(self.uv) + row``, their guesses (b, 2), whether each is
+        guessed outside (b,), and the fronts' starts (fronts + 1,)). Each front is :meth:`_valid_near`'s after the
         last, the lattice marked meanwhile with the band's positions taken
         (or, guessed outside, dead: the fronts are not grown from nodes that
         will not be there; a wrong guess of it only ends the band where the
@@ -639,7 +640,7 @@ class _Builder:
         lat.ensure(np.array([pos.min(axis=0) - m - 1, pos.max(axis=0) + m + 1]))
         n = len(self.uv)
         lo, hi = self.dom[:, 0], self.dom[:, 1]
-        parts, bounds, guesses = [], [0], []
+        parts, bounds, guesses, outs = [], [0], [], []
         flat, width = lat.grid.ravel(), lat.grid.shape[1]
         uv = self.uv  # then the mesh's (u, v) and the band's guesses, by row
         with _Marks(lat) as marks:
@@ -655,6 +656,7 @@ class _Builder:
                 # outside the domain by more than half the guess's step from A: the node will not be there
                 reach = 0.5 * np.abs(X - U[0]).max(axis=1, keepdims=True)
                 out = np.any((X < lo - reach) | (X > hi + reach), axis=1)
+                outs.append(out)
                 marks.take(pos[~out], n + bounds[-1] + np.flatnonzero(~out))
                 marks.kill(pos[out])
                 bounds.append(bounds[-1] + len(pos))
@@ -664,7 +666,8 @@ class _Builder:
                 pos, V = self._valid_near(pos[~out])
                 if len(pos) == 0:
                     break
-        return (*(np.concatenate(x) for x in zip(*parts)), np.concatenate(guesses), np.array(bounds))
+        return (*(np.concatenate(x) for x in zip(*parts)), np.concatenate(guesses), np.concatenate(outs),
+                np.array(bounds))
 
     def _band(self, pos: np.ndarray, V: np.ndarray, m: int) -> tuple[np.ndarray, int, bool]:
         """Speculate, solve, check and add up to ``m`` fronts starting with the
@@ -681,7 +684,7 @@ class _Builder:
         at the first front where it is not (a position whose configuration
         changed)."""
         n = len(self.uv)
-        P, iA, iB, iC, X, bounds = self._speculate(pos, V, m)
+        P, iA, iB, iC, X, out, bounds = self._speculate(pos, V, m)
         nf = len(bounds) - 1
         rows = [_Refs(i, n, self.uv, self.xyz) for i in (iA, iB, iC)]
         A, B, C = rows
@@ -709,7 +712,7 @@ class _Builder:
         # the fronts in turn, as the front-by-front sweep takes them
         status = np.zeros(nL, dtype=np.int8)  # 1 added, 2 rejected, 0 neither (hangs on a rejection)
         with _Marks(self.lat) as marks:
-            last = self._sweep_band(P, front, bounds, L, rows, ok, moved, suspect, pi, pj, status, marks)
+            last = self._sweep_band(P, front, bounds, rows, ok, out, moved, suspect, pi, pj, status, marks)
         keep = front <= last
         self.lat.kill(P[keep & (status == 2)])
         take = keep & (status == 1)
@@ -718,13 +721,16 @@ class _Builder:
         whole = last + 1 == nf and nf == m
         return P[take & (front == last)], last + 1, whole
 
-    def _sweep_band(self, P, front, bounds, L, rows, ok, moved, suspect, pi, pj, status, marks) -> int:
+    def _sweep_band(self, P, front, bounds, rows, ok, out, moved, suspect, pi, pj, status, marks) -> int:
         """Take a checked band's fronts in turn as the front-by-front sweep
         would: sets ``status`` (1 added, 2 rejected) and returns the last front
-        kept. Once a front has a rejection, the lattice is marked as the kept
+        kept. Up to the first front where a node is not as the speculation
+        took it (accepted, or rejected if guessed outside), the fronts are the
+        speculated ones; from there on the lattice is marked as the kept
         fronts leave it (``marks``) and each front is found again on it."""
         n = len(self.uv)
         nL = len(front)
+        L = len(bounds) - 1
         slow = False
         last = L - 1
         for f in range(L):
@@ -756,14 +762,14 @@ class _Builder:
                 same = into & (front[pi] == f) & surv[pi] & surv[pj]
                 okf[np.isin(idx, pj[same])] = False
             status[idx] = np.where(okf, 1, 2)
-            bad = not okf.all()
             if not okf.any() or moved[idx[okf]].any():
                 last = f  # no node to go on from, or the next front hangs on a node the domain's clip moved
                 break
-            if bad and not slow:
+            if not slow and np.any(okf == out[idx]):
                 slow = True
                 done = np.flatnonzero(status[:lo_row] == 1)
                 marks.take(P[done], n + done)
+                marks.kill(P[:lo_row][status[:lo_row] == 2])
             if slow:
                 marks.take(P[idx[okf]], n + idx[okf])
                 marks.kill(P[idx[~okf]])
