@@ -815,13 +815,16 @@ class _Builder:
         tol = max(1e-12 * min(ra, rb), 16 * np.finfo(float).eps * float(np.abs(surface.ctrlpts).max()))
         b = len(X)
         X = X.copy()
-        S, Su, Sv = np.zeros((b, 3)), np.zeros((b, 3)), np.zeros((b, 3))
+        S, T = np.zeros((b, 3)), np.zeros((b, 2, 3))  # the points, (S_u, S_v)
+        j2, dep2 = np.column_stack([A.j, B.j]), np.column_stack([A.dep, B.dep])
+        mesh2 = np.stack([A.mesh["xyz"], B.mesh["xyz"]], axis=1)
+        r2 = np.array([ra, rb])
         done = np.zeros(b, dtype=bool)
         failed = np.zeros(b, dtype=bool)
         stop = np.zeros(b, dtype=bool)  # failed, or done outside the domain
         waited = np.zeros(b, dtype=np.int64)
         small_b, good_b = np.zeros(b, dtype=bool), np.zeros(b, dtype=bool)
-        step0_b, k0_b, k1_b, cA_b, cB_b = (np.zeros((b, 2)) for _ in range(5))
+        step0_b, inv_b, c_b = np.zeros((b, 2)), np.zeros((b, 2, 2)), np.zeros((b, 2, 2))
         dx = np.zeros((b, 2))
         L = len(bounds) - 1
         front = np.repeat(np.arange(L), np.diff(bounds))
@@ -833,35 +836,27 @@ class _Builder:
             act = lo_row + np.flatnonzero(todo)
             if act.size == 0:
                 break
-            S[act], Su[act], Sv[act] = surface.derivatives(X[act])
+            S[act], T[act, 0], T[act, 1] = surface.derivatives(X[act])
             ja, jb, da, db = A.j[sl], B.j[sl], A.dep[sl], B.dep[sl]
-            # residuals, Jacobians and steps of the rows evaluated (the others' are not used)
-            Sa, Sua, Sva = S[act], Su[act], Sv[act]
-            d_a = Sa - np.where(A.dep[act, None], S[A.j[act]], A.mesh["xyz"][act])
-            d_b = Sa - np.where(B.dep[act, None], S[B.j[act]], B.mesh["xyz"][act])
-            F = np.column_stack([(np.einsum("ij,ij->i", d_a, d_a) - ra ** 2) / (2 * ra),
-                                 (np.einsum("ij,ij->i", d_b, d_b) - rb ** 2) / (2 * rb)])
-            J = np.empty((len(act), 2, 2))
-            J[:, 0, 0] = np.einsum("ij,ij->i", d_a, Sua) / ra
-            J[:, 0, 1] = np.einsum("ij,ij->i", d_a, Sva) / ra
-            J[:, 1, 0] = np.einsum("ij,ij->i", d_b, Sua) / rb
-            J[:, 1, 1] = np.einsum("ij,ij->i", d_b, Sva) / rb
+            # residuals, Jacobians and steps of the rows evaluated (the others' are not used), both spheres
+            # at once as in _two_neighbour
+            j2a, dep2a = j2[act], dep2[act]
+            d = S[act][:, None, :] - np.where(dep2a[:, :, None], S[j2a], mesh2[act])  # (k, 2, 3)
+            F = (np.einsum("kic,kic->ki", d, d) - r2 ** 2) / (2 * r2)
+            J = np.einsum("kic,kjc->kij", d, T[act]) / r2[:, None]
             with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
                 finite = np.isfinite(F).all(axis=1) & np.isfinite(J).reshape(-1, 4).all(axis=1)
                 small_b[act] = finite & (np.abs(F).max(axis=1) <= tol)
                 step0_b[act], solved = solve2(J, F)  # the step with A and B held
                 good_b[act] = finite & solved
-                # J^-1's columns, for the steps of A and B: dx = step0 - J^-1 (e0 F_A dx_A + e1 F_B dx_B)
+                # J^-1, for the steps of A and B: dx = step0 - J^-1 (F_A dx_A, F_B dx_B)
                 det = np.where(solved, J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0], 1.0)
-                k0_b[act] = np.column_stack([J[:, 1, 1], -J[:, 1, 0]]) / det[:, None]
-                k1_b[act] = np.column_stack([-J[:, 0, 1], J[:, 0, 0]]) / det[:, None]
+                inv_b[act] = np.stack([J[:, 1, 1], -J[:, 0, 1], -J[:, 1, 0], J[:, 0, 0]],
+                                      axis=1).reshape(-1, 2, 2) / det[:, None, None]
                 # how the residuals move with A's and B's steps (zero for the mesh's nodes)
-                for c, r, d, rr in ((cA_b, A, d_a, ra), (cB_b, B, d_b, rb)):
-                    j = r.j[act]
-                    c[act] = np.where(r.dep[act, None], -np.column_stack([np.einsum("ij,ij->i", d, Su[j]),
-                                                                          np.einsum("ij,ij->i", d, Sv[j])]) / rr, 0.0)
-            small, good, step0 = small_b[sl], good_b[sl], step0_b[sl]
-            k0, k1, cA, cB = k0_b[sl], k1_b[sl], cA_b[sl], cB_b[sl]
+                c_b[act] = np.where(dep2a[:, :, None], -np.einsum("kic,kijc->kij", d, T[j2a]) / r2[:, None], 0.0)
+            small, good, step0, inv, c = small_b[sl], good_b[sl], step0_b[sl], inv_b[sl], c_b[sl]
+            j2s = j2[sl]
             fr = front[sl]
             # a node hanging on a failed one, or on one done outside the domain (to be rejected), is not solved
             hang = todo & ((da & stop[ja]) | (db & stop[jb]))
@@ -903,9 +898,8 @@ class _Builder:
                         continue
                     s = slice(bounds[f] - lo_row, bounds[f + 1] - lo_row)
                     g = slice(bounds[f], bounds[f + 1])
-                    sA = np.einsum("ij,ij->i", cA[s], dx[ja[s]])
-                    sB = np.einsum("ij,ij->i", cB[s], dx[jb[s]])
-                    dx[g] -= np.where(go[s, None], k0[s] * sA[:, None] + k1[s] * sB[:, None], 0.0)
+                    sab = np.einsum("kij,kij->ki", c[s], dx[j2s[s]])
+                    dx[g] -= np.where(go[s, None], np.einsum("kij,kj->ki", inv[s], sab), 0.0)
             failed[sl] |= todo & ~done[sl] & ~good
             if moving.any():
                 rows = lo_row + np.flatnonzero(moving)
@@ -916,7 +910,7 @@ class _Builder:
             stop |= failed
             if it + 1 == _NEWTON_MAXIT:  # Newton's iteration limit, for the first front
                 failed[:bounds[1]] |= ~done[:bounds[1]]
-        return X, done & ~failed, failed, S, Su, Sv
+        return X, done & ~failed, failed, S, T[:, 0], T[:, 1]
 
     def _far_from_trees(self, P: np.ndarray) -> np.ndarray:
         """(k,) bool: points at least half a spacing from every node (the
