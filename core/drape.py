@@ -315,6 +315,71 @@ _CONFIG_NEIGHBOURS = [(_BEHIND.index((a, 0)), _BEHIND.index((0, b)), _BEHIND.ind
 """For each of ``_CONFIGS``: the indices into ``_BEHIND`` of its A, B and C."""
 _BEHIND = np.array(_BEHIND)
 
+_BAND_START = 2
+"""Fronts in the first band of a Two-Neighbour fill from the whole lattice (:meth:`_Builder.two_neighbour_fill`)."""
+_BAND_MIN = 4
+"""The fewest fronts a band speculates on after one was cut short."""
+_BAND_MAX = 32
+"""The most fronts in one band."""
+_BAND_ITERATIONS = 4
+"""Newton iterations a node of a band's later front gets once its A and B are done: a node not
+done by then ends the band before its front (the next band solves it with A and B fixed, with all of
+Newton's iterations)."""
+
+
+def _choose_configs(pos: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """(k, 2) the configuration of each position: of those serving it (V), the
+    one whose C is nearest the seed in lattice steps (the first of a tie)."""
+    C = pos[:, None, :] - _CONFIGS[None, :, :]
+    score = np.where(V, np.abs(C).sum(axis=2), np.iinfo(np.int64).max)
+    return _CONFIGS[np.argmin(score, axis=1)]
+
+
+class _Marks:
+    """Positions of the lattice taken or killed for a while (a band's guess of
+    the fronts, or the fronts it keeps so far), undone on leaving the
+    ``with`` block: the band's positions are free before it."""
+
+    def __init__(self, lat: _Lattice):
+        self.lat = lat
+        self.cells = []
+
+    def take(self, ij: np.ndarray, rows: np.ndarray) -> None:
+        g = ij + self.lat.off
+        self.lat.grid[g[:, 0], g[:, 1]] = rows
+        self.cells.append(g)
+
+    def kill(self, ij: np.ndarray) -> None:
+        g = ij + self.lat.off
+        self.lat.dead[g[:, 0], g[:, 1]] = True
+        self.cells.append(g)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.cells:
+            g = np.concatenate(self.cells)
+            self.lat.grid[g[:, 0], g[:, 1]] = -1
+            self.lat.dead[g[:, 0], g[:, 1]] = False
+
+
+class _Refs:
+    """A band's references to one neighbour (A, B or C) of each of its nodes:
+    a mesh node (row below n) or a node of the band (n + its band row)."""
+
+    def __init__(self, rows: np.ndarray, n: int, uv: np.ndarray, xyz: np.ndarray):
+        self.dep = rows >= n
+        self.j = np.where(self.dep, rows - n, 0)
+        mesh = np.where(self.dep, 0, rows)
+        self.mesh = {"uv": uv[mesh], "xyz": xyz[mesh]}
+
+    def pick(self, band: np.ndarray, sl: slice, kind: str) -> np.ndarray:
+        """The neighbour's values for the band rows ``sl``: from ``band`` (the
+        band's values, by band row) or the mesh's ``kind`` ("uv" or "xyz")."""
+        return np.where(self.dep[sl, None], band[self.j[sl]], self.mesh[kind][sl])
+
+
 
 class _Builder:
     """Mutable state of one drape: nodes so far and the lattice."""
@@ -532,38 +597,352 @@ class _Builder:
 
         start : (k, 2) positions of the only nodes placed since the last fill
         (the filling seeds), or None to look at the whole lattice.
+
+        The fronts go in bands: a band is the next few fronts as they would be
+        if every node were accepted (:meth:`_speculate`), solved by one
+        coupled Newton iteration (:meth:`_band_newton`) and checked at once
+        (:meth:`_band`); then taken front by front as the sweep would take
+        them (:meth:`_sweep_band`), up to the first front that is not the
+        speculated one. Each front is what the front-by-front sweep makes of
+        it, to round-off, at a fraction of the calls (a front of a few nodes
+        costs the calls of a large one).
         """
         added = 0
-        configs = _CONFIGS
         pos, V = self._valid_everywhere() if start is None else self._valid_near(start)
-        while True:
-            if len(pos) == 0:
+        # a scan of the whole lattice (a drape's first fill, a refill's) starts with a short band: a refill's
+        # first front is scattered over the lattice and often all rejected; Node Filling goes on from the
+        # last fill's band size
+        m = getattr(self, "_band_m", _BAND_START) if start is not None else _BAND_START
+        while len(pos):
+            new, fronts, whole = self._band(pos, V, m)
+            added += len(new)
+            if len(new) == 0:
                 return added
-            C = pos[:, None, :] - configs[None, :, :]
-            score = np.where(V, np.abs(C).sum(axis=2), np.iinfo(np.int64).max)
-            cfg = configs[np.argmin(score, axis=1)]
-            iA = self.lat.at(pos - np.column_stack([cfg[:, 0], np.zeros(len(pos), int)]))
-            iB = self.lat.at(pos - np.column_stack([np.zeros(len(pos), int), cfg[:, 1]]))
-            iC = self.lat.at(pos - cfg)
-            A, B, Cx = self.xyz[iA], self.xyz[iB], self.xyz[iC]
-            guess = self.uv[iA] + self.uv[iB] - self.uv[iC]
-            k = len(pos)
-            ok, uv_new, P, Pu, Pv = self.accept_uv(*_two_neighbour(self.surface, A, np.full(k, self.s.r_warp),
-                                                                   B, np.full(k, self.s.r_weft), guess))
-            ok &= np.einsum("ij,ij->i", P - Cx, A + B - 2 * Cx) > 0
-            ok &= np.linalg.norm(P - Cx, axis=1) > 0.5 * self.rmin
-            ok &= np.linalg.norm(P - (A + B - Cx), axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
-            if self.separated is not None and ok.any():  # never a spring across a dart
-                w = np.flatnonzero(ok)  # the points are known: none evaluated again
-                ok[w] = ~self.separated(self.uv[iA[w]], uv_new[w], A[w], P[w]) & \
-                    ~self.separated(self.uv[iB[w]], uv_new[w], B[w], P[w])
-            ok[ok] = self.far_from_mesh(P[ok])
-            self.lat.kill(pos[~ok])
-            if not ok.any():
-                return added
-            self.add(pos[ok], uv_new[ok], 2, P[ok], Pu[ok], Pv[ok])
-            added += int(ok.sum())
-            pos, V = self._valid_near(pos[ok])
+            pos, V = self._valid_near(new)
+            # more fronts at once while bands are kept whole; fewer after a cut
+            m = min(2 * m, _BAND_MAX) if whole else max(_BAND_MIN, fronts)
+            self._band_m = m
+        return added
+
+    def _speculate(self, pos: np.ndarray, V: np.ndarray, m: int):
+        """The next ``m`` fronts (fewer if they end) as they are if every node
+        is accepted but those guessed well outside the domain: (positions
+        (b, 2) front after front, the rows of their A, B and C (b,) each:
+        nodes below ``len(self.uv)`` are the mesh's, the others the band's
+        own, ``len(self.uv) + row``, their guesses (b, 2), whether each is
+        guessed outside (b,), and the fronts' starts (fronts + 1,)). Each front is :meth:`_valid_near`'s after the
+        last, the lattice marked meanwhile with the band's positions taken
+        (or, guessed outside, dead: the fronts are not grown from nodes that
+        will not be there; a wrong guess of it only ends the band where the
+        sweep differs)."""
+        lat = self.lat
+        # a front is within one position of the last: the lattice is grown once for the whole band
+        lat.ensure(np.array([pos.min(axis=0) - m - 1, pos.max(axis=0) + m + 1]))
+        n = len(self.uv)
+        lo, hi = self.dom[:, 0], self.dom[:, 1]
+        parts, bounds, guesses, outs = [], [0], [], []
+        flat, width = lat.grid.ravel(), lat.grid.shape[1]
+        uv = self.uv  # then the mesh's (u, v) and the band's guesses, by row
+        with _Marks(lat) as marks:
+            for f in range(m):
+                cfg = _choose_configs(pos, V)
+                g = (pos[:, 0] + lat.off[0]) * width + pos[:, 1] + lat.off[1]
+                da, db = cfg[:, 0] * width, cfg[:, 1]
+                ref = (flat[g - da], flat[g - db], flat[g - da - db])
+                U = [uv[r] for r in ref]
+                X = U[0] + U[1] - U[2]
+                parts.append((pos, *ref))
+                guesses.append(X)
+                # outside the domain by more than half the guess's step from A: the node will not be there
+                reach = 0.5 * np.abs(X - U[0]).max(axis=1, keepdims=True)
+                out = np.any((X < lo - reach) | (X > hi + reach), axis=1)
+                outs.append(out)
+                marks.take(pos[~out], n + bounds[-1] + np.flatnonzero(~out))
+                marks.kill(pos[out])
+                bounds.append(bounds[-1] + len(pos))
+                if f + 1 == m:
+                    break
+                uv = np.concatenate([uv, X])
+                pos, V = self._valid_near(pos[~out])
+                if len(pos) == 0:
+                    break
+        return (*(np.concatenate(x) for x in zip(*parts)), np.concatenate(guesses), np.concatenate(outs),
+                np.array(bounds))
+
+    def _band(self, pos: np.ndarray, V: np.ndarray, m: int) -> tuple[np.ndarray, int, bool]:
+        """Speculate, solve, check and add up to ``m`` fronts starting with the
+        front ``pos, V``; returns (the positions added in the band's last kept
+        front, fronts kept, whether the band was kept whole).
+
+        A rejection in a front changes the fronts after it only where a node
+        hangs on the rejected one (its A, B or C, or theirs): the others are
+        in the same front with the same configuration (a position's
+        configurations can only be fewer, and the chosen one is still among
+        them and still the first best). So after a rejection each front is
+        found again from the lattice as it now is and kept if it is the
+        speculated one less the nodes hanging on a rejection; the band ends
+        at the first front where it is not (a position whose configuration
+        changed)."""
+        n = len(self.uv)
+        P, iA, iB, iC, X, out, bounds = self._speculate(pos, V, m)
+        nf = len(bounds) - 1
+        rows = [_Refs(i, n, self.uv, self.xyz) for i in (iA, iB, iC)]
+        A, B, C = rows
+        X, conv, failed, S, Su, Sv = self._band_newton(X, A, B, bounds)
+        L, nL = nf, bounds[nf]
+        front = np.repeat(np.arange(L), np.diff(bounds))
+        ok, Xc, S, Su, Sv = self.accept_uv(X, conv, S, Su, Sv)
+        moved = ok & np.any(Xc != X, axis=1)
+        every = slice(0, nL)
+        PA, PB, PC = (r.pick(S, every, "xyz") for r in rows)
+        par = PA + PB - PC
+        # a later front's node is the front-by-front one when it converged to the root near A + B - C (the
+        # other root of the two spheres and the surface is near C); one that is not ends the band before
+        # its front, if the sweep reaches it
+        suspect = (front > 0) & (failed | (conv & (np.linalg.norm(S - par, axis=1) >= 0.25 * self.rmin)))
+        ok &= np.einsum("ij,ij->i", S - PC, PA + PB - 2 * PC) > 0
+        ok &= np.linalg.norm(S - PC, axis=1) > 0.5 * self.rmin
+        ok &= np.linalg.norm(S - par, axis=1) < 2.0 * max(self.s.r_weft, self.s.r_warp)
+        if self.separated is not None and ok.any():  # never a spring across a dart
+            w = np.flatnonzero(ok)
+            uA, uB = A.pick(Xc, every, "uv")[w], B.pick(Xc, every, "uv")[w]
+            ok[w] = ~self.separated(uA, Xc[w], PA[w], S[w]) & ~self.separated(uB, Xc[w], PB[w], S[w])
+        ok[ok] = self._far_from_trees(S[ok])
+        pi, pj = self._close_pairs(S, ok)
+        # the fronts in turn, as the front-by-front sweep takes them
+        status = np.zeros(nL, dtype=np.int8)  # 1 added, 2 rejected, 0 neither (hangs on a rejection)
+        with _Marks(self.lat) as marks:
+            last = self._sweep_band(P, front, bounds, rows, ok, out, moved, suspect, pi, pj, status, marks)
+        keep = front <= last
+        self.lat.kill(P[keep & (status == 2)])
+        take = keep & (status == 1)
+        if take.any():
+            self.add(P[take], Xc[take], 2, S[take], Su[take], Sv[take])
+        whole = last + 1 == nf and nf == m
+        return P[take & (front == last)], last + 1, whole
+
+    def _sweep_band(self, P, front, bounds, rows, ok, out, moved, suspect, pi, pj, status, marks) -> int:
+        """Take a checked band's fronts in turn as the front-by-front sweep
+        would: sets ``status`` (1 added, 2 rejected) and returns the last front
+        kept. Up to the first front where a node is not as the speculation
+        took it (accepted, or rejected if guessed outside), the fronts are the
+        speculated ones; from there on the lattice is marked as the kept
+        fronts leave it (``marks``) and each front is found again on it."""
+        n = len(self.uv)
+        nL = len(front)
+        L = len(bounds) - 1
+        slow = False
+        last = L - 1
+        for f in range(L):
+            lo_row, hi_row = bounds[f], bounds[f + 1]
+            if not slow:
+                idx = np.arange(lo_row, hi_row)
+            else:
+                g = slice(lo_row, hi_row)
+                held = np.ones(hi_row - lo_row, dtype=bool)
+                for r in rows:
+                    held &= ~r.dep[g] | (status[r.j[g]] == 1)
+                idx = lo_row + np.flatnonzero(held)
+                prev = P[(front == f - 1) & (status == 1)]
+                found, _ = self._valid_near(prev)
+                if found.shape != P[idx].shape or not np.array_equal(found, P[idx]):
+                    last = f - 1
+                    break
+            if suspect[idx].any():
+                last = f - 1
+                break
+            okf = ok[idx]
+            if len(pi):
+                into = front[pj] == f
+                # near a node of an earlier front (in the mesh by now), or the second of a close pair in this front
+                hit = into & (front[pi] < f) & (status[pi] == 1)
+                okf[np.isin(idx, pj[hit])] = False
+                surv = np.zeros(nL, dtype=bool)
+                surv[idx[okf]] = True
+                same = into & (front[pi] == f) & surv[pi] & surv[pj]
+                okf[np.isin(idx, pj[same])] = False
+            status[idx] = np.where(okf, 1, 2)
+            if not okf.any() or moved[idx[okf]].any():
+                last = f  # no node to go on from, or the next front hangs on a node the domain's clip moved
+                break
+            if not slow and np.any(okf == out[idx]):
+                slow = True
+                done = np.flatnonzero(status[:lo_row] == 1)
+                marks.take(P[done], n + done)
+                marks.kill(P[:lo_row][status[:lo_row] == 2])
+            if slow:
+                marks.take(P[idx[okf]], n + idx[okf])
+                marks.kill(P[idx[~okf]])
+        return last
+
+    def _close_pairs(self, P: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pairs (i, j), i < j, of rows still ``ok`` whose points are within
+        half a spacing (as :meth:`far_from_mesh` finds them)."""
+        none = np.zeros(0, dtype=np.int64)
+        idx = np.flatnonzero(ok)
+        if len(idx) < 2:
+            return none, none
+        r = 0.5 * self.rmin
+        if len(idx) <= 32:
+            Q = P[idx]
+            d2 = np.sum((Q[:, None, :] - Q[None, :, :]) ** 2, axis=2)
+            i, j = np.nonzero(np.triu(d2 <= r * r, 1))
+        else:
+            pairs = cKDTree(P[idx]).query_pairs(r, output_type="ndarray")
+            if len(pairs) == 0:
+                return none, none
+            i, j = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
+        return idx[i], idx[j]
+
+    def _band_newton(self, X: np.ndarray, A: "_Refs", B: "_Refs", bounds: np.ndarray):
+        """Newton for a band's nodes at once: each at r_warp from its A and
+        r_weft from its B (:func:`_two_neighbour`), A and B the mesh's or the
+        band's own, unknowns too. The Jacobian is block lower triangular
+        (a node depends on itself and on earlier fronts), so the step is
+        forward substitution front after front: dx = -J^-1 (F + F_A dx_A +
+        F_B dx_B). A node is done when its residual is within the tolerance
+        and its A and B are done; it fails when not finite, its Jacobian
+        singular, out of bounds, not done in its iterations, or its A or B
+        failed. The first front's failures are the front-by-front ones: its
+        Newton is :func:`_newton`'s, A and B fixed, step for step. Returns
+        (X, converged, failed, S, Su, Sv)."""
+        surface = self.surface
+        ra, rb = self.s.r_warp, self.s.r_weft
+        dom = surface.domain
+        size = dom[:, 1] - dom[:, 0]
+        lo, hi = dom[:, 0] - 0.5 * size, dom[:, 1] + 0.5 * size
+        max_step = 0.25 * size
+        tol = max(1e-12 * min(ra, rb), 16 * np.finfo(float).eps * float(np.abs(surface.ctrlpts).max()))
+        b = len(X)
+        X = X.copy()
+        S, T = np.zeros((b, 3)), np.zeros((b, 2, 3))  # the points, (S_u, S_v)
+        j2, dep2 = np.column_stack([A.j, B.j]), np.column_stack([A.dep, B.dep])
+        mesh2 = np.stack([A.mesh["xyz"], B.mesh["xyz"]], axis=1)
+        r2 = np.array([ra, rb])
+        done = np.zeros(b, dtype=bool)
+        failed = np.zeros(b, dtype=bool)
+        stop = np.zeros(b, dtype=bool)  # failed, or done outside the domain
+        waited = np.zeros(b, dtype=np.int64)
+        small_b, good_b = np.zeros(b, dtype=bool), np.zeros(b, dtype=bool)
+        step0_b, inv_b, c_b = np.zeros((b, 2)), np.zeros((b, 2, 2)), np.zeros((b, 2, 2))
+        dx = np.zeros((b, 2))
+        L = len(bounds) - 1
+        front = np.repeat(np.arange(L), np.diff(bounds))
+        f0 = 0  # the fronts before f0 are done
+        for it in range(_NEWTON_MAXIT + (L - 1) * (_BAND_ITERATIONS + 1)):
+            lo_row, nL = bounds[f0], bounds[L]
+            sl = slice(lo_row, nL)
+            todo = ~(done[sl] | failed[sl])
+            act = lo_row + np.flatnonzero(todo)
+            if act.size == 0:
+                break
+            S[act], T[act, 0], T[act, 1] = surface.derivatives(X[act])
+            ja, jb, da, db = A.j[sl], B.j[sl], A.dep[sl], B.dep[sl]
+            # residuals, Jacobians and steps of the rows evaluated (the others' are not used), both spheres
+            # at once as in _two_neighbour
+            j2a, dep2a = j2[act], dep2[act]
+            d = S[act][:, None, :] - np.where(dep2a[:, :, None], S[j2a], mesh2[act])  # (k, 2, 3)
+            F = (np.einsum("kic,kic->ki", d, d) - r2 ** 2) / (2 * r2)
+            Ta = T[act]
+            J = np.empty((len(act), 2, 2))
+            for i in range(2):  # four row products: einsum's "kic,kjc->kij" is slower by three
+                for j in range(2):
+                    J[:, i, j] = np.einsum("kc,kc->k", d[:, i], Ta[:, j])
+            J /= r2[:, None]
+            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+                finite = np.isfinite(F).all(axis=1) & np.isfinite(J).reshape(-1, 4).all(axis=1)
+                small_b[act] = finite & (np.abs(F).max(axis=1) <= tol)
+                step0_b[act], solved = solve2(J, F)  # the step with A and B held
+                good_b[act] = finite & solved
+                # J^-1, for the steps of A and B: dx = step0 - J^-1 (F_A dx_A, F_B dx_B)
+                det = np.where(solved, J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0], 1.0)
+                inv_b[act] = np.stack([J[:, 1, 1], -J[:, 0, 1], -J[:, 1, 0], J[:, 0, 0]],
+                                      axis=1).reshape(-1, 2, 2) / det[:, None, None]
+                # how the residuals move with A's and B's steps (zero for the mesh's nodes)
+                c_b[act] = np.where(dep2a[:, :, None], -np.einsum("kic,kijc->kij", d, T[j2a]) / r2[:, None], 0.0)
+            small, good, step0, inv, c = small_b[sl], good_b[sl], step0_b[sl], inv_b[sl], c_b[sl]
+            j2s = j2[sl]
+            fr = front[sl]
+            # a node hanging on a failed one, or on one done outside the domain (to be rejected), is not solved
+            hang = todo & ((da & stop[ja]) | (db & stop[jb]))
+            failed[lo_row + np.flatnonzero(hang)] = True
+            todo &= ~hang
+            # done: within the tolerance, A and B done. Every node of the fronts before the first with one not
+            # within it is done (its A and B are in those fronts or done before); after it, A and B are
+            # looked up until no more are done
+            held = (~da | done[ja]) & (~db | done[jb])
+            wide = np.flatnonzero(todo & ~small)
+            k = fr[wide[0]] if wide.size else L
+            now = todo & small & (held | (fr < k))
+            cand = todo & small & ~now
+            while cand.any():
+                done[lo_row + np.flatnonzero(now)] = True
+                more = cand & (~da | done[ja]) & (~db | done[jb])
+                if not more.any():
+                    break
+                now |= more
+                cand &= ~more
+            if now.any():
+                rows = lo_row + np.flatnonzero(now)
+                done[rows] = True
+                x = X[rows]
+                stop[rows] = np.any((x < dom[:, 0] - self.tol_uv) | (x > dom[:, 1] + self.tol_uv), axis=1)
+            # a later front's node gets a few iterations once its A and B are done
+            waited[sl] += todo & held & ~now & (fr > 0)
+            failed[sl] |= waited[sl] > _BAND_ITERATIONS
+            go = todo & ~now & good & ~failed[sl]
+            nd = np.flatnonzero(~done[lo_row:nL])
+            f0 = fr[nd[0]] if nd.size else L
+            # the step front after front: A's and B's steps (zero for the mesh's nodes and those done) move it
+            moving = go
+            dx[sl] = np.where(go[:, None], step0, 0.0)
+            if go.any():
+                busy = np.add.reduceat(go, bounds[f0:L] - lo_row) if f0 < L else np.zeros(0, int)
+                for f in range(max(f0, 1), L):
+                    if not busy[f - f0]:
+                        continue
+                    s = slice(bounds[f] - lo_row, bounds[f + 1] - lo_row)
+                    g = slice(bounds[f], bounds[f + 1])
+                    sab = np.einsum("kij,kij->ki", c[s], dx[j2s[s]])
+                    dx[g] -= np.where(go[s, None], np.einsum("kij,kj->ki", inv[s], sab), 0.0)
+            failed[sl] |= todo & ~done[sl] & ~good
+            if moving.any():
+                rows = lo_row + np.flatnonzero(moving)
+                step = dx[rows]
+                factor = np.min(max_step / np.maximum(np.abs(step), 1e-300), axis=1, initial=1.0)
+                X[rows] += step * np.minimum(1.0, factor)[:, None]
+                failed[rows[~np.all((X[rows] >= lo) & (X[rows] <= hi), axis=1)]] = True
+            stop |= failed
+            if it + 1 == _NEWTON_MAXIT:  # Newton's iteration limit, for the first front
+                failed[:bounds[1]] |= ~done[:bounds[1]]
+        return X, done & ~failed, failed, S, T[:, 0], T[:, 1]
+
+    def _far_from_trees(self, P: np.ndarray) -> np.ndarray:
+        """(k,) bool: points at least half a spacing from every node (the
+        k-d trees of :meth:`far_from_mesh`, kept by its rules; no test
+        between the points themselves)."""
+        n = len(self.xyz)
+        t = self.trees
+        if "old" not in t or n - t["old"][1] > max(256, t["old"][1] // 8):
+            t.clear()
+            t["old"] = self._tree(0, n)
+        a = t["old"][1]
+        b = t["mid"][1] if "mid" in t else a
+        if n - b > max(32, (b - a) // 8):
+            t["mid"] = self._tree(a, n)
+            b = n
+        if n == b:
+            t.pop("new", None)
+        elif "new" not in t or t["new"][:2] != (b, n):
+            t["new"] = self._tree(b, n)
+        ok = np.ones(len(P), dtype=bool)
+        if len(P) == 0:
+            return ok
+        r = 0.5 * self.rmin
+        for _, _, tree in t.values():
+            d, _ = tree.query(P, k=1, distance_upper_bound=r)
+            ok &= d >= r
+        return ok
 
     def fill(self) -> None:
         """Two-Neighbour fronts and Node Filling seeds in turn until neither adds a node."""
