@@ -273,4 +273,6 @@ def test_a_drape_asks_the_near_node_test_as_brute_force_answers(monkeypatch):
     monkeypatch.setattr(D._Builder, "far_from_mesh", checked)
     s = load_example("octant")
     drape(s, DrapeSettings(np.sqrt(region_area(s)) / 40), MATERIALS["woven"])
-    assert len(calls) > 100
+    # the paths and the Node Filling rounds ask it once a step (the Two-Neighbour bands ask their own
+    # tiered test, checked against brute force in tests/test_drape_band.py): 33 calls on this drape
+    assert len(calls) > 20
