@@ -13,8 +13,10 @@ Every node is placed exactly on the surface, in three steps:
    and their common diagonal neighbour C exist is placed at distance r_warp
    from A and r_weft from B (two spheres and the surface), on the far side
    from C. Nodes of one anti-diagonal front need only the previous front, so
-   a whole front is solved at once by one vectorised Newton iteration: the
-   paper's quadrant-by-quadrant sweep, all four quadrants together.
+   a band of fronts is solved at once by one coupled, vectorised Newton
+   iteration (forward substitution front by front) and checked once: the
+   paper's quadrant-by-quadrant sweep, all four quadrants together, with the
+   front-by-front sweep's result.
 3. **Node Filling.** Where the sweep stops short of the region (it cannot
    turn corners of a region far from rectangular), a boundary node extends
    its thread by One-Neighbour mapping (plane through the node containing its
