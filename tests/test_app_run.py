@@ -275,7 +275,7 @@ def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatc
     def add(self, *args):  # a slow drape, so the test can act in the middle of it
         slow_add(self, *args)
         laid[0] = max(laid[0], len(self.ij))
-        time.sleep(0.05)
+        time.sleep(0.2)  # the bands add a drape in few batches (a dozen here): each waits longer
 
     monkeypatch.setattr(core.drape._Builder, "add", add)
     win = make_window(small_project(0.04))
