@@ -189,6 +189,9 @@ class Runner(QObject):
         t.failed.connect(self._on_failed)
         t.paused_changed.connect(lambda _p: self.state_changed.emit(self.state))
         t.finished.connect(self._on_thread_finished)
+        # the first live frame (a re-solve's answer starts there) goes out when it is made: the pump's period
+        # would add 0-30 ms to it
+        t.first_live.connect(self.pump)
         self.thread = t
         self._seen = 0
         self._drawn()  # a frame of an earlier run still waiting for its repaint paces nothing of this one

@@ -120,14 +120,16 @@ class SolveThread(QThread):
     """One solve of ``project`` (from ``initial`` if given, else a new drape).
 
     Signals (queued to the GUI thread): ``succeeded(RunOutcome)`` for a
-    finished or stopped run, ``failed(str)`` with a one-line message, and
-    ``paused_changed(bool)``. ``QThread.finished`` follows either; an
+    finished or stopped run, ``failed(str)`` with a one-line message,
+    ``paused_changed(bool)``, and ``first_live()`` when the run's first live
+    frame is published. ``QThread.finished`` follows either; an
     abandoned run emits neither of the first two.
     """
 
     succeeded = Signal(object)
     failed = Signal(str)
     paused_changed = Signal(bool)
+    first_live = Signal()  # the run's first live frame is out: the GUI takes it now, not at its next pump
 
     def __init__(self, project: Project, initial: State | None = None, parent=None):
         super().__init__(parent)
@@ -201,10 +203,13 @@ class SolveThread(QThread):
     # ------------------------------------------------------------------ the thread
     def _publish(self, frame: Frame, live: bool = False) -> None:
         with self._lock:
+            first = live and self._live_seq == 0
             self._frame = frame
             self._frame_seq += 1
             if live:
                 self._live_seq = self._frame_seq
+        if first:
+            self.first_live.emit()
 
     def run(self) -> None:
         _lower_priority()
