@@ -54,6 +54,7 @@ newer than this program reads, a damaged entry.
 from __future__ import annotations
 
 import json
+import weakref
 import math
 import os
 from dataclasses import dataclass, replace
@@ -333,7 +334,20 @@ def _yarns_from(f: _Fields, value: Any) -> tuple:
     return tuple(out)
 
 
+_KEYS: dict[int, str] = {}
+"""_settings_key of live settings objects, by id (settings are frozen; a window compares the same ones
+a dozen times an edit, and a curve dart's points make each key a few hundred numbers of JSON)."""
+
+
 def _settings_key(s: FlattenSettings) -> str:
+    key = _KEYS.get(id(s))
+    if key is None:
+        key = _KEYS[id(s)] = _make_settings_key(s)
+        weakref.finalize(s, _KEYS.pop, id(s), None)
+    return key
+
+
+def _make_settings_key(s: FlattenSettings) -> str:
     d = settings_to_dict(s)
     if d["spacing_warp"] is None:  # the same drape as an explicit warp spacing equal to the weft's
         d["spacing_warp"] = d["spacing"]

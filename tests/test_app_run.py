@@ -264,6 +264,23 @@ def test_a_re_solves_first_live_frame_brings_its_pattern(make_window, qtbot):
         win.stop()
 
 
+def test_a_runs_first_live_frame_is_taken_when_it_is_made(make_window, qtbot):
+    """The first live frame reaches the views when the solve thread publishes it, not at the
+    frame pump's next period (here never: the pump is stopped)."""
+    win = make_window(small_project(0.05, solver="paper", max_iter=5))
+    run_to_end(qtbot, win)
+    p = win.presenter
+    frames = []
+    win.runner.frame.connect(frames.append)
+    win.runner.started.connect(lambda _p: win.runner._timer.setInterval(10 ** 8))
+    win.edit_settings("Solver", {"max_iter": 100000})  # a warm re-run, a long one
+    qtbot.waitUntil(lambda: any(not f.final for f in frames), timeout=RUN_TIMEOUT_MS)
+    assert win.runner.busy and p.frame is frames[0] and not frames[0].draping
+    win.actions["pause"].trigger()
+    with qtbot.waitSignal(win.run_finished, timeout=10000):
+        win.stop()
+
+
 def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatch):
     """The mesh is drawn as it is laid, and Stop (or Pause) acts during the drape."""
     import core.drape

@@ -138,6 +138,10 @@ def test_a_three_click_curve_dart_lies_where_the_clicks_project_and_cuts(each_wi
     dart = win.project.settings.darts[0]
     assert dart.kind == "curve" and dart.name == "curve dart 1" and len(dart.handles) == 3
     np.testing.assert_allclose(dart.view_dir, view.view_direction())
+    # Enter takes the preview's dart (same points, same view): the one a fresh projection and fit make
+    fresh = curve_dart_through(win.surface, dart.handles, view.view_direction(), name=dart.name)
+    np.testing.assert_array_equal(dart.uv, fresh.uv)
+    assert dart.view_dir == fresh.view_dir
     assert len(view.preview_curve) == 0
 
     # each point is where its pixel's viewing ray meets the sphere, and the curve runs through them

@@ -19,6 +19,7 @@ from PySide6.QtWidgets import QApplication, QScrollArea
 from app.camera import FILL, fit_view, home_view, project
 from app.colours import ramp, strain_range, strain_stops
 from app.presenter import surface_grid
+from app.view2d import segment_distances
 from app.view3d import bar_labels
 from app.viewbase import DENSE_PIXELS, SCALE_TITLES, THREAD, DIAGONAL, cell_springs
 from core.darts import CurveDart
@@ -323,6 +324,21 @@ def test_colour_bar_titles_fit_their_frames(solved, qtbot):
     if img is not None and img.shape[1] == view.device_size()[0]:
         x1 = int(view.colour_bar_boxes()[0][2])
         assert x1 < img.shape[1] - 2
+
+
+def test_segment_distances_are_the_nearest_segments_or_the_cap():
+    """The grain label's clearances (a k-d-like tree of segments) against every point-segment distance."""
+    rng = np.random.default_rng(7)
+    p = rng.random((200, 2))
+    a = rng.random((400, 2))
+    b = a + 0.03 * rng.standard_normal((400, 2))
+    b[::9] = a[::9]  # points (a dart node is a one-point line)
+    ab = b - a
+    t = np.clip(((p[:, None] - a[None]) * ab[None]).sum(axis=2) / np.maximum((ab * ab).sum(axis=1), 1e-300), 0, 1)
+    brute = np.linalg.norm(p[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(axis=1)
+    for cap in (np.inf, 0.04, 0.005):
+        np.testing.assert_allclose(segment_distances(p, a, b, cap), np.minimum(brute, cap), rtol=0, atol=1e-12)
+    assert (segment_distances(p, a[:0], b[:0], 0.1) == 0.1).all()
 
 
 def test_the_grain_label_keeps_clear_of_darts(make_window, qtbot):

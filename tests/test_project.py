@@ -446,3 +446,22 @@ def test_the_shear_angles_are_the_materials_and_keep_a_result_current(octant):
     with pytest.raises(SettingsError):
         doc.edit_display("Shear angles", shear_warning_deg=25.0)
     assert doc.project.settings.material is m
+
+
+def test_settings_keys_are_remembered_only_while_the_settings_live():
+    """settings_equal keeps each settings object's key while it lives (a window compares the same
+    ones many times an edit) and answers as before: a changed dart or value is another solve."""
+    import gc
+
+    from core.project import _KEYS, settings_equal
+
+    dart = CurveDart(np.array([[1.0, 0.5], [0.75, 0.52], [0.45, 0.5]]), name="a")
+    a = FlattenSettings(0.05, darts=(dart,))
+    n0 = len(_KEYS)
+    assert settings_equal(a, FlattenSettings(0.05, darts=(replace(dart, name="b"),)))  # labels do not count
+    assert not settings_equal(a, FlattenSettings(0.05, darts=(CurveDart(dart.uv[::-1], name="a"),)))
+    assert not settings_equal(a, FlattenSettings(0.06, darts=(dart,)))
+    assert settings_equal(a, a) and len(_KEYS) > n0
+    del a
+    gc.collect()
+    assert len(_KEYS) == n0
