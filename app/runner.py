@@ -43,6 +43,51 @@ before it counts as drawn without one (a hidden or minimised window paints nothi
 
 _PAINTED = QEvent.Type(QEvent.registerEventType())  # posted to the runner when the views have repainted
 
+HOLD_FOR_FIRST_FRAME_MS = 300
+"""A warm re-solve (an edit answered at once: a dart, a setting) holds the views' repaints until
+its first frame, at most this long: the edit's own repaint (40-80 ms of software OpenGL on both
+cores) would only delay the solve's first iteration, and the first live frame, a tenth of a second
+later, repaints everything the edit changed (docs/decisions.md, "The V's path")."""
+
+
+class _PaintHold(QObject):
+    """Keeps widgets from painting while held; repaints the ones that asked, when released."""
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self._widgets: list = []
+        self._asked: list = []
+        self._timer = QTimer(self, singleShot=True)
+        self._timer.timeout.connect(self.release)
+
+    @property
+    def holding(self) -> bool:
+        return bool(self._widgets)
+
+    def hold(self, widgets, ms: int) -> None:
+        self.release()
+        self._widgets = [w for w in widgets if w.isVisible()]
+        for w in self._widgets:
+            w.installEventFilter(self)
+        if self._widgets:
+            self._timer.start(ms)
+
+    def release(self) -> None:
+        self._timer.stop()
+        widgets, self._widgets = self._widgets, []
+        asked, self._asked = self._asked, []
+        for w in widgets:
+            w.removeEventFilter(self)
+        for w in asked:
+            w.update()
+
+    def eventFilter(self, obj, event) -> bool:
+        if event.type() == QEvent.Type.Paint:
+            if obj not in self._asked:
+                self._asked.append(obj)
+            return True
+        return False
+
 
 class Runner(QObject):
     """Signals: ``frame(Frame)`` to draw; ``started(Project)``; ``finished(RunOutcome)``;
@@ -77,6 +122,7 @@ class Runner(QObject):
         self._drawing_for: tuple[float, SolveThread, float] | None = None
         self._paint_start: float | None = None
         self._watched: list = []  # the views' widgets, whose repaint ends a frame's drawing
+        self._hold = _PaintHold(self)  # their repaints held while a warm re-solve's first frame comes
         self._paint_wait = QTimer(self, singleShot=True, interval=PAINT_WAIT_MS)
         self._paint_wait.timeout.connect(self._drawn)
         self.runs_started = 0
@@ -200,6 +246,8 @@ class Runner(QObject):
         self._outcome = None
         self._error = None
         self.runs_started += 1
+        if initial is not None and HOLD_FOR_FIRST_FRAME_MS > 0:
+            self._hold.hold(self._watched, HOLD_FOR_FIRST_FRAME_MS)
         t.start()
         self._timer.start()
         self.started.emit(project)
@@ -224,6 +272,7 @@ class Runner(QObject):
         self._live_shown = self._live_shown or first_live
         self._seen = seq
         t.frames_from = math.inf  # no live frame is wanted while this one is drawn
+        self._hold.release()  # the views repaint for this frame (and the edit before it)
         if self._drawing:
             self._drawn()  # the last frame's repaint has not come (it paints with this one's)
         self.frame.emit(frame)
@@ -313,6 +362,7 @@ class Runner(QObject):
 
     def _cleanup(self) -> None:
         self._timer.stop()
+        self._hold.release()
         t, self.thread = self.thread, None
         if t is not None:
             t.wait()

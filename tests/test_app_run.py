@@ -281,6 +281,49 @@ def test_a_runs_first_live_frame_is_taken_when_it_is_made(make_window, qtbot):
         win.stop()
 
 
+@pytest.mark.parametrize("hold_ms", [runner_module.HOLD_FOR_FIRST_FRAME_MS, 40])
+def test_an_edits_repaint_waits_for_the_re_solves_first_frame(make_window, qtbot, monkeypatch, hold_ms):
+    """A warm re-solve holds the views' repaints until its first frame comes (the frame repaints
+    what the edit changed), at most HOLD_FOR_FIRST_FRAME_MS; then they repaint."""
+    from PySide6.QtCore import QEvent, QObject
+
+    monkeypatch.setattr(runner_module, "HOLD_FOR_FIRST_FRAME_MS", hold_ms)
+    if hold_ms < 100:  # a first frame slower than the hold: the views repaint when it is up
+        import app.worker
+
+        slow = app.worker.SolveThread._live_frame
+
+        def late(self, maker, snap):
+            time.sleep(0.3)
+            return slow(self, maker, snap)
+        monkeypatch.setattr(app.worker.SolveThread, "_live_frame", late)
+    win = make_window(small_project(0.05, solver="paper", max_iter=5))
+    run_to_end(qtbot, win)
+    paints, frames = [], []
+
+    class Spy(QObject):
+        def eventFilter(self, obj, event):
+            if event.type() == QEvent.Type.Paint:
+                paints.append((time.perf_counter(), obj))
+            return False
+    spy = Spy()
+    for w in (win.view.widget, win.pattern_view.widget):
+        w.installEventFilter(spy)
+    win.runner.frame.connect(lambda f: frames.append(time.perf_counter()))
+    t0 = time.perf_counter()
+    win.edit_settings("Solver", {"max_iter": 100000})  # a warm re-run, a long one
+    qtbot.waitUntil(lambda: bool(frames and paints and paints[-1][0] > frames[0]), timeout=RUN_TIMEOUT_MS)
+    first = frames[0]
+    early = [t for t, _ in paints if t < first]
+    assert all(t - t0 >= 0.9 * hold_ms / 1000 for t in early), (early, t0, first)  # none while held
+    if hold_ms < 100:
+        assert early  # the hold ran out first: the views painted the edit before the frame
+    assert {w for t, w in paints if t > first} >= {win.view.widget}  # they paint again after it
+    win.actions["pause"].trigger()
+    with qtbot.waitSignal(win.run_finished, timeout=10000):
+        win.stop()
+
+
 def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatch):
     """The mesh is drawn as it is laid, and Stop (or Pause) acts during the drape."""
     import core.drape
