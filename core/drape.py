@@ -396,7 +396,7 @@ class _Builder:
         self.normal = np.zeros((0, 3))
         self.how = np.zeros(0, dtype=np.int8)  # 0 seed, 1 path, 2 two-neighbour, 3 filling
         self._cap, self._buf = 0, {}
-        self.trees = {}  # tier name -> (first node, end, k-d tree); see far_from_mesh
+        self.trees = {}  # tier name -> (first node, end, k-d tree); see _far_from_trees
         self.separated = None  # callable(uv_a, uv_b, xyz_a, xyz_b) -> bool: a dart lies between
         self.on_add = None  # callable() after every batch of new nodes (progress reports)
         self.inside = None  # callable(uv) -> (k,) bool: in the piece's region (a trimmed face), else the domain
@@ -461,49 +461,11 @@ class _Builder:
         return lo, hi, cKDTree(self.xyz[lo:hi], balanced_tree=False, compact_nodes=False)
 
     def far_from_mesh(self, P: np.ndarray) -> np.ndarray:
-        """(k,) bool: points at least half a spacing from every node and from each other.
-
-        The nodes sit in three k-d trees: the old ones, rebuilt when the nodes
-        added since outnumber an eighth of them; the middle ones, rebuilt when
-        the newest outnumber an eighth of those; the newest, in a small tree
-        built at every call. A front of a few nodes then costs a few small
-        builds, not one of thousands (the Node Filling rounds are hundreds of
-        such fronts).
-        """
-        n = len(self.xyz)
-        t = self.trees
-        if "old" not in t or n - t["old"][1] > max(256, t["old"][1] // 8):
-            t.clear()
-            t["old"] = self._tree(0, n)
-        a = t["old"][1]
-        b = t["mid"][1] if "mid" in t else a
-        if n - b > max(32, (b - a) // 8):
-            t["mid"] = self._tree(a, n)
-            b = n
-        if n == b:
-            t.pop("new", None)
-        elif "new" not in t or t["new"][:2] != (b, n):
-            t["new"] = self._tree(b, n)
-        ok = np.ones(len(P), dtype=bool)
-        if len(P) == 0:
-            return ok
-        r = 0.5 * self.rmin
-        for _, _, tree in t.values():
-            d, _ = tree.query(P, k=1, distance_upper_bound=r)
-            ok &= d >= r
-        if ok.sum() > 1:
-            idx = np.flatnonzero(ok)
-            if len(idx) <= 32:  # a few points: every pair, cheaper than a tree
-                Q = P[idx]
-                d2 = np.sum((Q[:, None, :] - Q[None, :, :]) ** 2, axis=2)
-                i, j = np.nonzero(np.triu(d2 <= r * r, 1))
-                pairs = np.column_stack([i, j])
-            else:
-                pairs = cKDTree(P[idx]).query_pairs(r, output_type="ndarray")
-            if len(pairs):
-                # keep the first of every close pair
-                drop = np.unique(np.maximum(pairs[:, 0], pairs[:, 1]))
-                ok[idx[drop]] = False
+        """(k,) bool: points at least half a spacing from every node and from each
+        other (of a close pair the first is kept)."""
+        ok = self._far_from_trees(P)
+        _, j = self._close_pairs(P, ok)
+        ok[np.unique(j)] = False
         return ok
 
     # -- step 1: seed and constrained paths
@@ -779,7 +741,7 @@ class _Builder:
 
     def _close_pairs(self, P: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The pairs (i, j), i < j, of rows still ``ok`` whose points are within
-        half a spacing (as :meth:`far_from_mesh` finds them)."""
+        half a spacing."""
         none = np.zeros(0, dtype=np.int64)
         idx = np.flatnonzero(ok)
         if len(idx) < 2:
@@ -920,9 +882,15 @@ class _Builder:
         return X, done & ~failed, failed, S, T[:, 0], T[:, 1]
 
     def _far_from_trees(self, P: np.ndarray) -> np.ndarray:
-        """(k,) bool: points at least half a spacing from every node (the
-        k-d trees of :meth:`far_from_mesh`, kept by its rules; no test
-        between the points themselves)."""
+        """(k,) bool: points at least half a spacing from every node (no test
+        between the points themselves).
+
+        The nodes sit in three k-d trees: the old ones, rebuilt when the nodes
+        added since outnumber an eighth of them; the middle ones, rebuilt when
+        the newest outnumber an eighth of those; the newest, in a small tree
+        built at every call. A front of a few nodes then costs a few small
+        builds, not one of thousands (the Node Filling rounds are hundreds of
+        such fronts)."""
         n = len(self.xyz)
         t = self.trees
         if "old" not in t or n - t["old"][1] > max(256, t["old"][1] // 8):
