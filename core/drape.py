@@ -786,6 +786,13 @@ class _Builder:
         done = np.zeros(b, dtype=bool)
         failed = np.zeros(b, dtype=bool)
         stop = np.zeros(b, dtype=bool)  # failed, or done outside the domain
+        # a node whose A and B (both the mesh's) are farther apart than its two spacings has no root: it fails
+        # at once, as its Newton would after all its iterations (and the band's with it: a refill's first front
+        # across an opened dart has several)
+        apart = ~A.dep & ~B.dep
+        apart[apart] = np.linalg.norm(A.mesh["xyz"][apart] - B.mesh["xyz"][apart], axis=1) > ra + rb + 4 * tol
+        failed |= apart
+        stop |= apart
         waited = np.zeros(b, dtype=np.int64)
         small_b, good_b = np.zeros(b, dtype=bool), np.zeros(b, dtype=bool)
         step0_b, inv_b, c_b = np.zeros((b, 2)), np.zeros((b, 2, 2)), np.zeros((b, 2, 2))
