@@ -149,6 +149,57 @@ def test_a_refill_beside_a_dart_adds_the_same_nodes(ref, name):
     assert np.all(np.abs(got["ref"][1] - got["now"][1]) <= 1e-10 * size)
 
 
+def test_a_refill_across_an_opened_dart_adds_the_same_nodes_and_skips_the_rootless(ref, monkeypatch):
+    """The first refill of a warm re-solve after a curve dart (the window test's three clicks on the
+    octant): the V's two sides are apart, so some positions have their A and B farther apart than
+    two spacings. The bands fail them before Newton; the front-by-front sweep spends its Newton's
+    iterations on them. The same nodes either way, in far fewer surface evaluations."""
+    import dataclasses
+
+    import core.solver as solver
+    from core.darts import curve_dart_through
+    from core.pipeline import FlattenSettings, flatten, make_problem
+
+    s = load_example("octant")
+    settings = FlattenSettings(0.025)
+    base = flatten(s, settings)
+    targets = np.array([[0.93, 0.3, 0.2], [0.62, 0.58, 0.53], [0.3, 0.85, 0.45]])
+    targets /= np.linalg.norm(targets, axis=1, keepdims=True)
+    grid = np.stack(np.meshgrid(*[np.linspace(*d, 400) for d in s.domain], indexing="ij"), -1).reshape(-1, 2)
+    pts = s.points(grid)
+    handles = np.array([grid[np.argmin(np.linalg.norm(pts - t, axis=1))] for t in targets])
+    curve = dataclasses.replace(settings, darts=(curve_dart_through(s, handles, -targets.mean(0)),))
+    first = []
+    try_refill = solver._Run.try_refill
+
+    def record(self, at=None):
+        if not first:
+            first.append((self.mesh.ij.copy(), self.uv.copy(), self.pop.dead()))
+        return try_refill(self, at)
+    monkeypatch.setattr(solver._Run, "try_refill", record)
+    flatten(s, curve, initial=base.state())
+    ij, uv, dead = first[0]
+    separated = make_problem(s, curve).cut  # the solver's dart test
+    darts = DartSet(s, curve.darts)
+    got, evaluations = {}, {}
+    for key, mod in (("ref", ref), ("now", drape_now)):
+        count = [0]
+        derivatives = s.derivatives
+
+        def counted(uv_, _d=derivatives, _c=count):
+            _c[0] += 1
+            return _d(uv_)
+        monkeypatch.setattr(s, "derivatives", counted, raising=False)
+        got[key] = mod.refill(s, mod.DrapeSettings(0.025), ij, uv, dead, separated=darts.crossing)
+        monkeypatch.undo()
+        evaluations[key] = count[0]
+    assert separated is not None and len(got["now"][0]) > 10
+    assert np.array_equal(got["ref"][0], got["now"][0])
+    size = s.domain[:, 1] - s.domain[:, 0]
+    assert np.all(np.abs(got["ref"][1] - got["now"][1]) <= 1e-10 * size)
+    assert 3 * evaluations["now"] < evaluations["ref"], evaluations
+
+
 def test_the_sweep_goes_in_bands_of_many_fronts(monkeypatch):
     """The point of the bands: far fewer bands than fronts (else this is the old sweep, slower)."""
     s = load_example("octant")
