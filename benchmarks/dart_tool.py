@@ -165,6 +165,8 @@ def no_frames_wanted(win):
     t = win.runner.thread
     if not LIVE and t is not None and hasattr(t, "frames_from"):
         t.frames_from = math.inf
+        if hasattr(t, "first_live"):  # nor is the first live frame taken when it is made
+            t.first_live.disconnect()
 
 
 def qt_point(widget, xy):
