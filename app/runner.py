@@ -47,7 +47,7 @@ HOLD_FOR_FIRST_FRAME_MS = 300
 """A warm re-solve (an edit answered at once: a dart, a setting) holds the views' repaints until
 its first frame, at most this long: the edit's own repaint (40-80 ms of software OpenGL on both
 cores) would only delay the solve's first iteration, and the first live frame, a tenth of a second
-later, repaints everything the edit changed (docs/decisions.md, "The V's path")."""
+later, repaints everything the edit changed (docs/decisions.md, "The V's path"). 0: no hold."""
 
 
 class _PaintHold(QObject):
@@ -59,10 +59,6 @@ class _PaintHold(QObject):
         self._asked: list = []
         self._timer = QTimer(self, singleShot=True)
         self._timer.timeout.connect(self.release)
-
-    @property
-    def holding(self) -> bool:
-        return bool(self._widgets)
 
     def hold(self, widgets, ms: int) -> None:
         self.release()

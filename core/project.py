@@ -54,9 +54,9 @@ newer than this program reads, a damaged entry.
 from __future__ import annotations
 
 import json
-import weakref
 import math
 import os
+import weakref
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any

@@ -40,6 +40,13 @@ def run_to_end(qtbot, win, start=None, timeout=RUN_TIMEOUT_MS):
     return blocker.args[0]
 
 
+def pause_and_stop(qtbot, win):
+    """Pause the run in flight, then stop it, and wait for its end."""
+    win.actions["pause"].trigger()
+    with qtbot.waitSignal(win.run_finished, timeout=10000):
+        win.stop()
+
+
 def shown_rgb(view):
     """(spring indices, rgb uint8) as a view colours them now."""
     return view.layer.spring_colours()
@@ -172,9 +179,7 @@ def test_a_paused_run_shows_its_newest_iteration(make_window, qtbot, monkeypatch
                     and win.presenter.frame.iteration == last, timeout=5000)
     t = win.runner.thread
     assert 1 <= t.frames_made <= len(win.runner.history) // 2  # the pattern frames, the first and the pause's
-    win.actions["pause"].trigger()
-    with qtbot.waitSignal(win.run_finished, timeout=10000):
-        win.stop()
+    pause_and_stop(qtbot, win)
 
 
 def test_a_frames_cost_counts_the_repaint_it_asked_for(make_window, qtbot, monkeypatch):
@@ -241,9 +246,7 @@ def test_a_re_solve_keeps_the_pattern_view_until_it_has_a_pattern(make_window, q
     last = win.runner.history[-1][0]
     qtbot.waitUntil(lambda: p.frame.iteration == last, timeout=5000)
     assert p.pattern_frame is p.frame  # a paused run shows its state in both views
-    win.actions["pause"].trigger()
-    with qtbot.waitSignal(win.run_finished, timeout=10000):
-        win.stop()
+    pause_and_stop(qtbot, win)
     assert p.pattern_frame.final and p.pattern_frame.mesh is win.project.result.mesh
 
 
@@ -259,9 +262,7 @@ def test_a_re_solves_first_live_frame_brings_its_pattern(make_window, qtbot):
     assert win.runner.last_start[1] is not None and not live.draping
     assert live.pattern is not None and live.pattern.outline.shape[0] > 3
     assert win.view.layer.frame is live and p.pattern_frame is live and win.pattern_view.layer.frame is live
-    win.actions["pause"].trigger()
-    with qtbot.waitSignal(win.run_finished, timeout=10000):
-        win.stop()
+    pause_and_stop(qtbot, win)
 
 
 def test_a_runs_first_live_frame_is_taken_when_it_is_made(make_window, qtbot):
@@ -276,9 +277,7 @@ def test_a_runs_first_live_frame_is_taken_when_it_is_made(make_window, qtbot):
     win.edit_settings("Solver", {"max_iter": 100000})  # a warm re-run, a long one
     qtbot.waitUntil(lambda: any(not f.final for f in frames), timeout=RUN_TIMEOUT_MS)
     assert win.runner.busy and p.frame is frames[0] and not frames[0].draping
-    win.actions["pause"].trigger()
-    with qtbot.waitSignal(win.run_finished, timeout=10000):
-        win.stop()
+    pause_and_stop(qtbot, win)
 
 
 @pytest.mark.parametrize("hold_ms", [runner_module.HOLD_FOR_FIRST_FRAME_MS, 40])
@@ -319,9 +318,7 @@ def test_an_edits_repaint_waits_for_the_re_solves_first_frame(make_window, qtbot
     if hold_ms < 100:
         assert early  # the hold ran out first: the views painted the edit before the frame
     assert {w for t, w in paints if t > first} >= {win.view.widget}  # they paint again after it
-    win.actions["pause"].trigger()
-    with qtbot.waitSignal(win.run_finished, timeout=10000):
-        win.stop()
+    pause_and_stop(qtbot, win)
 
 
 def test_the_drape_is_shown_live_and_stop_ends_it(make_window, qtbot, monkeypatch):
