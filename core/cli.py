@@ -408,12 +408,21 @@ def _cmd_flatten(args) -> int:
               f"{m['area_beyond_lock_pct']:.3g} % of the area beyond the lock angle "
               f"({result.settings.material.lock_deg:g} deg), "
               f"{m['iterations']} iterations ({m['solver_status']})"
-              + (f", {m['coarse_iterations']} of them on {m['coarse_levels']} coarser level"
-                 f"{'s' if m['coarse_levels'] > 1 else ''}" if m.get("coarse_levels") else "")
+              + _coarse_note(m)
               + f", {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
     _print_warnings(result.warnings)
     return 0
+
+
+def _coarse_note(m: dict) -> str:
+    """The summary line's words on the iterations spent before the fine solve."""
+    if m.get("coarse_levels"):
+        return (f", {m['coarse_iterations']} of them on {m['coarse_levels']} coarser level"
+                f"{'s' if m['coarse_levels'] > 1 else ''}")
+    if m.get("coarse_iterations"):  # a coarse solve showed the drape holds (core.pipeline._start)
+        return f", {m['coarse_iterations']} of them on a coarser drape that held"
+    return ""
 
 
 def _check_face_size(opened, spacing: float) -> None:

@@ -24,10 +24,11 @@ from core.solver import Problem, State
 
 __all__ = ["MIN_NODES", "COARSEST_NODES", "levels_for", "refine", "extend", "stretches", "carry"]
 
-MIN_NODES = 6_000
+MIN_NODES = 2_000
 """Estimated nodes from which a fast solve starts from a coarser level. Below
-it a solve from the drape takes well under a second and a coarse level's own
-drape and solve save less than they cost."""
+it the coarsest level would have fewer than ``COARSEST_NODES`` nodes; from it
+a quarter-size solve settles the population for the fine one (or shows that
+the drape already holds it, see ``core.pipeline._start``)."""
 
 COARSEST_NODES = 500
 """A coarser level is made only while it keeps at least this many nodes: a

@@ -376,9 +376,15 @@ def _on_lattice(surface: NurbsSurface, settings: FlattenSettings, mesh: SpringMe
     return State(mesh, uv)
 
 
+def _solved_before(stats: dict) -> list:
+    """The solves before a start's own: a dropped coarse solve (its drape held, see
+    :func:`_start`) and each coarser level carried to it, coarsest first."""
+    return list(stats.get("dropped", ())) + list(stats.get("levels", ()))
+
+
 def _coarse_iterations(stats: dict) -> int:
-    """The iterations of a coarse-to-fine start's coarser levels (0 from the drape)."""
-    return sum(lv["iterations"] for lv in stats.get("levels", ()))
+    """The iterations of the solves before a start's own (0 from the drape)."""
+    return sum(lv["iterations"] for lv in _solved_before(stats))
 
 
 def _carried(options: SolverOptions, stats: dict) -> SolverOptions:
@@ -403,49 +409,72 @@ def _counted_from(gen, done: int):
         gen.close()
 
 
+def _drape_state(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, cover: Cover, A3: float,
+                 drape_progress, drape_interval: float):
+    """The settings' own lattice draped: its state and the drape's stats."""
+    progress = None
+    if drape_progress is not None:
+        def progress(ij, uv, xyz):
+            if len(ij) < 3:
+                return
+            order = np.lexsort((ij[:, 1], ij[:, 0]))
+            drape_progress(problem.build(ij[order], uv[order]), uv[order], xyz[order])
+    d = drape_piece(surface, settings.drape_settings(), settings.material, cover, area=A3, progress=progress,
+                    progress_interval=drape_interval)
+    _check_drape(surface, d, settings.drape_settings(), cover)
+    return State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
+
+
+def _level_record(coarse: FlattenSettings, solve, refine_seconds: float) -> dict:
+    """A coarser solve's entry in a start's stats (``levels`` or ``dropped``)."""
+    return {"spacing": coarse.spacing, "nodes": int(solve.mesh.n_nodes), "iterations": int(solve.nit),
+            "deleted": int(solve.deleted), "added": int(solve.added), "converged": solve.status == 0,
+            "solve_seconds": solve.seconds, "refine_seconds": refine_seconds,
+            "history": [float(e) for e in solve.history]}
+
+
 def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, cover: Cover, A3: float,
-           levels: int, drape_progress, drape_interval: float):
+           levels: int, drape_progress, drape_interval: float, top: bool = True):
     """Generator: the state a solve from scratch starts from, and the drape's stats
     (with a coarse-to-fine start, each coarser level's in ``stats["levels"]``).
 
     With ``levels`` > 0 the piece is solved first at twice the spacing (itself
     started ``levels - 1`` levels coarser), yielding that solve's snapshots, and
-    its solution carried onto this lattice (:func:`core.multilevel.carry`)."""
+    its solution carried onto this lattice (:func:`core.multilevel.carry`).
+
+    When the coarsest level's solve from its own drape converges and neither
+    deletes nor refills a node, the drape held: the nodes the drape placed are
+    the ones the minimum keeps, and the settings' own lattice is draped instead
+    of carried (a carried net only approaches what the fine drape reaches from
+    where the threads lie). That solve is kept in ``stats["dropped"]`` (its
+    snapshots were shown and its iterations are counted on); a level below the
+    top returns ``(None, stats)`` for the top to drape."""
     # the fine lattice is never draped on a coarse-to-fine start: its size is checked here, before any level
     check_node_count(settings.drape_settings(), A3)
     if levels <= 0:
-        progress = None
-        if drape_progress is not None:
-            def progress(ij, uv, xyz):
-                if len(ij) < 3:
-                    return
-                order = np.lexsort((ij[:, 1], ij[:, 0]))
-                drape_progress(problem.build(ij[order], uv[order]), uv[order], xyz[order])
-        d = drape_piece(surface, settings.drape_settings(), settings.material, cover, area=A3, progress=progress,
-                        progress_interval=drape_interval)
-        _check_drape(surface, d, settings.drape_settings(), cover)
-        return State(problem.build(d.mesh.ij, d.uv), d.uv), d.stats
+        return _drape_state(surface, settings, problem, cover, A3, drape_progress, drape_interval)
     coarse = _coarser(settings)
     cproblem = make_problem(surface, coarse)
     state, stats = yield from _start(surface, coarse, cproblem, cover, A3, levels - 1, drape_progress,
-                                     drape_interval)
-    if coarse.yarns:
-        cproblem.yarns = resolve_yarns(coarse.yarns, state.mesh, surface.points(state.uv))
-    done = _coarse_iterations(stats)
-    solve = yield from _counted_from(iterate(cproblem, state, _carried(coarse.solver_options(), stats)), done)
-    if solve.nit == 0 and solve.status == 0:
-        # the coarse drape was already at the minimum (a developable piece): so is this level's,
-        # which a refined net only approaches
-        return (yield from _start(surface, settings, problem, cover, A3, 0, drape_progress, drape_interval))
-    t = time.perf_counter()
-    fine = multilevel.carry(surface, problem, solve.mesh, solve.uv, settings.material,
-                            cover.contains if cover.trimmed else None)
-    stats = dict(stats)
-    stats.setdefault("levels", []).append({
-        "spacing": coarse.spacing, "nodes": int(solve.mesh.n_nodes), "iterations": int(solve.nit),
-        "solve_seconds": solve.seconds, "refine_seconds": time.perf_counter() - t,
-        "history": [float(e) for e in solve.history]})
-    return fine, stats
+                                     drape_interval, top=False)
+    if state is not None:
+        if coarse.yarns:
+            cproblem.yarns = resolve_yarns(coarse.yarns, state.mesh, surface.points(state.uv))
+        done = _coarse_iterations(stats)
+        solve = yield from _counted_from(iterate(cproblem, state, _carried(coarse.solver_options(), stats)),
+                                         done)
+        if "levels" in stats or solve.status != 0 or solve.deleted or solve.added:
+            t = time.perf_counter()
+            fine = multilevel.carry(surface, problem, solve.mesh, solve.uv, settings.material,
+                                    cover.contains if cover.trimmed else None)
+            record = _level_record(coarse, solve, time.perf_counter() - t)
+            return fine, {**stats, "levels": list(stats.get("levels", ())) + [record]}
+        stats = {**stats, "dropped": [_level_record(coarse, solve, 0.0)]}  # the drape held (see above)
+    if not top:
+        return None, stats
+    state, own = _drape_state(surface, settings, problem, cover, A3, drape_progress, drape_interval)
+    # the drape time is both drapes'
+    return state, {**own, "dropped": stats["dropped"], "seconds": own.get("seconds", 0.0) + stats.get("seconds", 0.0)}
 
 
 UNCOVERED_LIMIT = 0.10
@@ -615,7 +644,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         "drape_seconds": stats.get("seconds", 0.0),
         # a coarse-to-fine start's coarser solves are part of the solve
         "solve_seconds": (solve.seconds if solve else 0.0) + sum(
-            lv["solve_seconds"] + lv["refine_seconds"] for lv in stats.get("levels", ())),
+            lv["solve_seconds"] + lv["refine_seconds"] for lv in _solved_before(stats)),
         "coarse_levels": len(stats.get("levels", ())),
         "coarse_iterations": _coarse_iterations(stats),
         "seconds": time.perf_counter() - t0,
@@ -625,7 +654,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     if getattr(surface, "fit", None) is not None:  # a surface fitted to a mesh (core.meshsurf)
         metrics.update(surface.fit.metrics())
     check_result_finite(state.uv, xyz, pattern, metrics)
-    history = tuple(float(e) for lv in stats.get("levels", ()) for e in lv.pop("history"))
+    history = tuple(float(e) for lv in _solved_before(stats) for e in lv.pop("history"))
     result = FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
                            history + (tuple(float(e) for e in solve.history) if solve else ()))
     return replace(result, warnings=warnings_for(result))

@@ -165,3 +165,18 @@ def test_a_nan_in_the_solve_is_one_line_and_status_2(tmp_path, monkeypatch, caps
     assert code == 2 and captured.out == ""
     assert captured.err.splitlines() == [expected]
     assert not out.exists() and fault.hits >= 1
+
+
+@pytest.mark.parametrize("name, spacing, words", [
+    ("octant", "0.025", "of them on 1 coarser level"),  # carried from a quarter-size solve
+    ("saddle", "0.045", "of them on a coarser drape that held"),  # the coarse solve kept every node
+    ("octant", "0.1", None),  # too small to start coarse
+])
+def test_the_summary_says_where_the_iterations_were_spent(tmp_path, capsys, name, spacing, words):
+    assert main(["flatten", name, "--spacing", spacing, "--out", str(tmp_path / "r.json")]) == 0
+    line = capsys.readouterr().err.splitlines()[0]
+    assert "iterations (converged)" in line
+    if words is None:
+        assert "of them on" not in line
+    else:
+        assert words in line

@@ -207,6 +207,62 @@ def test_a_developable_piece_whose_coarse_drape_is_exact_is_draped_on_its_own_la
     assert np.array_equal(auto.uv, plain.uv)
 
 
+def test_a_piece_whose_coarse_drape_keeps_its_population_is_draped_on_its_own_lattice():
+    # the saddle's coarse solve converges from its drape in a few iterations, no node deleted or
+    # refilled: the drape held, and the fine drape (not a carried net) is where the fine solve starts
+    s, settings = _settings("saddle", 2_500)
+    assert multilevel.levels_for(region_area(s) / settings.spacing ** 2) == 1
+    snaps, auto = _drain(flatten_iter(s, settings))
+    plain = flatten(s, settings, multilevel=0)
+    (dropped,) = auto.drape_stats["dropped"]
+    assert dropped["iterations"] > 0 and dropped["converged"]
+    assert dropped["deleted"] == dropped["added"] == 0
+    assert auto.metrics["coarse_levels"] == 0 and auto.metrics["coarse_iterations"] == dropped["iterations"]
+    assert np.array_equal(auto.uv, plain.uv) and auto.metrics["energy"] == plain.metrics["energy"]
+    # the dropped solve's snapshots were shown first, and the count runs on over both solves
+    spacings = [sn.mesh.r_weft for sn in snaps]
+    assert spacings[0] == pytest.approx(2 * settings.spacing) and spacings[-1] == settings.spacing
+    assert spacings == sorted(spacings, reverse=True)
+    its = [sn.iteration for sn in snaps]
+    assert its == sorted(its) and its[-1] == auto.metrics["iterations"]
+    assert auto.metrics["iterations"] == plain.metrics["iterations"] + dropped["iterations"]
+    assert list(auto.history) == [sn.energy for sn in snaps]
+
+
+@pytest.mark.parametrize("name, material", [("octant", "woven"), ("octant", "isotropic"),
+                                            ("garment", "woven")])
+def test_a_small_piece_whose_drape_does_not_hold_starts_coarse_and_reaches_the_same_result(name, material):
+    s, settings = _settings(name, 2_500, material)
+    auto = flatten(s, settings)
+    plain = flatten(s, settings, multilevel=0)
+    assert auto.metrics["coarse_levels"] == 1 and "dropped" not in auto.drape_stats
+    (level,) = auto.drape_stats["levels"]
+    assert level["deleted"] or level["added"]  # why it was carried
+    f, r = auto.metrics, plain.metrics
+    assert f["solver_status"] == "converged"
+    assert f["energy"] <= r["energy"] * (1 + 1e-3)
+    assert abs(f["boundary_error_pct"] - r["boundary_error_pct"]) <= 0.02
+    assert abs(f["area_error_pct"] - r["area_error_pct"]) <= 0.02
+    assert abs(f["nodes"] - r["nodes"]) <= 0.01 * r["nodes"]
+
+
+def test_a_carried_level_that_keeps_its_population_carries_on():
+    # only a solve from its own drape shows that the drape holds: a level carried from a coarser one
+    # that keeps every node is carried on again (its start was a refined net, not a drape)
+    s, settings = _settings("saddle", 10_000, "isotropic")
+    auto = flatten(s, settings)
+    plain = flatten(s, settings, multilevel=0)
+    coarsest, middle = auto.drape_stats["levels"]
+    assert coarsest["deleted"] or coarsest["added"]
+    assert middle["converged"] and middle["deleted"] == middle["added"] == 0
+    assert auto.metrics["coarse_levels"] == 2 and "dropped" not in auto.drape_stats
+    f, r = auto.metrics, plain.metrics
+    assert f["energy"] <= r["energy"] * (1 + 1e-3)
+    assert abs(f["boundary_error_pct"] - r["boundary_error_pct"]) <= 0.02
+    assert abs(f["area_error_pct"] - r["area_error_pct"]) <= 0.02
+    assert abs(f["nodes"] - r["nodes"]) <= 0.01 * r["nodes"]
+
+
 def test_a_trimmed_piece_with_a_hole_starts_coarse_and_reaches_the_same_result():
     s = load_example("octant")
     square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
