@@ -113,7 +113,9 @@ class Presenter:
         self.view_options = ViewOptions()
         self.frame = None  # the frame on screen
         self.pattern_frame = None  # the frame the pattern view shows (it may be older than ``frame``)
-        self.first_nodes: int | None = None  # nodes of the run's first frame after the drape
+        self.first_nodes: int | None = None  # nodes of the run's first solver frame on its current lattice
+        self.first_spacing: float | None = None  # that lattice's weft spacing (a coarse-to-fine run changes it)
+        self.started_from = "the drape"  # what the run's first lattice started from ("the warm start" on a re-solve)
         self.surface_info = ""  # the surface's description (the status bar's, with no result)
         self._curve_cache: dict = {}
         self._region = None  # the trimmed piece's region drawn (None: the whole surface)
@@ -322,13 +324,17 @@ class Presenter:
             self.window.progress.setText(f"Draping{paused}: {n:,} nodes laid")
             self.info_label.setText(f"draping  {n:,} nodes")
             return
+        since = self.started_from
         if self.first_nodes is None:
-            self.first_nodes = n
+            self.first_nodes, self.first_spacing = n, frame.mesh.r_weft
+        elif frame.mesh.r_weft != self.first_spacing:  # a coarse-to-fine run's next level: count from its start
+            self.first_nodes, self.first_spacing = n, frame.mesh.r_weft
+            self.started_from = since = "this level's start"
         delta = ""
         if len(hist) >= 2 and hist[-2][1] > 0:
             delta = f" (change {hist[-1][1] - hist[-2][1]:+.3g})"
         text = (f"{runner.stage.capitalize()}{paused}: iteration {frame.iteration}, "
-                f"EN {frame.energy:.6g}{delta}, {n:,} nodes ({n - self.first_nodes:+,d} since the drape)")
+                f"EN {frame.energy:.6g}{delta}, {n:,} nodes ({n - self.first_nodes:+,d} since {since})")
         self.window.progress.setText(text)
         self.info_label.setText(f"iteration {frame.iteration}  EN {frame.energy:.4g}  {n:,} nodes")
 

@@ -322,7 +322,8 @@ class RunControl:
     # ------------------------------------------------------------------ a run's end
     def _started(self, project: Project) -> None:
         w = self.window
-        w.presenter.first_nodes = None
+        w.presenter.first_nodes = w.presenter.first_spacing = None
+        w.presenter.started_from = "the drape" if warm_start(project) is None else "the warm start"
         w.energy_plot.clear()
         if project.result is None or warm_start(project) is None:
             w.pattern_view.request_fit()

@@ -8,6 +8,7 @@ colour functions the views use.
 
 from __future__ import annotations
 
+import re
 import time
 
 import numpy as np
@@ -18,6 +19,7 @@ from app import runner as runner_module
 from app.colours import ramp, strain_range, strain_stops
 from app.view2d import nice_length
 from app.viewbase import SCALE_TITLES, THREAD
+import core.solver
 from core.drape import drape
 from core.examples import example_path, load_example
 from core.metrics import spring_strain
@@ -278,6 +280,53 @@ def test_a_runs_first_live_frame_is_taken_when_it_is_made(make_window, qtbot):
     qtbot.waitUntil(lambda: any(not f.final for f in frames), timeout=RUN_TIMEOUT_MS)
     assert win.runner.busy and p.frame is frames[0] and not frames[0].draping
     pause_and_stop(qtbot, win)
+
+
+def test_the_progress_counts_nodes_from_each_lattices_start(make_window, qtbot, monkeypatch):
+    """The progress line's "(+N since ...)" is the nodes refilled less those deleted on the lattice
+    on screen: from the drape on a run's first lattice, from its own start on a coarse-to-fine run's
+    finer level (not from the coarser lattice's count: that read +1,8xx on a 2,500-node piece), and
+    from the warm start on a re-solve."""
+    win = make_window(small_project(0.025))  # about 2,500 nodes: the run starts on a coarser lattice
+    shown, seen = win.presenter.show_progress, []
+
+    def record(frame):
+        shown(frame)
+        if not frame.draping:
+            seen.append((frame.mesh.r_weft, frame.mesh.n_nodes, win.progress.text()))
+
+    monkeypatch.setattr(win.presenter, "show_progress", record)
+    snapshot = core.solver._Run.snapshot
+
+    def slow(self, *a, **k):  # iterations slower than the frame pump: every lattice is on screen a while
+        time.sleep(0.03)
+        return snapshot(self, *a, **k)
+
+    monkeypatch.setattr(core.solver._Run, "snapshot", slow)
+    run_to_end(qtbot, win)
+    r = win.project.result
+    assert r.metrics["coarse_levels"] >= 1
+
+    def counted(rows):  # (count in the text, what it counts from, the frame's nodes)
+        out = []
+        for _, n, text in rows:
+            m = re.search(r"nodes \(([+-][\d,]+) since (.+)\)$", text)
+            assert m, text
+            out.append((int(m.group(1).replace(",", "")), m.group(2), n))
+        return out
+
+    first = counted([x for x in seen if x[0] == seen[0][0]])
+    fine = counted([x for x in seen if x[0] == r.mesh.r_weft])
+    assert seen[0][0] != r.mesh.r_weft and first and fine
+    assert {since for _, since, _ in first} == {"the drape"}
+    assert [c for c, _, _ in first] == [n - first[0][2] for _, _, n in first]
+    assert {since for _, since, _ in fine} == {"this level's start"}
+    assert [c for c, _, _ in fine] == [n - fine[0][2] for _, _, n in fine]
+    assert fine[0][0] == 0
+    seen.clear()
+    run_to_end(qtbot, win, lambda: win.edit_settings("Solver", {"solver": "paper", "max_iter": 4}))
+    assert win.runner.last_start[1] is not None  # a warm re-run, on the fine lattice
+    assert seen and {since for _, since, _ in counted(seen)} == {"the warm start"}
 
 
 @pytest.mark.parametrize("hold_ms", [runner_module.HOLD_FOR_FIRST_FRAME_MS, 40])
