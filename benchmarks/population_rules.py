@@ -1,0 +1,228 @@
+"""Population rules for a warm dart re-solve, tried as prototypes (issue 20).
+
+    .venv/bin/python benchmarks/population_rules.py [--nodes 2500] [--repeat 3]
+        [--rules cap1,uncovered,...] [--cases octant,garment] [--out FILE]
+
+A dart re-solve on the 2,500-node woven octant spends about a third of its
+time in rounds after its first refill: each refill adds a few nodes at the
+edge where the net slid, starts a round, and the round lets a few others
+slide out. Each rule below changes when the solver refills or deletes, and is
+applied by patching ``core`` for the duration of its runs (nothing in ``core``
+is changed):
+
+- ``cap1``, ``cap2``: at most one (two) refills in a solve.
+- ``uncovered``: a refill only while part of the region is farther than a
+  cell diagonal from every node (``metrics["uncovered_pct"]``'s reach) -- the
+  issue's "refill only where the dart uncovered the surface".
+- ``small-covered``: a refill of at most max(4, 0.2 % of the nodes) nodes is
+  skipped while the region is covered in that sense.
+- ``margin``: a node is deleted only once it is beyond the (u, v) domain by
+  more than half a spacing (its springs on the surface's extension counted
+  whole), so that a node sliding just past the edge stays.
+- ``coarse``: the warm state's nodes at even lattice positions re-solved with
+  the dart at twice the spacing, carried to the fine lattice
+  (:func:`core.multilevel.carry`) and solved there (``dead_after`` 1), as a
+  coarse-to-fine start does from the drape.
+- ``cold``: no rule, but the same settings solved from the drape (the
+  solve a project opened with the dart gets): how far today's own warm and
+  cold results lie apart.
+
+For every bundled surface and both materials a piece of about ``--nodes``
+nodes is solved (no rule), then the curve dart of ``tests/test_solver_speed.py``
+is added (and on the octant also its plane dart) and the piece re-solved warm
+from the solved state, today and under each rule, alternating, ``--repeat``
+times each: median seconds, iterations, the differences in EN, boundary and
+area errors and nodes, the share left uncovered, and whether the rule's result
+is within issue 20's tolerances of today's (EN within 0.1 % or lower, errors
+within 0.02 points).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import datetime as _dt
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+import core.multilevel as multilevel  # noqa: E402
+import core.pipeline as pipeline  # noqa: E402
+import core.solver as solver  # noqa: E402
+from core.coverage import cell_diagonal, uncovered_share  # noqa: E402
+from core.darts import CurveDart, PlaneDart  # noqa: E402
+from core.examples import example_names, load_example  # noqa: E402
+from core.mesh import MATERIALS  # noqa: E402
+from core.pipeline import FlattenSettings, flatten, make_problem  # noqa: E402
+from core.quadrature import region_area  # noqa: E402
+
+PLANE = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
+CURVE = CurveDart(np.array([[1.0, 0.5], [0.75, 0.52], [0.45, 0.5]]), name="curve dart")
+
+
+@contextlib.contextmanager
+def patched(obj, name: str, value):
+    old = getattr(obj, name)
+    setattr(obj, name, value)
+    try:
+        yield
+    finally:
+        setattr(obj, name, old)
+
+
+def _covered(run: solver._Run, at) -> bool:
+    m = run.mesh
+    xyz = at[0] if at is not None else run.problem.surface.points(run.uv)
+    return uncovered_share(run.problem.surface, xyz, cell_diagonal(m.r_weft, m.r_warp)) == 0.0
+
+
+def _capped(cap: int):
+    refill = solver._Run.try_refill
+
+    def try_refill(self, at=None):
+        done = getattr(self, "_bench_refills", 0)
+        if done >= cap:
+            return False
+        made = refill(self, at)
+        self._bench_refills = done + made
+        return made
+    return patched(solver._Run, "try_refill", try_refill)
+
+
+def _uncovered():
+    refill = solver._Run.try_refill
+    return patched(solver._Run, "try_refill", lambda self, at=None: not _covered(self, at) and refill(self, at))
+
+
+def _small_covered():
+    refill = solver._Run.try_refill
+
+    def try_refill(self, at=None):
+        ij, _ = self.problem.refill(self.mesh, self.uv, self.pop.dead(), at)
+        if 0 < len(ij) <= max(4, 0.002 * self.mesh.n_nodes) and _covered(self, at):
+            return False
+        return refill(self, at)
+    return patched(solver._Run, "try_refill", try_refill)
+
+
+@contextlib.contextmanager
+def _margin(spacings: float = 0.5):
+    made = make_problem
+
+    def make(surface, settings):
+        p = made(surface, settings)
+        dom = surface.domain
+        g = np.linspace(0.0, 1.0, 9)
+        uv = np.column_stack([a.ravel() for a in np.meshgrid(dom[0, 0] + g * (dom[0, 1] - dom[0, 0]),
+                                                              dom[1, 0] + g * (dom[1, 1] - dom[1, 0]))])
+        _, su, sv = surface.derivatives(uv)
+        # half a spacing in (u, v) where the chart is longest: at least half a spacing on the surface
+        p._bench_margin = np.array([spacings * settings.spacing / np.linalg.norm(su, axis=1).max(),
+                                    spacings * settings.spacing / np.linalg.norm(sv, axis=1).max()])
+        return p
+
+    def invalid(self, uv_old, uv_new, xyz_old=None, xyz_new=None):
+        dom, d = self.surface.domain, self._bench_margin
+        bad = np.any((uv_new < dom[:, 0] - d) | (uv_new > dom[:, 1] + d), axis=1)
+        if self._invalid is not None:
+            bad |= (self._invalid(uv_old, uv_new) if xyz_old is None
+                    else self._invalid(uv_old, uv_new, xyz_old, xyz_new))
+        return bad
+
+    with patched(pipeline, "make_problem", make), patched(solver.Problem, "invalid", invalid):
+        yield
+
+
+def _coarse_flatten(surface, settings, initial):
+    """The ``coarse`` rule's re-solve: the even nodes at twice the spacing, then the fine lattice."""
+    coarse = pipeline._coarser(settings)
+    cproblem = make_problem(surface, coarse)
+    even = (initial.mesh.ij % 2 == 0).all(axis=1)
+    cij, cuv = initial.mesh.ij[even] // 2, initial.uv[even]
+    sol = solver.minimize(cproblem, solver.State(cproblem.build(cij, cuv), cuv),
+                          dataclasses.replace(coarse.solver_options(), dead_after=1))
+    fine = multilevel.carry(surface, make_problem(surface, settings), sol.mesh, sol.uv, settings.material)
+    with patched(pipeline, "_carried", lambda options, stats: dataclasses.replace(options, dead_after=1)):
+        r = flatten(surface, settings, initial=fine)
+    r.metrics["iterations"] += sol.nit
+    return r
+
+
+RULES = {"cap1": lambda: _capped(1), "cap2": lambda: _capped(2), "uncovered": _uncovered,
+         "small-covered": _small_covered, "margin": _margin, "coarse": None, "cold": None}
+
+
+def re_solve(rule: str | None, surface, settings, initial):
+    if rule == "coarse":
+        return _coarse_flatten(surface, settings, initial)
+    if rule == "cold":
+        return flatten(surface, settings)
+    with (RULES[rule]() if rule else contextlib.nullcontext()):
+        return flatten(surface, settings, initial=initial)
+
+
+def within(a: dict, b: dict) -> bool:
+    return (b["energy"] <= a["energy"] * (1 + 1e-3) and abs(b["boundary_error_pct"] - a["boundary_error_pct"]) <= 0.02
+            and abs(b["area_error_pct"] - a["area_error_pct"]) <= 0.02)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--nodes", type=int, default=2500)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--rules", default=",".join(RULES))
+    ap.add_argument("--cases", default=",".join(example_names()), help="surfaces, comma-separated")
+    ap.add_argument("--out", type=Path)
+    args = ap.parse_args(argv)
+    rules = [r for r in args.rules.split(",") if r]
+    for r in rules:
+        if r not in RULES:
+            raise SystemExit(f"unknown rule {r!r}; the rules are {', '.join(RULES)}")
+    lines = [f"## Population rules for a warm dart re-solve, {args.nodes:,} nodes "
+             f"({_dt.date.today()}, {platform.node()}, {os.cpu_count()} cores, load "
+             "{:.2f} {:.2f} {:.2f})".format(*os.getloadavg()), "",
+             f"`benchmarks/population_rules.py --nodes {args.nodes} --repeat {args.repeat}`: medians of "
+             f"{args.repeat} re-solves each, today's and the rule's alternating; ** a result outside issue 20's "
+             "tolerances of today's.", "",
+             "| case | rule | s today | s rule | iterations | EN rule/today - 1 | boundary %, rule - today | "
+             "area, rule - today | nodes | uncovered % (rule) |", "|---|---|---:|---:|---|---:|---|---:|---|---:|"]
+    print("\n".join(lines), flush=True)
+    for name in args.cases.split(","):
+        for material in ("woven", "isotropic"):
+            s = load_example(name)
+            settings = FlattenSettings(float(np.sqrt(region_area(s) / args.nodes)), material=MATERIALS[material])
+            base = flatten(s, settings)
+            for dart in (CURVE, PLANE) if name == "octant" else (CURVE,):
+                with_dart = dataclasses.replace(settings, darts=(dart,))
+                for rule in rules:
+                    times: dict = {None: [], rule: []}
+                    results = {}
+                    for _ in range(args.repeat):
+                        for r in (None, rule):
+                            t = time.perf_counter()
+                            results[r] = re_solve(r, s, with_dart, base.state())
+                            times[r].append(time.perf_counter() - t)
+                    a, b = results[None].metrics, results[rule].metrics
+                    row = (f"| {name} {material} {dart.name}{'' if within(a, b) else ' **'} | {rule} | "
+                           f"{np.median(times[None]):.3f} | {np.median(times[rule]):.3f} | "
+                           f"{a['iterations']} / {b['iterations']} | {b['energy'] / a['energy'] - 1:+.2e} | "
+                           f"{a['boundary_error_pct']:.3f}, {b['boundary_error_pct'] - a['boundary_error_pct']:+.4f} | "
+                           f"{b['area_error_pct'] - a['area_error_pct']:+.4f} | {a['nodes']} / {b['nodes']} | "
+                           f"{b['uncovered_pct']:.3f} |")
+                    lines.append(row)
+                    print(row, flush=True)
+    if args.out:
+        with open(args.out, "a") as f:
+            f.write("\n" + "\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
