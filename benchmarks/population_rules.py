@@ -23,6 +23,13 @@ is changed):
   the dart at twice the spacing, carried to the fine lattice
   (:func:`core.multilevel.carry`) and solved there (``dead_after`` 1), as a
   coarse-to-fine start does from the drape.
+- ``clip``: ``margin``, and each spring's stiffness weighted by the share of
+  its (u, v) segment inside the domain (set at each build, i.e. each round;
+  when a round converges and the weights at the nodes' places differ from
+  the round's by more than 0.01, the population is built again): the
+  issue's "boundary nodes a little beyond the region's edge, their springs
+  counted by the part inside", with the weights lagged a round (their
+  derivatives are not in the Newton step).
 - ``cold``: no rule, but the same settings solved from the drape (the
   solve a project opened with the dart gets): how far today's own warm and
   cold results lie apart.
@@ -141,6 +148,66 @@ def _margin(spacings: float = 0.5):
         yield
 
 
+def _inside_share(a: np.ndarray, b: np.ndarray, dom: np.ndarray) -> np.ndarray:
+    """(m,) the share of each (u, v) segment a -> b inside the box ``dom`` (Liang-Barsky clipping)."""
+    t0, t1 = np.zeros(len(a)), np.ones(len(a))
+    d = b - a
+    for k in range(2):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lo = (dom[k, 0] - a[:, k]) / d[:, k]
+            hi = (dom[k, 1] - a[:, k]) / d[:, k]
+        flat = d[:, k] == 0
+        inside = (a[:, k] >= dom[k, 0]) & (a[:, k] <= dom[k, 1])
+        enter, leave = np.minimum(lo, hi), np.maximum(lo, hi)
+        t0 = np.where(flat, np.where(inside, t0, 1.0), np.maximum(t0, enter))
+        t1 = np.where(flat, np.where(inside, t1, 0.0), np.minimum(t1, leave))
+    return np.clip(t1 - t0, 0.0, 1.0)
+
+
+@contextlib.contextmanager
+def _clip():
+    with _margin(), _weighted():
+        yield
+
+
+@contextlib.contextmanager
+def _weighted():
+    made = pipeline.make_problem  # the margin's, when entered within it
+
+    def make(surface, settings):
+        p = made(surface, settings)
+        build, dom = p.build, surface.domain
+
+        def weighted(ij, uv):
+            mesh = build(ij, uv)
+            uv = np.asarray(uv, dtype=float)
+            w = _inside_share(uv[mesh.ends[:, 0]], uv[mesh.ends[:, 1]], dom)
+            return dataclasses.replace(mesh, k=mesh.k * np.maximum(w, 1e-6))
+
+        p.build = weighted
+        p._bench_full_k = build
+        return p
+
+    refill = solver._Run.try_refill
+
+    def try_refill(self, at=None):
+        if refill(self, at):
+            return True
+        dom = self.problem.surface.domain
+        w = _inside_share(self.uv[self.mesh.ends[:, 0]], self.uv[self.mesh.ends[:, 1]], dom)
+        full = self.problem._bench_full_k(self.mesh.ij, self.uv)
+        if len(full.k) != len(self.mesh.k):
+            return False
+        now = self.mesh.k / np.maximum(full.k, 1e-300)
+        if np.abs(np.maximum(w, 1e-6) - now).max() <= 0.01:
+            return False
+        self.mesh = self.problem.build(self.mesh.ij, self.uv)
+        return True
+
+    with patched(pipeline, "make_problem", make), patched(solver._Run, "try_refill", try_refill):
+        yield
+
+
 def _coarse_flatten(surface, settings, initial):
     """The ``coarse`` rule's re-solve: the even nodes at twice the spacing, then the fine lattice."""
     coarse = pipeline._coarser(settings)
@@ -157,7 +224,7 @@ def _coarse_flatten(surface, settings, initial):
 
 
 RULES = {"cap1": lambda: _capped(1), "cap2": lambda: _capped(2), "uncovered": _uncovered,
-         "small-covered": _small_covered, "margin": _margin, "coarse": None, "cold": None}
+         "small-covered": _small_covered, "margin": _margin, "clip": _clip, "coarse": None, "cold": None}
 
 
 def re_solve(rule: str | None, surface, settings, initial):
