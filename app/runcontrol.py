@@ -322,12 +322,13 @@ class RunControl:
     # ------------------------------------------------------------------ a run's end
     def _started(self, project: Project) -> None:
         w = self.window
+        draped = warm_start(project) is None
         w.presenter.first_nodes = w.presenter.first_spacing = None
-        w.presenter.started_from = "the drape" if warm_start(project) is None else "the warm start"
+        w.presenter.started_from = "the drape" if draped else "the warm start"
         w.energy_plot.clear()
-        if project.result is None or warm_start(project) is None:
+        if project.result is None or draped:
             w.pattern_view.request_fit()
-        w.progress.setText("Draping the mesh..." if warm_start(project) is None else "Starting...")
+        w.progress.setText("Draping the mesh..." if draped else "Starting...")
         w.update_actions()
 
     def _finished(self, outcome: RunOutcome) -> None:

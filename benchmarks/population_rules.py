@@ -55,6 +55,7 @@ import platform
 import sys
 import time
 from pathlib import Path
+from unittest.mock import patch
 
 import numpy as np
 
@@ -75,16 +76,6 @@ PLANE = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane d
 CURVE = CurveDart(np.array([[1.0, 0.5], [0.75, 0.52], [0.45, 0.5]]), name="curve dart")
 
 
-@contextlib.contextmanager
-def patched(obj, name: str, value):
-    old = getattr(obj, name)
-    setattr(obj, name, value)
-    try:
-        yield
-    finally:
-        setattr(obj, name, old)
-
-
 def _covered(run: solver._Run, at) -> bool:
     m = run.mesh
     xyz = at[0] if at is not None else run.problem.surface.points(run.uv)
@@ -101,12 +92,12 @@ def _capped(cap: int):
         made = refill(self, at)
         self._bench_refills = done + made
         return made
-    return patched(solver._Run, "try_refill", try_refill)
+    return patch.object(solver._Run, "try_refill", try_refill)
 
 
 def _uncovered():
     refill = solver._Run.try_refill
-    return patched(solver._Run, "try_refill", lambda self, at=None: not _covered(self, at) and refill(self, at))
+    return patch.object(solver._Run, "try_refill", lambda self, at=None: not _covered(self, at) and refill(self, at))
 
 
 def _small_covered():
@@ -117,7 +108,7 @@ def _small_covered():
         if 0 < len(ij) <= max(4, 0.002 * self.mesh.n_nodes) and _covered(self, at):
             return False
         return refill(self, at)
-    return patched(solver._Run, "try_refill", try_refill)
+    return patch.object(solver._Run, "try_refill", try_refill)
 
 
 @contextlib.contextmanager
@@ -144,7 +135,7 @@ def _margin(spacings: float = 0.5):
                     else self._invalid(uv_old, uv_new, xyz_old, xyz_new))
         return bad
 
-    with patched(pipeline, "make_problem", make), patched(solver.Problem, "invalid", invalid):
+    with patch.object(pipeline, "make_problem", make), patch.object(solver.Problem, "invalid", invalid):
         yield
 
 
@@ -204,7 +195,7 @@ def _weighted():
         self.mesh = self.problem.build(self.mesh.ij, self.uv)
         return True
 
-    with patched(pipeline, "make_problem", make), patched(solver._Run, "try_refill", try_refill):
+    with patch.object(pipeline, "make_problem", make), patch.object(solver._Run, "try_refill", try_refill):
         yield
 
 
@@ -217,7 +208,7 @@ def _coarse_flatten(surface, settings, initial):
     sol = solver.minimize(cproblem, solver.State(cproblem.build(cij, cuv), cuv),
                           dataclasses.replace(coarse.solver_options(), dead_after=1))
     fine = multilevel.carry(surface, make_problem(surface, settings), sol.mesh, sol.uv, settings.material)
-    with patched(pipeline, "_carried", lambda options, stats: dataclasses.replace(options, dead_after=1)):
+    with patch.object(pipeline, "_carried", lambda options, stats: dataclasses.replace(options, dead_after=1)):
         r = flatten(surface, settings, initial=fine)
     r.metrics["iterations"] += sol.nit
     return r
