@@ -1,5 +1,8 @@
 """Population rules for a warm dart re-solve, tried as prototypes (issue 20).
 
+Run with the edge-churn rule off (``core.pipeline.EDGE_REFILL_SPACINGS = 0``, set
+below): "today" in the tables is the paper's refill the rules are compared with.
+
     .venv/bin/python benchmarks/population_rules.py [--nodes 2500] [--repeat 3]
         [--rules cap1,uncovered,...] [--cases octant,garment] [--out FILE]
 
@@ -16,6 +19,17 @@ is changed):
   issue's "refill only where the dart uncovered the surface".
 - ``small-covered``: a refill of at most max(4, 0.2 % of the nodes) nodes is
   skipped while the region is covered in that sense.
+- ``gap10``, ``gap25``: a refilled node is kept only where it lands at least
+  0.1 (0.25) of a spacing inside the domain's edge (the chord to the nearest of
+  its projections onto the domain's four sides): hysteresis against the edge's
+  churn, where a node placed a hair inside slides out in the next round.
+- ``shallow10``, ``shallow25``: a refill whose every node lands within 0.1 (0.25)
+  of a spacing of the edge is skipped while the region is covered (the rule
+  ``core.pipeline.edge_churn`` took, at 0.1, without computing the refill twice).
+- ``edge10``, ``edge25``: the same without the coverage test.
+- ``dead1``: a position emptied once is never refilled (``dead_after`` 1).
+- ``back10``, ``back25``: a position emptied earlier in the solve is refilled only
+  where its node lands at least 0.1 (0.25) of a spacing inside the edge.
 - ``margin``: a node is deleted only once it is beyond the (u, v) domain by
   more than half a spacing (its springs on the surface's extension counted
   whole), so that a node sliding just past the edge stays.
@@ -72,6 +86,8 @@ from core.mesh import MATERIALS  # noqa: E402
 from core.pipeline import FlattenSettings, flatten, make_problem  # noqa: E402
 from core.quadrature import region_area  # noqa: E402
 
+pipeline.EDGE_REFILL_SPACINGS = 0.0  # "today": the paper's refill, which the rules change
+
 PLANE = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
 CURVE = CurveDart(np.array([[1.0, 0.5], [0.75, 0.52], [0.45, 0.5]]), name="curve dart")
 
@@ -108,6 +124,94 @@ def _small_covered():
         if 0 < len(ij) <= max(4, 0.002 * self.mesh.n_nodes) and _covered(self, at):
             return False
         return refill(self, at)
+    return patch.object(solver._Run, "try_refill", try_refill)
+
+
+def _edge_chord(surface, uv: np.ndarray) -> np.ndarray:
+    """(k,) distance on the surface (the chord) from each point uv (k, 2) to the nearest of its
+    four projections onto the (u, v) domain's sides."""
+    dom = surface.domain
+    k = len(uv)
+    sides = np.repeat(uv[None], 4, axis=0)
+    sides[0, :, 0], sides[1, :, 0], sides[2, :, 1], sides[3, :, 1] = dom[0, 0], dom[0, 1], dom[1, 0], dom[1, 1]
+    p = surface.points(np.concatenate([uv, sides.reshape(-1, 2)]))
+    d = np.linalg.norm(p[k:].reshape(4, k, 3) - p[None, :k], axis=2)
+    return d.min(axis=0)
+
+
+def _edge_gap(spacings: float):
+    """A refilled node only where it lands at least ``spacings`` of a spacing inside the edge."""
+    refill = solver.Problem.refill
+
+    def gapped(self, mesh, uv, dead_ij, at=None):
+        ij, new = refill(self, mesh, uv, dead_ij, at)
+        if len(ij):
+            ok = _edge_chord(self.surface, new) >= spacings * min(mesh.r_weft, mesh.r_warp)
+            ij, new = ij[ok], new[ok]
+        return ij, new
+    return patch.object(solver.Problem, "refill", gapped)
+
+
+def _shallow(spacings: float):
+    """A refill skipped when every node it adds would land within ``spacings`` of a spacing of the
+    edge while the region is covered (``uncovered``'s test): the edge's churn, not a hole."""
+    refill = solver._Run.try_refill
+
+    def try_refill(self, at=None):
+        ij, new = self.problem.refill(self.mesh, self.uv, self.pop.dead(), at)
+        if len(ij):
+            m = self.mesh
+            shallow = _edge_chord(self.problem.surface, new) < spacings * min(m.r_weft, m.r_warp)
+            if shallow.all() and _covered(self, at):
+                return False
+        return refill(self, at)
+    return patch.object(solver._Run, "try_refill", try_refill)
+
+
+def _edge_churn(spacings: float):
+    """A refill that would add only nodes landing within ``spacings`` of a spacing of the edge
+    finds nothing (no coverage test: each such position is within a spacing and a tenth of the
+    nodes it hangs on, inside a cell diagonal)."""
+    refill = solver.Problem.refill
+
+    def churn(self, mesh, uv, dead_ij, at=None):
+        ij, new = refill(self, mesh, uv, dead_ij, at)
+        if len(ij) and (_edge_chord(self.surface, new) < spacings * min(mesh.r_weft, mesh.r_warp)).all():
+            return ij[:0], new[:0]
+        return ij, new
+    return patch.object(solver.Problem, "refill", churn)
+
+
+def _dead_once():
+    """A position that lost its node once in the solve is never refilled (``dead_after`` 1)."""
+    init = solver._Population.__init__
+    return patch.object(solver._Population, "__init__", lambda self, dead_after=2: init(self, 1))
+
+
+def _back(spacings: float):
+    """A position that lost its node earlier in the solve is refilled only where its node lands at
+    least ``spacings`` of a spacing inside the edge (hysteresis for a node coming back)."""
+    def try_refill(self, at=None):
+        if not self.options.refill:
+            return False
+        ij, uv = self.problem.refill(self.mesh, self.uv, self.pop.dead(), at)
+        if len(ij):
+            before = np.array([self.pop.counts.get(k, 0) > 0 for k in map(tuple, ij.tolist())])
+            m = self.mesh
+            shallow = _edge_chord(self.problem.surface, uv) < spacings * min(m.r_weft, m.r_warp)
+            ij, uv = ij[~(before & shallow)], uv[~(before & shallow)]
+        if len(ij) == 0:
+            return False
+        key = (self.mesh.ij.tobytes(), ij[np.lexsort((ij[:, 1], ij[:, 0]))].tobytes())
+        if key in self.refills:
+            return False
+        self.refills.add(key)
+        all_ij, all_uv = np.concatenate([self.mesh.ij, ij]), np.concatenate([self.uv, uv])
+        order = np.lexsort((all_ij[:, 1], all_ij[:, 0]))
+        self.mesh = self.problem.build(all_ij[order], all_uv[order])
+        self.uv = all_uv[order]
+        self.pop.added += len(ij)
+        return True
     return patch.object(solver._Run, "try_refill", try_refill)
 
 
@@ -215,7 +319,13 @@ def _coarse_flatten(surface, settings, initial):
 
 
 RULES = {"cap1": lambda: _capped(1), "cap2": lambda: _capped(2), "uncovered": _uncovered,
-         "small-covered": _small_covered, "margin": _margin, "clip": _clip, "coarse": None, "cold": None}
+         "small-covered": _small_covered,
+         "gap10": lambda: _edge_gap(0.1), "gap25": lambda: _edge_gap(0.25),
+         "shallow10": lambda: _shallow(0.1), "shallow25": lambda: _shallow(0.25),
+         "edge10": lambda: _edge_churn(0.1), "edge25": lambda: _edge_churn(0.25),
+         "dead1": _dead_once, "back10": lambda: _back(0.1), "back25": lambda: _back(0.25),
+         "margin": _margin, "clip": _clip,
+         "coarse": None, "cold": None}
 
 
 def re_solve(rule: str | None, surface, settings, initial):

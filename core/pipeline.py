@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 
 import core
 from core import multilevel
-from core.coverage import cell_diagonal, coverage_grid, uncovered_regions
+from core.coverage import cell_diagonal, coverage_grid, uncovered_regions, uncovered_share
 from core.darts import DART_KINDS, RESULT_DART_KEYS, DartSet
 from core.drape import DrapeResult, DrapeSettings, check_node_count, drape, refill
 from core.energy import Energy, YarnConstraint, resolve_yarns
@@ -284,6 +284,30 @@ def with_shear_angles(result: "FlattenResult", warn_deg: float, lock_deg: float)
     return replace(out, warnings=warnings_for(out))
 
 
+EDGE_REFILL_SPACINGS = 0.1
+"""A refill every one of whose nodes would land within this share of a spacing of the region's
+edge, while every point of the region is within a cell diagonal of a node, is not made: the edge's
+churn, not a gap (:func:`edge_churn`). 0 makes every refill (the paper's Node Filling)."""
+
+
+def edge_churn(cover: Cover, new_uv: np.ndarray, xyz: np.ndarray, r_weft: float, r_warp: float) -> bool:
+    """True if a refill adding nodes at ``new_uv`` (k, 2) to a population at ``xyz`` (n, 3) is the
+    edge's churn: every new node within :data:`EDGE_REFILL_SPACINGS` of a spacing of the region's
+    edge (:meth:`Cover.edge_chord`) and the region covered (``metrics["uncovered_pct"]`` 0).
+
+    After a dart opens, the net slides: a position opens at the edge where a node lands a hair
+    inside, a round starts for it, and the slid net lets another node out elsewhere; each such
+    round is a refill, a new pattern and analysis and one to three iterations, a third of a warm
+    dart re-solve (docs/decisions.md "Edge churn"). A refill with a node deeper in, or while part
+    of the region is uncovered, is made whole."""
+    if EDGE_REFILL_SPACINGS <= 0 or len(new_uv) == 0:
+        return False
+    if (cover.edge_chord(new_uv) >= EDGE_REFILL_SPACINGS * min(r_weft, r_warp)).any():
+        return False
+    reach = cell_diagonal(r_weft, r_warp)
+    return uncovered_share(cover.surface, xyz, reach, cover.coverage_grid(reach)) == 0.0
+
+
 def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
     """The solver's view of a piece: how a population's springs are built and refilled."""
     ds = settings.drape_settings()
@@ -297,8 +321,11 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
         return build_mesh(ij, ds.r_weft, ds.r_warp, material, keep=keep)
 
     def refill_nodes(mesh, uv, dead, at=None):
-        return refill(surface, ds, mesh.ij, uv, dead, separated=darts.crossing if len(darts) else None,
-                      inside=inside, at=at)
+        ij, new = refill(surface, ds, mesh.ij, uv, dead, separated=darts.crossing if len(darts) else None,
+                         inside=inside, at=at)
+        if len(ij) and edge_churn(cover, new, surface.points(uv) if at is None else at[0], mesh.r_weft, mesh.r_warp):
+            return ij[:0], new[:0]
+        return ij, new
 
     # a node whose step would carry it through a dart is deleted (3.3)
     cut = darts.crossing if len(darts) else None

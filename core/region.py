@@ -372,6 +372,34 @@ class Cover:
         q = (uv - dom[:, 0]) / size
         return shapely.distance(self._ring, shapely.points(q))
 
+    def edge_chord(self, uv: np.ndarray) -> np.ndarray:
+        """(k,) distance on the surface (the chord) from parameter points to the region's edge:
+        to the nearest, in the domain's fractions, of the points on its loops (holes too), or of
+        the point's four projections onto the domain's sides. Near the edge (the use: a node
+        within a fraction of a spacing) the chord is the distance along the surface; farther
+        from it, or where the chart is far from conformal, it may only be more."""
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        if len(uv) == 0:
+            return np.zeros(0)
+        dom = self.surface.domain
+        if self.region is None:
+            near = np.repeat(uv[None], 4, axis=0)
+            near[0, :, 0], near[1, :, 0] = dom[0, 0], dom[0, 1]
+            near[2, :, 1], near[3, :, 1] = dom[1, 0], dom[1, 1]
+        else:
+            import shapely
+            size = dom[:, 1] - dom[:, 0]
+            if "_rings" not in self.__dict__:
+                self._rings = [shapely.LinearRing((p - dom[:, 0]) / size) for p in self._loops]
+            pts = shapely.points((uv - dom[:, 0]) / size)
+            near = np.empty((len(self._rings), len(uv), 2))
+            for k, ring in enumerate(self._rings):
+                at = shapely.line_interpolate_point(ring, shapely.line_locate_point(ring, pts))
+                near[k] = shapely.get_coordinates(at) * size + dom[:, 0]
+        p = self.surface.points(np.concatenate([uv, near.reshape(-1, 2)]))
+        k = len(uv)
+        return np.linalg.norm(p[k:].reshape(-1, k, 3) - p[None, :k], axis=2).min(axis=0)
+
     def clip_curve(self, uv: np.ndarray) -> np.ndarray:
         """The longest run of a (u, v) polyline inside the region, each end
         where it was cut moved onto the region's edge (bisection on the

@@ -16,6 +16,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+import core.pipeline as pipeline
 from core import multilevel
 from core.drape import drape
 from core.examples import load_example
@@ -237,7 +238,12 @@ def test_a_piece_whose_coarse_drape_keeps_its_population_is_draped_on_its_own_la
 
 @pytest.mark.parametrize("name, material", [("octant", "woven"), ("octant", "isotropic"),
                                             ("garment", "woven")])
-def test_a_small_piece_whose_drape_does_not_hold_starts_coarse_and_reaches_the_same_result(name, material):
+def test_a_small_piece_whose_drape_does_not_hold_starts_coarse_and_reaches_the_same_result(name, material,
+                                                                                           monkeypatch):
+    # the paper's refill: under the edge-churn rule each path may leave out another node on the edge (the
+    # octant woven's coarse start and its drape one each, 0.012 points of boundary error either way);
+    # tests/test_edge_churn.py checks the coarse start under the rule against the paper's refill
+    monkeypatch.setattr(pipeline, "EDGE_REFILL_SPACINGS", 0.0)
     s, settings = _settings(name, 2_500, material)
     auto = flatten(s, settings)
     plain = flatten(s, settings, multilevel=0)
@@ -249,9 +255,12 @@ def test_a_small_piece_whose_drape_does_not_hold_starts_coarse_and_reaches_the_s
     _assert_same_result(f, r)
 
 
-def test_a_carried_level_that_keeps_its_population_carries_on():
+def test_a_carried_level_that_keeps_its_population_carries_on(monkeypatch):
     # only a solve from its own drape shows that the drape holds: a level carried from a coarser one
-    # that keeps every node is carried on again (its start was a refined net, not a drape)
+    # that keeps every node is carried on again (its start was a refined net, not a drape). With the
+    # paper's refill: under the edge-churn rule the coarsest level here skips an edge refill, and the
+    # middle level then deletes 16 nodes, so the case no longer shows a level that keeps its population
+    monkeypatch.setattr(pipeline, "EDGE_REFILL_SPACINGS", 0.0)
     s, settings = _settings("saddle", 10_000, "isotropic")
     auto = flatten(s, settings)
     plain = flatten(s, settings, multilevel=0)
