@@ -85,6 +85,7 @@ from core.examples import example_names, load_example  # noqa: E402
 from core.mesh import MATERIALS  # noqa: E402
 from core.pipeline import FlattenSettings, flatten, make_problem  # noqa: E402
 from core.quadrature import region_area  # noqa: E402
+from core.region import cover_for  # noqa: E402
 
 pipeline.EDGE_REFILL_SPACINGS = 0.0  # "today": the paper's refill, which the rules change
 
@@ -128,15 +129,8 @@ def _small_covered():
 
 
 def _edge_chord(surface, uv: np.ndarray) -> np.ndarray:
-    """(k,) distance on the surface (the chord) from each point uv (k, 2) to the nearest of its
-    four projections onto the (u, v) domain's sides."""
-    dom = surface.domain
-    k = len(uv)
-    sides = np.repeat(uv[None], 4, axis=0)
-    sides[0, :, 0], sides[1, :, 0], sides[2, :, 1], sides[3, :, 1] = dom[0, 0], dom[0, 1], dom[1, 0], dom[1, 1]
-    p = surface.points(np.concatenate([uv, sides.reshape(-1, 2)]))
-    d = np.linalg.norm(p[k:].reshape(4, k, 3) - p[None, :k], axis=2)
-    return d.min(axis=0)
+    """(k,) the chord from each point to the domain's edge (:meth:`core.region.Cover.edge_chord`)."""
+    return cover_for(surface).edge_chord(uv)
 
 
 def _edge_gap(spacings: float):
