@@ -297,9 +297,9 @@ def edge_churn(cover: Cover, new_uv: np.ndarray, xyz: np.ndarray, r_weft: float,
 
     After a dart opens, the net slides: a position opens at the edge where a node lands a hair
     inside, a round starts for it, and the slid net lets another node out elsewhere; each such
-    round is a refill, a new pattern and analysis and one to three iterations, a third of a warm
-    dart re-solve (docs/decisions.md "Edge churn"). A refill with a node deeper in, or while part
-    of the region is uncovered, is made whole."""
+    round costs a refill, a new pattern and analysis and a few iterations (docs/decisions.md
+    "Edge churn"). A refill with a node deeper in, or while part of the region is uncovered, is
+    made whole."""
     if EDGE_REFILL_SPACINGS <= 0 or len(new_uv) == 0:
         return False
     if (cover.edge_chord(new_uv) >= EDGE_REFILL_SPACINGS * min(r_weft, r_warp)).any():
