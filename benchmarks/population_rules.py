@@ -185,28 +185,22 @@ def _dead_once():
 def _back(spacings: float):
     """A position that lost its node earlier in the solve is refilled only where its node lands at
     least ``spacings`` of a spacing inside the edge (hysteresis for a node coming back)."""
-    def try_refill(self, at=None):
-        if not self.options.refill:
-            return False
-        ij, uv = self.problem.refill(self.mesh, self.uv, self.pop.dead(), at)
-        if len(ij):
-            before = np.array([self.pop.counts.get(k, 0) > 0 for k in map(tuple, ij.tolist())])
-            m = self.mesh
-            shallow = _edge_chord(self.problem.surface, uv) < spacings * min(m.r_weft, m.r_warp)
-            ij, uv = ij[~(before & shallow)], uv[~(before & shallow)]
-        if len(ij) == 0:
-            return False
-        key = (self.mesh.ij.tobytes(), ij[np.lexsort((ij[:, 1], ij[:, 0]))].tobytes())
-        if key in self.refills:
-            return False
-        self.refills.add(key)
-        all_ij, all_uv = np.concatenate([self.mesh.ij, ij]), np.concatenate([self.uv, uv])
-        order = np.lexsort((all_ij[:, 1], all_ij[:, 0]))
-        self.mesh = self.problem.build(all_ij[order], all_uv[order])
-        self.uv = all_uv[order]
-        self.pop.added += len(ij)
-        return True
-    return patch.object(solver._Run, "try_refill", try_refill)
+    try_refill = solver._Run.try_refill
+
+    def back(self, at=None):
+        refill = self.problem.refill
+
+        def filtered(mesh, uv, dead_ij, at=None):
+            ij, new = refill(mesh, uv, dead_ij, at)
+            if len(ij):
+                before = np.array([self.pop.counts.get(k, 0) > 0 for k in map(tuple, ij.tolist())])
+                shallow = _edge_chord(self.problem.surface, new) < spacings * min(mesh.r_weft, mesh.r_warp)
+                ij, new = ij[~(before & shallow)], new[~(before & shallow)]
+            return ij, new
+
+        with patch.object(self.problem, "refill", filtered):
+            return try_refill(self, at)
+    return patch.object(solver._Run, "try_refill", back)
 
 
 @contextlib.contextmanager
