@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["RED", "GREEN", "BLUE", "YELLOW", "PURPLE", "strain_range", "strain_stops", "shear_stops",
-           "ramp", "SHEAR_SCALE_TOP"]
+           "ramp", "SHEAR_SCALE_TOP", "STRAIN_NOISE_PCT"]
 
 RED = (1.0, 0.0, 0.0)
 GREEN = (0.0, 1.0, 0.0)
@@ -27,17 +27,26 @@ PURPLE = (0.55, 0.0, 0.65)
 SHEAR_SCALE_TOP = 1.5
 """The shear scale runs from 0 to this many times the limit angle (purple above the limit)."""
 
-_EPS = 1e-12
+STRAIN_NOISE_PCT = 0.01
+"""A strain scale never ends nearer zero than this many percent either side. Below it a strain
+is no fact of the cloth: 0.01 % of a 1 m thread is 0.1 mm, finer than a cutter or a rule
+resolves. A converged developable piece keeps strains far below it (the bundled ``cone`` at
+spacing 0.05-0.1: threads within 5e-4 %; ``half_cylinder``: within 5e-12 %, rounding), which
+a scale stretched to them painted full red and blue (the cone's diagonals, 0.02-0.07 %, are the
+lattice's chords on a curved surface, and keep a scale of their own); a doubly curved piece's real strains lie
+above it (the ``octant``'s threads reach -0.13 % and +0.044 %, its diagonals +-10 %), so its
+scales still end at its extremes."""
 
 
 def strain_range(strain: np.ndarray) -> tuple[float, float]:
-    """(lo, hi) of a strain scale: the most compressive value (<= 0) and the most
-    tensile (>= 0), widened to at least +-1e-12 so the scale never collapses."""
+    """(lo, hi) of a strain scale over ``strain`` in percent: the most compressive value
+    (<= 0) and the most tensile (>= 0), widened to at least +-STRAIN_NOISE_PCT, so the
+    scale never collapses nor stretches to numerical noise."""
     s = np.asarray(strain, dtype=float)
     s = s[np.isfinite(s)]
     lo = min(float(s.min()), 0.0) if s.size else 0.0
     hi = max(float(s.max()), 0.0) if s.size else 0.0
-    return min(lo, -_EPS), max(hi, _EPS)
+    return min(lo, -STRAIN_NOISE_PCT), max(hi, STRAIN_NOISE_PCT)
 
 
 def strain_stops(lo: float, hi: float) -> list[tuple[float, tuple[float, float, float]]]:

@@ -3,9 +3,11 @@ the thread that writes the files with :mod:`core.export`, and the window's
 export commands (:class:`Exports`).
 
 The format follows the file name's suffix (and choosing a format changes the
-suffix); "every format" writes one file per format next to each other. The
-files are written off the GUI thread (a tiled PDF takes about a second), each
-atomically by ``core.export``.
+suffix); "every format" writes one file per format next to each other. An
+export that would surprise (:func:`core.export.surprises`: a PDF of hundreds of
+pages, a piece metres across) is asked about first; No writes nothing and
+leaves the dialog open. The files are written off the GUI thread (a tiled PDF
+takes about a second), each atomically by ``core.export``.
 """
 
 from __future__ import annotations
@@ -16,10 +18,12 @@ from pathlib import Path
 
 from PySide6.QtCore import Qt, QThread, Signal
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFileDialog,
-                               QFormLayout, QHBoxLayout, QLabel, QLineEdit, QPushButton, QVBoxLayout, QWidget)
+                               QFormLayout, QHBoxLayout, QLabel, QLineEdit, QMessageBox, QPushButton, QVBoxLayout,
+                               QWidget)
 
 from core.errors import FlatweaveError
-from core.export import DXF_VARIANTS, FORMATS, OBJ_TEXTURES, PAPERS, UNITS, ExportOptions, dialog_filter, export_all
+from core.export import (DXF_VARIANTS, FORMATS, OBJ_TEXTURES, PAPERS, UNITS, ExportOptions, dialog_filter, export_all,
+                         surprises)
 from core.pipeline import FlattenResult
 
 from app.worker import one_line
@@ -64,12 +68,17 @@ class ExportThread(QThread):
 
 
 class ExportDialog(QDialog):
-    """Where and how to export. ``paths()`` and ``options()`` once accepted."""
+    """Where and how to export. ``paths()`` and ``options()`` once accepted.
+
+    ``check(paths, options)``, if given, lists the export's surprises
+    (:class:`core.export.Surprise`); Export asks about them and accepts only on Yes.
+    """
 
     def __init__(self, path: Path, units: str, name: str, seam_allowance_mm: float = 10.0, paper: str = "a4",
                  every_format: bool = False, stale: bool = False, parent=None, dxf_variant: str = "astm",
-                 obj_texture: str = "none"):
+                 obj_texture: str = "none", check=None):
         super().__init__(parent)
+        self.check = check
         self.setWindowTitle("Export pattern")
         layout = QVBoxLayout(self)
         form = QFormLayout()
@@ -174,11 +183,24 @@ class ExportDialog(QDialog):
             self.error.setText("Choose a file to export to.")
             return
         try:
-            self.options()
+            options = self.options()
+            found = self.check(self.paths(), options) if self.check is not None else []
         except FlatweaveError as exc:
             self.error.setText(str(exc))
             return
+        if found and not self._confirm(found, options):
+            return
         self.accept()
+
+    def _confirm(self, found, options: ExportOptions) -> bool:
+        """Ask whether to write an export despite its surprises; True on Yes."""
+        several = len(self.paths()) > 1
+        said = "\n".join((s.line() if several else s.text) + "." for s in found)
+        text = (f"{said}\n\nIf the model is not in {options.units}, choose its Model units. "
+                f"Write {'them' if several else 'it'}?")
+        buttons = QMessageBox.StandardButton
+        answer = QMessageBox.question(self, "Export pattern", text, buttons.Yes | buttons.No, buttons.No)
+        return answer == buttons.Yes
 
 
 class Exports:
@@ -214,7 +236,8 @@ class Exports:
         o = self.export_options
         dialog = ExportDialog(self._start_path(), project.units, project.name, o.seam_allowance_mm, o.paper,
                               self._every_format, stale=not project.result_is_current, parent=self.window,
-                              dxf_variant=o.dxf_variant, obj_texture=o.obj_texture)
+                              dxf_variant=o.dxf_variant, obj_texture=o.obj_texture,
+                              check=lambda paths, options: surprises(project.result, paths, options))
         dialog.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
         self.export_box = dialog
 

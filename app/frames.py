@@ -116,6 +116,11 @@ class FrameMaker:
             self._A3 = float(region_area(self.surface) if region is None else cover_for(self.surface, region).area)
         return self._A3
 
+    @property
+    def total_curvature(self) -> float:
+        """The piece's integrated Gaussian curvature (cached by its :class:`core.region.Cover`)."""
+        return cover_for(self.surface, self.settings.region).total_curvature
+
     def dart_curves(self) -> tuple:
         if self._curves is None:
             self._curves = tuple(self.surface.points(d.curve_uv(self.surface)) for d in self.settings.darts)
@@ -171,6 +176,7 @@ class FrameMaker:
                  "area_beyond_lock_pct": area_beyond_lock_pct(shear, cell_areas(xyz, mesh), mesh.material.lock_deg)}
         if pattern is not None:
             stats.update(self.pattern_stats(pattern))
+        stats["total_curvature"] = self.total_curvature  # the outline errors' limits scale with it
         pos, neg = self._dart_nodes
         if self._rosette is None:
             self._rosette = reference_direction(self.surface, self.settings)
@@ -194,10 +200,10 @@ class FrameMaker:
         m = result.metrics
         frame = self.frame(result.mesh, result.uv, result.xyz, m.get("iterations", 0),
                            m.get("energy", math.nan), m.get("seconds", 0.0), pattern=result.pattern,
-                           final=True, status=str(m.get("solver_status", "")))
+                           final=True, status=result.status or str(m.get("solver_status", "")))
         # the result's own metrics are the reference (computed once, by the pipeline)
         for key in ("boundary_error_pct", "area_error_pct", "max_thread_strain_pct", "max_shear_deg",
-                    "area_beyond_lock_pct", "uncovered_pct"):
+                    "area_beyond_lock_pct", "uncovered_pct", "total_curvature", "fit_max_deviation_pct"):
             if key in m:
                 frame.stats[key] = float(m[key])
         return frame

@@ -23,8 +23,8 @@ from PySide6.QtWidgets import (QAbstractSpinBox, QCheckBox, QComboBox, QDoubleSp
 
 from core.errors import SettingsError
 from core.mesh import MATERIALS, Material, parse_material
-from core.metrics import metric_limits
-from core.pipeline import warnings_for
+from core.metrics import Verdict, metric_limits
+from core.pipeline import judge_result
 from core.project import UNITS, Project
 
 from app.choices import solver_labels
@@ -359,6 +359,7 @@ class MetricsPanel(QWidget):
             self.labels[key] = lab
             form.addRow(title, lab)
         self.labels["warnings"].setWordWrap(True)
+        self.labels["status"].setWordWrap(True)  # a verdict names every metric past its limit: long
         self.labels["fit"].setWordWrap(True)
         self.fit_text = "-"  # the surface's fit to its mesh (kept through results: it is the surface's)
         self.warnings: tuple[str, ...] = ()
@@ -391,11 +392,12 @@ class MetricsPanel(QWidget):
         self.labels["beyond_lock"].setText(f"{st['area_beyond_lock_pct']:.2f} % of the area (lock {lock:g} deg)"
                                            if "area_beyond_lock_pct" in st else "-")
         self.labels["uncovered"].setText(f"{st['uncovered_pct']:.2f} %" if "uncovered_pct" in st else "-")
-        limits = metric_limits(project.settings.material, project.shear_warning_deg, project.shear_limit_deg)
+        limits = metric_limits(project.settings.material, project.shear_warning_deg, project.shear_limit_deg,
+                               total_curvature=st.get("total_curvature"))
         for key, name in self.LIMITED:
             value = st.get(name)
             lab = self.labels[key]
-            if value is None or not math.isfinite(value):
+            if value is None or not math.isfinite(value) or name not in limits:
                 lab.setStyleSheet("")
             else:
                 lab.setStyleSheet(f"color: {metric_colour(value, limits[name])}; font-weight: bold")
@@ -404,27 +406,31 @@ class MetricsPanel(QWidget):
             self.labels["size"].setText(f"{ext[0]:.4g} x {ext[1]:.4g} {u}")
         self.labels["nodes"].setText(f"{st.get('nodes', 0):,} / {st.get('springs', 0):,}")
         self.labels["iterations"].setText(str(frame.iteration))
-        status = frame.status if frame.final else "draping..." if frame.draping else "solving..."
-        self.warnings = self._result_warnings(project) if frame.final else ()
-        if self.warnings:
-            status += ", with warnings"
+        verdict = self._verdict(project) if frame.final else None
+        self.warnings = verdict.warnings if verdict is not None else ()
+        if verdict is not None:
+            status = verdict.status
+        else:
+            status = frame.status if frame.final else "draping..." if frame.draping else "solving..."
         if stale:
             status += " (settings changed since; Run to update)"
         self.labels["status"].setText(status)
-        self.labels["status"].setStyleSheet(f"color: {METRIC_COLOURS[1]}; font-weight: bold" if self.warnings else "")
+        level = 0 if verdict is None else 2 if verdict.unusable else 1 if verdict.warnings else 0
+        self.labels["status"].setStyleSheet(f"color: {METRIC_COLOURS[level]}; font-weight: bold" if level else "")
         self.labels["warnings"].setText("\n".join(self.warnings) if self.warnings else "none" if frame.final else "-")
 
-    def _result_warnings(self, project: Project) -> tuple[str, ...]:
-        """The document's result's warnings for the project's shear angles (made
-        once per result and angles: the shear warning needs every cell's shear)."""
+    def _verdict(self, project: Project) -> Verdict | None:
+        """The document's result's :class:`core.metrics.Verdict` for the project's shear angles
+        (made once per result and angles: the shear warning needs every cell's shear); the
+        core's judgement, as the CLI and the result file have it (:func:`core.pipeline.judge_result`)."""
         r = project.result
         if r is None:
-            return ()
+            return None
         key = (r, project.shear_warning_deg, project.shear_limit_deg)
         if self._warned is None or self._warned[0] is not r or self._warned[1:3] != key[1:]:
             try:
-                made = warnings_for(r, project.shear_warning_deg, project.shear_limit_deg)
+                made = judge_result(r, project.shear_warning_deg, project.shear_limit_deg)
             except ValueError:  # angles the settings panel refuses anyway
-                made = tuple(r.warnings)
+                made = Verdict(tuple(r.warnings), (), r.status)
             self._warned = (*key, made)
         return self._warned[3]

@@ -13,13 +13,24 @@ from PySide6.QtCore import QPointF, QRectF, QSize, Qt
 from PySide6.QtGui import QColor, QFont, QPainter, QPen, QPolygonF
 from PySide6.QtWidgets import QSizePolicy, QWidget
 
-__all__ = ["EnergyPlot"]
+__all__ = ["EnergyPlot", "NO_SOLVE", "result_note"]
 
 LINE = QColor("#1f5fa8")
 CHANGE = QColor("#e08a00")
 GRID = QColor("#dddddd")
 TEXT = QColor("#222222")
 MIN_HEIGHT = 120  # pixels: the title, the axis labels and a readable curve
+NO_SOLVE = "no solve yet"
+
+
+def result_note(metrics: dict) -> str:
+    """What the plot says of a result whose trace has no point to draw: how its solve
+    ended and after how many iterations ("converged at the start: 0 iterations")."""
+    n = metrics.get("iterations", 0)
+    status = str(metrics.get("solver_status", "done"))
+    if status == "converged" and n == 0:
+        status = "converged at the start"
+    return f"{status}: {n} iteration{'' if n == 1 else 's'}"
 
 
 class EnergyPlot(QWidget):
@@ -30,6 +41,7 @@ class EnergyPlot(QWidget):
         self.iterations = np.zeros(0)
         self.energies = np.zeros(0)
         self.changes = np.zeros(0, dtype=bool)
+        self.note = NO_SOLVE  # what the plot says when it has no point to draw
         self.text_rects: list = []
         self.setMinimumHeight(MIN_HEIGHT)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Preferred)
@@ -41,8 +53,12 @@ class EnergyPlot(QWidget):
     def clear(self) -> None:
         self.set_history([])
 
-    def set_history(self, history) -> None:
-        """history: sequence of (iteration, energy, population changed)."""
+    def set_history(self, history, note: str = NO_SOLVE) -> None:
+        """history: sequence of (iteration, energy, population changed); ``note``: what the
+        plot says when none of it can be drawn (a result's :func:`result_note`)."""
+        if note != self.note:
+            self.note = note
+            self.update()
         if len(history) == len(self.iterations) and len(history) and history[-1][0] == self.iterations[-1]:
             return
         rows = list(history)
@@ -69,7 +85,10 @@ class EnergyPlot(QWidget):
                    "energy EN (log)")
         ok = np.isfinite(self.energies) & (self.energies > 0)
         if ok.sum() < 1:
-            self._text(painter, plot, Qt.AlignmentFlag.AlignCenter, "no solve yet")
+            note = self.note
+            if len(self.energies) and note == NO_SOLVE:  # a trace, but no energy a log axis can show
+                note = f"EN {self.energies[-1]:.4g}: not on a log scale"
+            self._text(painter, plot, Qt.AlignmentFlag.AlignCenter, note)
             painter.end()
             return
         it, en = self.iterations[ok], np.log10(self.energies[ok])

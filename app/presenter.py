@@ -10,6 +10,7 @@ arrays (frames) and :class:`app.viewbase.ViewOptions`.
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 from PySide6.QtGui import QCursor
@@ -22,9 +23,11 @@ from core.project import Project
 
 from app.aspects import HISTORY, WHOLE, Aspect
 from app.frames import FrameMaker
+from app.plot import result_note
 from app.viewbase import ViewOptions
 
-__all__ = ["Presenter", "surface_grid", "piece_grid", "history_rows", "fit_summary", "GRID_POINTS"]
+__all__ = ["Presenter", "surface_grid", "piece_grid", "piece_surface", "PieceSurface", "PieceCut", "history_rows",
+           "fit_summary", "GRID_POINTS"]
 
 GRID_POINTS = 60
 CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
@@ -69,6 +72,76 @@ def piece_grid(surface: NurbsSurface, region=None, n: int = GRID_POINTS):
     centres = 0.25 * (uv[:-1, :-1] + uv[1:, :-1] + uv[1:, 1:] + uv[:-1, 1:])
     keep = cover.contains(centres.reshape(-1, 2)).reshape(n - 1, n - 1)
     return uv, xyz, normals, keep, loops
+
+
+class PieceCut(NamedTuple):
+    """The grid's cells a trimmed piece's loops cross, cut to the piece: ``points`` (m, 3) and
+    ``normals`` (m, 3) on the surface, ``triangles`` (t, 3) indices into the grid's n * n points
+    (row i * n + j) followed by these m points, each counter-clockwise in (u, v) as the grid's
+    quads are, and ``cells`` (c,) the flat indices (i * (n - 1) + j) of the cells cut."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    triangles: np.ndarray
+    cells: np.ndarray
+
+
+class PieceSurface(NamedTuple):
+    """What the 3D view draws of a surface (:func:`piece_surface`): ``xyz`` and ``normals``
+    (n, n, 3) the grid (:func:`surface_grid`); ``keep`` (n-1, n-1) bool, the grid's quads lying
+    wholly in the piece, or None: every quad; ``cut`` the quads the loops cross, cut to the piece
+    (:class:`PieceCut`), or None; ``loops`` the region's loops along the surface ((k, 3) each,
+    :func:`core.region.loops_on_surface`), or None for the whole domain."""
+
+    xyz: np.ndarray
+    normals: np.ndarray
+    keep: np.ndarray | None = None
+    cut: PieceCut | None = None
+    loops: list | None = None
+
+
+def piece_surface(surface: NurbsSurface, region=None, n: int = GRID_POINTS) -> PieceSurface:
+    """The surface as the 3D view draws it with a region (a :class:`core.region.Region`; None:
+    the whole domain): the piece only, the grid's quads clipped to the region in (u, v), so that
+    the surface ends on its loops; a drawn region (``region.drawn``) keeps the whole surface in
+    sight (the designer edits its boundary on it). The loops are sampled along the surface."""
+    from core.region import cover_for, loops_on_surface
+
+    uv, xyz, normals = surface_grid(surface, n)
+    if region is None:
+        return PieceSurface(xyz, normals)
+    loops = [p for _, p in loops_on_surface(surface, region)]
+    if region.drawn is not None:  # a drawn ply: the whole surface stays in sight, to edit the boundary on it
+        return PieceSurface(xyz, normals, loops=loops)
+    keep, cut = _clip_cells(surface, cover_for(surface, region).polygon, uv)
+    return PieceSurface(xyz, normals, keep, cut, loops)
+
+
+def _clip_cells(surface: NurbsSurface, polygon, uv: np.ndarray) -> tuple[np.ndarray, PieceCut]:
+    """(keep, cut) of the grid ``uv`` (n, n, 2) and a region's shapely ``polygon`` in (u, v):
+    the quads lying in it, and those it partly covers clipped to it and triangulated
+    (constrained Delaunay, so the triangles' edges follow the loops)."""
+    import shapely
+
+    n = uv.shape[0]
+    u, v = uv[:, 0, 0], uv[0, :, 1]
+    u0, v0 = np.meshgrid(u[:-1], v[:-1], indexing="ij")
+    u1, v1 = np.meshgrid(u[1:], v[1:], indexing="ij")
+    boxes = shapely.box(u0.ravel(), v0.ravel(), u1.ravel(), v1.ravel())
+    inside = shapely.contains(polygon, boxes)
+    cells = np.flatnonzero(shapely.intersects(polygon, boxes) & ~inside)
+    parts, src = shapely.get_parts(shapely.intersection(boxes[cells], polygon), return_index=True)
+    good = (shapely.get_type_id(parts) == 3) & (shapely.area(parts) > 0)  # polygons; not lines or points
+    tris, tri_src = shapely.get_parts(shapely.constrained_delaunay_triangles(parts[good]), return_index=True)
+    corners = shapely.get_coordinates(tris).reshape(-1, 4, 2)[:, :3]  # each ring closed: 4 points
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    twice_area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    corners = np.where((twice_area < 0)[:, None, None], corners[:, ::-1], corners)[twice_area != 0]
+    pts, index = np.unique(corners.reshape(-1, 2), axis=0, return_inverse=True)
+    ev = surface.evaluate(pts)
+    cut = PieceCut(ev.xyz, ev.normal, n * n + index.reshape(-1, 3),
+                   np.unique(cells[src[good][tri_src]][twice_area != 0]))
+    return inside.reshape(n - 1, n - 1), cut
 
 
 def fit_summary(fit, units: str = "m") -> str:
@@ -128,6 +201,8 @@ class Presenter:
     def document_changed(self, project: Project, cause: str, aspects: Aspect) -> None:
         w = self.window
         whole = cause in WHOLE
+        if whole or aspects & Aspect.SURFACE:  # another document, or an older or newer state of it
+            self.clear_hover()
         if aspects & Aspect.SURFACE or (aspects & Aspect.SETTINGS and project.settings.region is not self._region):
             # a drawn region edited on the same surface keeps the camera (the designer is working in it)
             drawn = [r is not None and r.drawn is not None for r in (self._region, project.settings.region)]
@@ -176,9 +251,9 @@ class Presenter:
     def _show_surface(self, surface: NurbsSurface, region=None, fit: bool = True) -> None:
         """Draw the surface: its trimmed piece and the piece's loops when ``region`` is set
         (``fit``: frame it anew)."""
-        _, xyz, normals, keep, loops = piece_grid(surface, region)
+        piece = piece_surface(surface, region)
         self._region = region
-        self.view.set_surface(xyz, normals, keep=keep, loops=loops, fit=fit)
+        self.view.set_surface(piece.xyz, piece.normals, keep=piece.keep, loops=piece.loops, fit=fit, cut=piece.cut)
         self._fit_drawn = None  # a new surface drops the old one's mesh
         self.show_fit_mesh(surface)
         self.pattern_view.clear_frame()
@@ -289,7 +364,7 @@ class Presenter:
                            r.metrics.get("area_3d")).from_result(r)
         self.pattern_view.request_fit()
         self.draw_frame(frame)
-        w.energy_plot.set_history(history_rows(r.history, r.metrics.get("iterations")))
+        w.energy_plot.set_history(history_rows(r.history, r.metrics.get("iterations")), result_note(r.metrics))
 
     def draw_frame(self, frame) -> None:
         w = self.window
@@ -337,6 +412,13 @@ class Presenter:
                 f"EN {frame.energy:.6g}{delta}, {n:,} nodes ({n - self.first_nodes:+,d} since {since})")
         self.window.progress.setText(text)
         self.info_label.setText(f"iteration {frame.iteration}  EN {frame.energy:.4g}  {n:,} nodes")
+
+    def clear_hover(self) -> None:
+        """Say nothing of what is under the mouse: the text told of a state no longer shown (the next
+        mouse move over a spring or cell tells of the new one, even if the text is the same)."""
+        for view in (self.view, self.pattern_view):
+            view.hover_text = None
+        self.show_hover(None)
 
     def show_hover(self, text: str | None) -> None:
         self.hover_label.setText(text or "")

@@ -21,6 +21,7 @@ from PySide6.QtCore import QCoreApplication, QEvent, QObject, QTimer
 from core.project import Project, settings_equal, warm_start
 
 from app.aspects import HISTORY, Aspect
+from app.plot import result_note
 from app.runner import Runner
 from app.worker import RunOutcome
 
@@ -161,6 +162,21 @@ class RunControl:
             self.end_preview()
             return
         self.runner.stop()
+        point = self.runner.stop_point
+        if point is None:  # no run, or one that ended its own way first: its answer says so
+            return
+        # said at once: the result of the last iterate follows when its pattern is made, and the
+        # iteration in progress (seconds, on a big mesh) is not waited for
+        iteration, seconds = point
+        w = self.window
+        if iteration is None:
+            text = f"Stopped during the drape after {seconds:.2f} s."
+        else:
+            text = f"Stopped at iteration {iteration} after {seconds:.2f} s: making the pattern of that iterate..."
+        w.progress.setText(text)
+        w.statusBar().showMessage(text, 8000)
+        w.metrics.labels["status"].setText("stopped by the user")
+        w.metrics.labels["status"].setStyleSheet("")
 
     def abandon(self) -> None:
         """Another document: any run is abandoned, no re-run follows."""
@@ -349,7 +365,7 @@ class RunControl:
             label = "Stop" if outcome.stopped else "Solve"
             attached = w.document.attach_result(r, outcome.source, label=label)
             if attached:
-                w.energy_plot.set_history(self.runner.last_history)
+                w.energy_plot.set_history(self.runner.last_history, result_note(m))
                 w.files.autosave()
                 text = result_text(m)
             else:

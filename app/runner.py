@@ -5,6 +5,10 @@ the bookkeeping of Run, Pause/Resume, Stop and "run again with new settings".
 A run that is replaced by a newer one (settings changed while it ran) is
 abandoned: it stops at its next iteration without making a result, and the
 new one starts as soon as its thread has ended, so two solves never run at once.
+A stopped run is answered as soon as its last iterate's result is made (the
+solve thread's iteration in progress runs out meanwhile and is discarded): the
+runner is idle from then on, and a run started before that thread has ended
+waits for it.
 """
 
 from __future__ import annotations
@@ -90,7 +94,9 @@ class Runner(QObject):
     ``failed(str)`` (one line); ``cancelled()`` when an abandoned run has ended
     and no other follows; ``state_changed(str)`` with "idle", "running",
     "paused" or "stopping". Every run that is not replaced ends with exactly one
-    of ``finished``, ``failed`` and ``cancelled``."""
+    of ``finished``, ``failed`` and ``cancelled``; a stopped run's ``finished``
+    (or ``failed``) comes when its last iterate's result is made, without waiting
+    for its solve thread's iteration in progress."""
 
     frame = Signal(object)
     started = Signal(object)
@@ -106,6 +112,7 @@ class Runner(QObject):
         self._seen = 0
         self._outcome: RunOutcome | None = None
         self._error: str | None = None
+        self._answered = False  # the thread's run was answered (stopped) before the thread ended
         self._timer = QTimer(self)
         self._timer.setInterval(FRAME_INTERVAL_MS)
         self._timer.timeout.connect(self.pump)
@@ -129,12 +136,13 @@ class Runner(QObject):
     # ------------------------------------------------------------------ state
     @property
     def busy(self) -> bool:
-        return self.thread is not None
+        """A run is in flight (or queued): not a stopped run answered already whose thread runs out."""
+        return self.thread is not None and (not self._answered or self._pending is not None)
 
     @property
     def active(self) -> bool:
-        """A run is in flight that will deliver frames and an outcome (not abandoned)."""
-        return self.thread is not None and not self.thread.abandoned
+        """A run is in flight that will deliver frames and an outcome (not abandoned, not answered)."""
+        return self.thread is not None and not self.thread.abandoned and not self._answered
 
     @property
     def solving(self) -> Project | None:
@@ -151,7 +159,7 @@ class Runner(QObject):
     @property
     def state(self) -> str:
         t = self.thread
-        if t is None:
+        if not self.busy:
             return "idle"
         if t.stopping:
             return "stopping"
@@ -159,7 +167,14 @@ class Runner(QObject):
 
     @property
     def history(self) -> list:
-        return list(self.thread.history) if self.thread is not None else []
+        return list(self.thread.history) if self.active else []
+
+    @property
+    def stop_point(self) -> tuple[int | None, float] | None:
+        """The run in flight's Stop, once taken: (the last iterate's iteration, None during the drape;
+        seconds from the run's start to the Stop). None with no Stop, or one that came after the run's
+        own end."""
+        return self.thread.stop_point if self.active else None
 
     @property
     def stage(self) -> str:
@@ -182,7 +197,8 @@ class Runner(QObject):
         self._launch(project, initial)
 
     def stop(self) -> None:
-        """Stop the run after its current iteration; the last iterate becomes its result."""
+        """Stop the run now: its last iterate becomes its result (``finished`` once that is made,
+        without waiting for the iteration in progress); ``stop_point`` says where it stopped."""
         self._pending = None
         if self.thread is not None and not self.thread.stopping:
             self.thread.request_stop()
@@ -229,6 +245,8 @@ class Runner(QObject):
         t = SolveThread(project, initial)
         t.succeeded.connect(self._on_succeeded)
         t.failed.connect(self._on_failed)
+        t.stopped.connect(self._on_stopped)
+        t.stop_failed.connect(self._on_stop_failed)
         t.paused_changed.connect(lambda _p: self.state_changed.emit(self.state))
         t.finished.connect(self._on_thread_finished)
         # the first live frame (a re-solve's answer starts there) goes out when it is made: the pump's period
@@ -241,6 +259,7 @@ class Runner(QObject):
         self._live_shown = False  # and so does its solve's first live frame, after the drape's
         self._outcome = None
         self._error = None
+        self._answered = False
         self.runs_started += 1
         if initial is not None and HOLD_FOR_FIRST_FRAME_MS > 0:
             self._hold.hold(self._watched, HOLD_FOR_FIRST_FRAME_MS)
@@ -253,9 +272,11 @@ class Runner(QObject):
         """Hand the newest frame (if there is a new one) to ``frame``'s slots
         (within the frames' share of the run, see FRAME_SHARE, unless ``final``)."""
         t = self.thread
-        if t is None or t.abandoned:  # an abandoned run's frames belong to nobody
+        if t is None or t.abandoned or self._answered:  # an abandoned or answered run's frames belong to nobody
             return
         t0 = time.perf_counter()
+        if t.stop_point is not None and not final:
+            return  # stopped: the views keep the last live frame until the result's
         seq, frame = t.take_frame(self._seen)
         if frame is None:
             return
@@ -326,9 +347,45 @@ class Runner(QObject):
     def _on_failed(self, message: str) -> None:
         self._error = message
 
+    def _on_stopped(self, outcome: RunOutcome) -> None:
+        """A stopped run's answer, made from its last iterate: given now, the thread may run on."""
+        t = self.thread
+        if t is None or self.sender() is not t or t.abandoned or self._answered:
+            return
+        if outcome.result is not None:
+            self.pump(final=True)  # the result's frame
+        self._answer_early(t, outcome, None)
+
+    def _on_stop_failed(self, message: str) -> None:
+        t = self.thread
+        if t is None or self.sender() is not t or t.abandoned or self._answered:
+            return
+        self._answer_early(t, None, message)
+
+    def _answer_early(self, t: SolveThread, outcome: RunOutcome | None, error: str | None) -> None:
+        self._answered = True
+        self._timer.stop()
+        self._hold.release()
+        self.last_history = list(t.history)
+        self.last_pattern_seconds = t.pattern_seconds
+        if error is not None:
+            self.failed.emit(error)
+        else:
+            self.finished.emit(outcome)
+        self.state_changed.emit(self.state)
+
     def _on_thread_finished(self) -> None:
         t = self.thread
         if t is None or self.sender() is not t:
+            return
+        if self._answered:  # a stopped run, answered already: only what waits for its thread
+            self._cleanup()
+            if self._pending is not None:
+                project, initial = self._pending
+                self._pending = None
+                self._launch(project, initial)
+            else:
+                self.state_changed.emit(self.state)
             return
         abandoned = t.abandoned
         if not abandoned:

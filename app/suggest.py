@@ -1,6 +1,11 @@
 """Tools > Suggest darts: :func:`core.autodarts.suggest_darts` on the document's
 result, in a thread of its own, then a list to preview and accept them.
 
+Only darts that keep every metric within the limits it was within, and whose
+solve converged, are listed, with what the pattern's numbers say of each (usable,
+how many warnings); a piece within every warning limit gets none, and the dialog
+says why there are none, or fewer than asked for
+(:attr:`core.autodarts.Suggestions.reason`).
 Selecting a row previews that proposal: its dart in orange on the surface and
 its re-solved piece (strain, pattern, metrics) in both views. Apply adds the
 ticked proposals as one undoable edit; when they are the first k (the ones
@@ -17,14 +22,26 @@ from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QHBoxLayout, QLabel, Q
 from app.background import BackgroundCall
 from app.frames import FrameMaker
 
-__all__ = ["SuggestDialog", "proposal_text"]
+__all__ = ["SuggestDialog", "proposal_text", "verdict_text"]
+
+
+def verdict_text(result) -> str:
+    """What the numbers say of a proposal's pattern, in a few words."""
+    from core.pipeline import judge_result
+
+    unusable = judge_result(result).unusable
+    if unusable:
+        return "not usable: " + ", ".join(unusable)
+    n = len(result.warnings)
+    return f"usable, {n} warning{'s' if n > 1 else ''}" if n else "usable, within every limit"
 
 
 def proposal_text(p) -> str:
     m = p.metrics
-    return (f"{p.dart.name}: energy -{100 * p.gain:.1f} %, boundary {m['boundary_error_pct']:.2f} %, "
+    text = (f"{p.dart.name}: energy {-100 * p.gain:+.1f} %, boundary {m['boundary_error_pct']:.2f} %, "
             f"area {m['area_error_pct']:.2f} %, max shear {m['max_shear_deg']:.1f} deg, "
             f"beyond lock {m.get('area_beyond_lock_pct', 0.0):.2f} %")
+    return text if p.result is None else f"{text} ({verdict_text(p.result)})"
 
 
 class SuggestDialog(QDialog):
@@ -49,6 +66,7 @@ class SuggestDialog(QDialog):
         row.addStretch(1)
         lay.addLayout(row)
         self.status = QLabel("")
+        self.status.setWordWrap(True)  # a reason is a sentence
         lay.addWidget(self.status)
         self.list = QListWidget()
         self.list.currentRowChanged.connect(self.preview)
@@ -90,11 +108,13 @@ class SuggestDialog(QDialog):
             self.status.setText("The document changed meanwhile: suggest again.")
             return
         self.proposals = list(proposals)
+        reason = getattr(proposals, "reason", "")
         if not self.proposals:
-            self.status.setText("No dart lowers the energy by 3 % or more.")
+            self.status.setText(f"No dart suggested: {reason}." if reason else "No dart suggested.")
             return
+        fewer = f" No more: {reason}." if reason else ""
         self.status.setText(f"{len(self.proposals)} suggested; tick the darts to add and Apply "
-                            "(each was tried with the ones above it).")
+                            f"(each was tried with the ones above it).{fewer}")
         for p in self.proposals:
             item = QListWidgetItem(proposal_text(p))
             item.setFlags(item.flags() | Qt.ItemFlag.ItemIsUserCheckable)

@@ -1,6 +1,7 @@
 """Solve > Best orientation: :func:`core.sweep.sweep` on the document's piece,
-in a thread of its own; the ranked table, a plot of the largest shear against
-the weft angle, and Apply, which sets the chosen row's angle and seed as one
+in a thread of its own; the ranked table (a usable pattern first, each row
+saying whether its pattern is usable and why not), a plot of the largest
+shear against the weft angle, and Apply, which sets the chosen row's angle and seed as one
 undoable settings edit (the window then solves it as after any such edit).
 """
 
@@ -19,7 +20,7 @@ __all__ = ["SweepDialog", "ShearPlot", "COLUMNS"]
 COLUMNS = (("angle_deg", "weft angle", "{:.2f}"), ("seed", "seed", None),
            ("area_beyond_lock_pct", "beyond lock %", "{:.3f}"), ("max_shear_deg", "max shear deg", "{:.2f}"),
            ("boundary_error_pct", "boundary %", "{:.3f}"), ("area_error_pct", "area %", "{:.3f}"),
-           ("nodes", "nodes", "{}"))
+           ("nodes", "nodes", "{}"), ("unusable", "pattern", None))
 
 
 class ShearPlot(QWidget):
@@ -97,6 +98,7 @@ class SweepDialog(QDialog):
         row.addStretch(1)
         lay.addLayout(row)
         self.status = QLabel("")
+        self.status.setWordWrap(True)  # the ranking rule and a reason are sentences
         lay.addWidget(self.status)
         self.table = QTableWidget(0, len(COLUMNS))
         self.table.setHorizontalHeaderLabels([c[1] for c in COLUMNS])
@@ -145,6 +147,8 @@ class SweepDialog(QDialog):
             for j, (key, _title, fmt) in enumerate(COLUMNS):
                 if key == "seed":
                     text = f"{r['seed'][0]:.3f}, {r['seed'][1]:.3f}"
+                elif key == "unusable" and not r.get("error"):
+                    text = "not usable: " + ", ".join(r["unusable"]) if r.get("unusable") else "usable"
                 elif r.get("error"):
                     text = "failed" if j == 2 else ""
                 else:
@@ -153,9 +157,13 @@ class SweepDialog(QDialog):
         self.plot.set_rows(rows, result.best)
         self.table.selectRow(0)
         self.apply_button.setEnabled(True)
-        self.status.setText(f"Best: weft angle {result.best['angle_deg']:.2f} deg ({len(rows)} solves, "
-                            f"{result.seconds:.1f} s); ranked by the area beyond the lock angle, then the "
-                            "largest shear, then the boundary error.")
+        best = result.best
+        none = ("; no angle gives a usable pattern (" + ", ".join(best["unusable"]) + ")"
+                if best.get("unusable") else "")
+        self.status.setText(f"Best: weft angle {best['angle_deg']:.2f} deg ({len(rows)} solves, "
+                            f"{result.seconds:.1f} s){none}; ranked by the pattern's usability (no metric "
+                            "past its bad limit) first, then the area beyond the lock angle, the largest "
+                            "shear and the boundary error.")
 
     def chosen(self) -> dict | None:
         if self.result is None:

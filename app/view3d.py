@@ -208,7 +208,8 @@ class SurfaceView(ViewBase):
     # ------------------------------------------------------------------ access
     @property
     def surface_points(self) -> np.ndarray | None:
-        """(nu * nv, 3) float, a copy of the shown surface's points (row i*nv + j), or None."""
+        """(nu * nv, 3) float, a copy of the shown surface's points (row i*nv + j), or None; a
+        trimmed piece's cut quads add their points after these (``set_surface``'s ``cut``)."""
         return None if self._surface is None else np.array(self._surface.points)
 
     @property
@@ -262,14 +263,18 @@ class SurfaceView(ViewBase):
 
     # ------------------------------------------------------------------ content
     def set_surface(self, xyz: np.ndarray, normals: np.ndarray | None = None, keep: np.ndarray | None = None,
-                    loops=None, fit: bool = True) -> None:
+                    loops=None, fit: bool = True, cut=None) -> None:
         """Show a new surface, clear the mesh and fit the camera.
 
         xyz : (nu, nv, 3) float, grid points; normals : (nu, nv, 3) float or None,
         unit normals at them (used for smooth shading). A trimmed piece: ``keep``
-        ((nu-1, nv-1) bool) the grid's quads in its region, and ``loops`` its
+        ((nu-1, nv-1) bool) the grid's quads drawn whole, ``cut`` the quads its
+        loops cross, cut to it (``(points (m, 3), normals (m, 3), triangles (t, 3),
+        cells (c,))``: triangles into the grid's points followed by these, the flat
+        indices of the quads cut; :class:`app.presenter.PieceCut`), and ``loops`` its
         boundary loops on the surface ((k, 3) each, closed implicitly), drawn
-        as black lines instead of the grid's rim. ``fit`` False: the camera stays.
+        as black lines instead of the grid's rim. ``kept_cells`` counts the quads
+        drawn, whole or cut. ``fit`` False: the camera stays.
         """
         xyz = np.asarray(xyz, dtype=float)
         nu, nv = xyz.shape[:2]
@@ -278,19 +283,29 @@ class SurfaceView(ViewBase):
             p.remove_actor(actor, render=False)
         self._surface_actors.clear()
 
-        mesh = pv.PolyData(xyz.reshape(-1, 3).copy(), grid_faces(nu, nv) if keep is None else kept_grid_faces(keep))
-        if normals is not None:
-            mesh.point_data["Normals"] = np.asarray(normals, dtype=float).reshape(-1, 3)
+        faces = grid_faces(nu, nv) if keep is None else kept_grid_faces(keep)
+        points = xyz.reshape(-1, 3)
+        point_normals = None if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3)
+        if cut is not None:
+            cut_points, cut_normals, triangles, cut_cells = cut
+            triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+            faces = np.concatenate([faces, np.column_stack([np.full(len(triangles), 3), triangles]).ravel()])
+            points = np.vstack([points, np.asarray(cut_points, dtype=float).reshape(-1, 3)])
+            if point_normals is not None:
+                point_normals = np.vstack([point_normals, np.asarray(cut_normals, dtype=float).reshape(-1, 3)])
+        mesh = pv.PolyData(points.copy(), faces)
+        if point_normals is not None:
+            mesh.point_data["Normals"] = point_normals
             mesh.point_data.active_normals_name = "Normals"
         if loops is None:
             loop = grid_boundary(nu, nv)
             # lines= in the constructor: no vertex cells, so the grid points are not drawn
-            boundary = pv.PolyData(mesh.points.copy(), lines=np.concatenate([[loop.size], loop]))
+            boundary = pv.PolyData(xyz.reshape(-1, 3).copy(), lines=np.concatenate([[loop.size], loop]))
         else:
             pts, cells = polyline_cells([np.asarray(c, dtype=float).reshape(-1, 3) for c in loops], closed=True)
             boundary = pv.PolyData(pts, lines=cells) if len(pts) else pv.PolyData()
         self.loops = [] if loops is None else [np.asarray(c, dtype=float).reshape(-1, 3) for c in loops]
-        self.kept_cells = int(mesh.n_cells)
+        self.kept_cells = int(mesh.n_cells) if cut is None else int(np.count_nonzero(keep)) + len(cut_cells)
 
         surface_actor = p.add_mesh(mesh, color=SURFACE_COLOR, specular=0.2, name=f"{self._name}-surface",
                                    render=False, reset_camera=False, pickable=False)
@@ -311,13 +326,14 @@ class SurfaceView(ViewBase):
         self._apply_surface_visibility()
         self._fit_points = np.asarray(mesh.points)
         self._home = home_view(xyz, normals)
-        used = np.zeros(nu * nv, dtype=bool)
+        used = np.zeros(len(points), dtype=bool)
         if keep is not None:
             used[kept_grid_faces(keep).reshape(-1, 5)[:, 1:].ravel()] = True
+        if cut is not None:
+            used[triangles.ravel()] = True
         if used.any():  # a trimmed piece: the camera frames the piece, not the whole patch
             self._fit_points = self._fit_points[used]
-            self._home = home_view(self._fit_points, None if normals is None else
-                                   np.asarray(normals, dtype=float).reshape(-1, 3)[used])
+            self._home = home_view(self._fit_points, None if point_normals is None else point_normals[used])
         if fit:
             self.reset_camera()
         else:

@@ -208,10 +208,13 @@ def replace_geometry(poly: pv.PolyData, points: np.ndarray, lines=None, faces=No
     has_lines = lines is not None and len(lines) > 0
     has_faces = faces is not None and len(faces) > 0
     poly.Initialize()
+    # Points even when emptied: with none, VTK keeps the polydata's cell bounds from before (they are
+    # recomputed only when the points or cells are newer), its actor reports them, and the camera's
+    # clipping range stretches to geometry no longer drawn, clipping a much smaller piece.
+    vtk_points = vtkPoints()
+    poly.SetPoints(vtk_points)
     if len(points) and (verts or has_lines or has_faces):
-        vtk_points = vtkPoints()
         vtk_points.SetData(numpy_to_vtk(points, deep=True))
-        poly.SetPoints(vtk_points)
         if verts:
             legacy = np.column_stack([np.ones(len(points), dtype=np.int64), np.arange(len(points))]).ravel()
         else:

@@ -7,9 +7,12 @@ leaves the newest in a slot; the GUI takes it from there on its own timer
 and the GUI always draws the latest state. Control is by flags checked between
 snapshots (the generator yields every iteration):
 
-* :meth:`request_stop`: the solve ends after the current iteration; the last
-  iterate becomes a consistent result (its own pattern and metrics), marked
-  as stopped. :meth:`abandon` ends it without a result (a newer run replaces it).
+* :meth:`request_stop`: the run ends at once with its last iterate: a helper
+  thread makes that iterate a consistent result (its own pattern and metrics),
+  marked as stopped and timed from the run's start to the Stop, without waiting
+  for the iteration in progress (one iteration of a big run takes seconds),
+  which is discarded when it ends. :meth:`abandon` ends the run without a
+  result (a newer run replaces it).
 * :meth:`pause` / :meth:`resume`: the thread waits between iterations.
 
 Any exception ends the run with :attr:`failed` (a one-line message); the
@@ -120,14 +123,19 @@ class SolveThread(QThread):
     """One solve of ``project`` (from ``initial`` if given, else a new drape).
 
     Signals (queued to the GUI thread): ``succeeded(RunOutcome)`` for a
-    finished or stopped run, ``failed(str)`` with a one-line message,
-    ``paused_changed(bool)``, and ``first_live()`` when the run's first live
-    frame is published. ``QThread.finished`` follows either; an
-    abandoned run emits neither of the first two.
+    finished run, ``failed(str)`` with a one-line message, ``stopped(RunOutcome)``
+    for a run stopped by :meth:`request_stop` (from the helper thread, as soon as
+    the last iterate's result is made, possibly before the solve thread ends) or
+    ``stop_failed(str)`` when that result cannot be made, ``paused_changed(bool)``,
+    and ``first_live()`` when the run's first live frame is published. A run emits
+    exactly one of the four answers, an abandoned run none; ``QThread.finished``
+    comes after it (the thread waits for its helper).
     """
 
     succeeded = Signal(object)
     failed = Signal(str)
+    stopped = Signal(object)
+    stop_failed = Signal(str)
     paused_changed = Signal(bool)
     first_live = Signal()  # the run's first live frame is out: the GUI takes it now, not at its next pump
 
@@ -155,15 +163,35 @@ class SolveThread(QThread):
         at 2,500 nodes, and most were never drawn; docs/decisions.md, "Window latency, session 9")."""
         self._unframed = None  # the newest snapshot whose frame was not made (made if the run pauses)
         self.frames_made = 0  # live frames made (for the tests and the benchmark)
+        self.started_at = time.perf_counter()  # the run's start (perf_counter s): a stopped run's time counts from it
+        self.stop_point: tuple[int | None, float] | None = None
+        """Once a Stop was taken: (the last iterate's iteration, None during the drape; seconds from
+        the run's start to the Stop)."""
+        self._last = None  # the newest snapshot: the last iterate (under the lock, with ``history``)
+        self._claimed = False  # the run answered its own way (finished or failed): a Stop comes too late
+        self._maker: FrameMaker | None = None
+        self._finisher: threading.Thread | None = None  # makes a stopped run's result
 
     # ------------------------------------------------------------------ control (GUI thread)
     def request_stop(self) -> None:
-        self._stop.set()
+        """End the run with its last iterate, now: ``stop_point`` is set and a helper thread makes
+        the result (``stopped``) while the iteration in progress, if any, runs out and is discarded.
+        A run that has answered its own way (finished, failed) or been abandoned keeps that answer."""
+        with self._lock:
+            if not (self._stop.is_set() or self._claimed):
+                seconds = time.perf_counter() - self.started_at
+                snap, history = self._last, [e for _, e, _ in self.history]
+                self.stop_point = (None if snap is None else snap.iteration, seconds)
+                self._finisher = threading.Thread(target=self._finish_stopped, args=(snap, history, seconds),
+                                                  name="flatweave-stopped-result", daemon=True)
+                self._finisher.start()
+            self._stop.set()
         self._running.set()
 
     def abandon(self) -> None:
         self._abandon.set()
-        self.request_stop()
+        self._stop.set()
+        self._running.set()
 
     def pause(self) -> None:
         """Ask the thread to wait after its current iteration (``paused`` turns
@@ -201,8 +229,10 @@ class SolveThread(QThread):
             return self._frame_seq, self._frame
 
     # ------------------------------------------------------------------ the thread
-    def _publish(self, frame: Frame, live: bool = False) -> None:
+    def _publish(self, frame: Frame, live: bool = False, final: bool = False) -> None:
         with self._lock:
+            if self._stop.is_set() and not final:
+                return  # after a Stop the views keep the last live frame until the result's frame
             first = live and self._live_seq == 0
             self._frame = frame
             self._frame_seq += 1
@@ -216,11 +246,19 @@ class SolveThread(QThread):
         try:
             outcome = self._solve()
         except Exception as exc:  # everything reaches the GUI as one line
-            if not self._abandon.is_set():
+            with self._lock:  # a stopped run's answer is its last iterate, whatever its next iteration did
+                answer = not self._stop.is_set()
+                self._claimed = self._claimed or answer
+            if answer and not self._abandon.is_set():
                 if not isinstance(exc, FlatweaveError):  # a bug, not a user error: keep its traceback
                     traceback.print_exc(file=sys.stderr)
                 self.failed.emit(one_line(exc))
-            return
+            outcome = None
+        finally:
+            with self._lock:
+                finisher = self._finisher
+            if finisher is not None:  # its answer goes out before this thread's end
+                finisher.join()
         if outcome is not None and not self._abandon.is_set():
             self.succeeded.emit(outcome)
 
@@ -238,7 +276,7 @@ class SolveThread(QThread):
     def _solve(self) -> RunOutcome | None:
         p = self.project
         surface, settings = p.surface, p.settings
-        maker = FrameMaker(surface, settings)
+        maker = self._maker = FrameMaker(surface, settings)
         self.stage = "draping" if self.initial is None else "starting from the last result"
         t0 = time.perf_counter()
 
@@ -251,7 +289,7 @@ class SolveThread(QThread):
 
         gen = flatten_iter(surface, settings, self.initial, area=maker.A3, drape_progress=drape_frame,
                            drape_interval=DRAPE_FRAME_INTERVAL)
-        last = pattern = None
+        pattern = None
         pattern_stats: dict = {}
         next_pattern = -math.inf if FIRST_PATTERN_AT_ONCE else time.perf_counter() + PATTERN_INTERVAL
         step = 0.0  # the last snapshot's wait (how soon the next one comes)
@@ -266,13 +304,20 @@ class SolveThread(QThread):
                 except _DrapeStopped:
                     break
                 except StopIteration as done:
+                    with self._lock:
+                        if self._stop.is_set():  # stopped while finishing: answered by the last iterate
+                            break
+                        self._claimed = True
                     result: FlattenResult = done.value
                     self.stage = "done"
-                    self._publish(maker.from_result(result))
+                    self._publish(maker.from_result(result), final=True)
                     return RunOutcome(result, p, stopped=False)
+                with self._lock:
+                    if self._stop.is_set():  # an iteration that ended after the Stop is not the run's
+                        break
+                    self._last = snap
+                    self.history.append((snap.iteration, snap.energy, snap.population_changed))
                 self.stage = "solving"
-                last = snap
-                self.history.append((snap.iteration, snap.energy, snap.population_changed))
                 now = time.perf_counter()
                 step = now - t_next
                 if self.frames_made and (now + step < self.frames_from or self._live_seq > self._taken_seq):
@@ -300,23 +345,36 @@ class SolveThread(QThread):
                 self._publish(frame, live=True)
         finally:
             gen.close()
-        if self._abandon.is_set():
-            return None
-        if last is None:
-            return RunOutcome(None, p, stopped=True)
-        return RunOutcome(self._stopped_result(maker, last), p, stopped=True)
+        return None  # stopped (answered by the helper thread) or abandoned
 
     def _live_frame(self, maker: FrameMaker, snap) -> Frame:
         self.frames_made += 1
         return maker.from_snapshot(snap)
 
-    def _stopped_result(self, maker: FrameMaker, snap) -> FlattenResult:
-        """The last iterate as a result (:func:`core.pipeline.stopped_result`):
-        the run's settings and solver, its iterations, the status 'stopped'."""
-        p = self.project
-        self.stage = "pattern of the last iterate"
-        result = stopped_result(p.surface, p.settings, snap, area=maker.A3,
-                                message=f"stopped by the user at iteration {snap.iteration}",
-                                history=[e for _, e, _ in self.history])
-        self._publish(maker.from_result(result))
+    def _finish_stopped(self, snap, history: list, seconds: float) -> None:
+        """The helper thread of a Stop: the answer of a run stopped at snapshot ``snap`` (None:
+        before its first iteration, no result) after ``seconds``, unless the run is abandoned."""
+        _lower_priority()
+        try:
+            result = None if snap is None else self._stopped_result(snap, history, seconds)
+        except Exception as exc:
+            if not self._abandon.is_set():
+                if not isinstance(exc, FlatweaveError):
+                    traceback.print_exc(file=sys.stderr)
+                self.stop_failed.emit(one_line(exc))
+            return
+        if not self._abandon.is_set():
+            self.stopped.emit(RunOutcome(result, self.project, stopped=True))
+
+    def _stopped_result(self, snap, history: list, seconds: float) -> FlattenResult:
+        """The last iterate as a result (:func:`core.pipeline.stopped_result`): the run's settings
+        and solver, its iterations, the status 'stopped', and the run's time up to the Stop (not
+        the time its pattern took). Its frame is published for the views. A FrameMaker of its own:
+        the solve thread may still be using the run's."""
+        p, run_maker = self.project, self._maker
+        result = stopped_result(p.surface, p.settings, snap, area=run_maker.A3,
+                                message=f"stopped by the user at iteration {snap.iteration}", history=history,
+                                seconds=seconds)
+        maker = FrameMaker(p.surface, p.settings, run_maker.L3, run_maker.A3)
+        self._publish(maker.from_result(result), final=True)
         return result

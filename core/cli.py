@@ -208,9 +208,11 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json",
                    help="cut a curve dart: a 3D polyline and a view direction (see README; repeatable)")
     f.add_argument("--auto-darts", type=int, default=0, metavar="N",
-                   help="after the solve, add up to N suggested darts (each the one that lowers the energy most, "
-                        "from the edge inwards; stops when none lowers it by 3 %% more), listed in the result's "
-                        "darts with \"auto\": true")
+                   help="after the solve, add up to N suggested darts, from the edge inwards: none when every "
+                        "metric is within its warning limit; each the best by the pattern's usability, then the "
+                        "metrics past their limits, then the energy; never one that takes a metric past a limit "
+                        "it was within or whose solve does not converge. Listed in the result's darts with "
+                        "\"auto\": true")
     f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
                    help="refuse meshes estimated larger than N nodes, or than the available memory holds "
                         "(default 2,000,000)")
@@ -229,8 +231,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--name", default=None, metavar="TEXT",
                    help="piece name in exported labels (default: the surface's name)")
 
-    w = sub.add_parser("sweep", help="solve at several weft angles (and seeds) and rank them: area beyond the "
-                                     "lock angle, then max shear, then boundary error")
+    w = sub.add_parser("sweep", help="solve at several weft angles (and seeds) and rank them: a usable pattern "
+                                     "(no metric past its bad limit) first, then area beyond the lock angle, "
+                                     "then max shear, then boundary error")
     w.add_argument("surface", metavar="SURFACE", help=_surface_help())
     w.add_argument("--spacing", type=float, required=True, metavar="R", help="rest length of the weft springs")
     w.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
@@ -310,7 +313,7 @@ def _cmd_flatten(args) -> int:
     from core.pipeline import FlattenSettings, flatten, result_to_dict, state_from_dict
     from core.quadrature import region_area
 
-    from core.export import ExportOptions, check_target, export_all
+    from core.export import ExportOptions, check_target, export_all, surprises
 
     if not args.out and not args.export:
         raise SettingsError("nothing to write: give --out RESULT.json and/or --export PATH")
@@ -367,7 +370,7 @@ def _cmd_flatten(args) -> int:
         settings = dataclasses.replace(settings, angle_deg=swept.best["angle_deg"])
         if not args.quiet:
             print(f"angle auto: {swept.best['angle_deg']:.4g} deg, the best of {len(swept.rows)} solves "
-                  f"({swept.seconds:.1f} s)", file=sys.stderr)
+                  f"({swept.seconds:.1f} s)" + _no_usable_angle(swept.best), file=sys.stderr)
     if args.auto_darts < 0:
         raise SettingsError(f"--auto-darts must be 0 or more, got {args.auto_darts}")
     result = flatten(surface, settings, initial=initial, area=cover.area if cover.trimmed else region_area(surface),
@@ -381,12 +384,11 @@ def _cmd_flatten(args) -> int:
             result = suggested[-1].result
         if not args.quiet:
             for p in suggested:
-                print(f"suggested {p.dart.name}: energy -{100 * p.gain:.1f} %, boundary error "
-                      f"{p.metrics['boundary_error_pct']:.3f} %, area error {p.metrics['area_error_pct']:.3f} %",
-                      file=sys.stderr)
+                print(f"{p.dart.name}: energy {-100 * p.gain:+.1f} %, boundary error "
+                      f"{p.metrics['boundary_error_pct']:.3f} %, area error {p.metrics['area_error_pct']:.3f} % "
+                      f"({p.result.status})", file=sys.stderr)
             if len(suggested) < args.auto_darts:
-                print(f"{len(suggested)} of {args.auto_darts} suggested darts: no further dart lowers the energy "
-                      f"by 3 % or more", file=sys.stderr)
+                print(f"{len(suggested)} of {args.auto_darts} suggested darts: {suggested.reason}", file=sys.stderr)
     if out is not None:
         doc = result_to_dict(result, source)
         if swept is not None:
@@ -399,6 +401,10 @@ def _cmd_flatten(args) -> int:
                 doc["settings"]["faces"] = list(surface.fit.faces)
             doc["settings"]["units"] = opened.cad.units
         write_json(out, doc)
+    # a surprising export (hundreds of pages, a piece metres across) is written, but said first
+    assumed = args.units is None and opened.cad is None  # a mesh or surface file's units are taken as m
+    hint = f"; --units gives the model's units if they are not {units}" if assumed else ""
+    _print_warnings(s.line() + hint for s in surprises(result, targets, options))
     written = export_all(result, targets, options) if targets else []
     m = result.metrics
     if not args.quiet:
@@ -407,7 +413,7 @@ def _cmd_flatten(args) -> int:
               f"max thread strain {m['max_thread_strain_pct']:.3g} %, max shear {m['max_shear_deg']:.3g} deg, "
               f"{m['area_beyond_lock_pct']:.3g} % of the area beyond the lock angle "
               f"({result.settings.material.lock_deg:g} deg), "
-              f"{m['iterations']} iterations ({m['solver_status']})"
+              f"{m['iterations']} iterations ({result.status})"
               + _coarse_note(m)
               + f", {m['seconds']:.2f} s"
               + "".join(f" -> {p}" for p in ([out] if out else []) + written), file=sys.stderr)
@@ -500,7 +506,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
         print(f"planar: {m['nodes']} nodes, {m['triangles']} triangles, energy {m['energy']:.6g}, "
               f"boundary error {m['boundary_error_pct']:.3f} %, area error {m['area_error_pct']:.3f} %, "
               f"max edge strain {m['max_edge_strain_pct']:.3g} %, {m['flipped_triangles']} flipped, "
-              f"{m['iterations']} iterations ({m['solver_status']}), {m['seconds']:.2f} s -> {out}",
+              f"{m['iterations']} iterations ({result.status}), {m['seconds']:.2f} s -> {out}",
               file=sys.stderr)
     _print_warnings(result.warnings)
     return 0
@@ -561,7 +567,7 @@ def _cmd_sweep(args) -> int:
         write_json(out, result.to_dict())
     if not args.quiet:
         print(f"{'rank':>4} {'angle':>7} {'seed':>13} {'beyond lock %':>13} {'max shear':>9} "
-              f"{'boundary %':>10} {'area %':>7} {'nodes':>6}")
+              f"{'boundary %':>10} {'area %':>7} {'nodes':>6}  pattern")
         for k, r in enumerate(result.rows, 1):
             seed_text = f"{r['seed'][0]:.3f},{r['seed'][1]:.3f}"
             if r.get("error"):
@@ -569,11 +575,17 @@ def _cmd_sweep(args) -> int:
                 continue
             print(f"{k:>4} {r['angle_deg']:>7.2f} {seed_text:>13} {r['area_beyond_lock_pct']:>13.3f} "
                   f"{r['max_shear_deg']:>9.3f} {r['boundary_error_pct']:>10.3f} {r['area_error_pct']:>7.3f} "
-                  f"{r['nodes']:>6}")
+                  f"{r['nodes']:>6}  " + ("not usable: " + ", ".join(r["unusable"]) if r.get("unusable")
+                                          else "usable"))
     print(f"best: weft angle {result.best['angle_deg']:.4g} deg, seed {result.best['seed'][0]:.4g},"
           f"{result.best['seed'][1]:.4g} ({len(result.rows)} solves, {result.seconds:.1f} s)"
-          + (f" -> {out}" if out else ""), file=sys.stderr)
+          + _no_usable_angle(result.best) + (f" -> {out}" if out else ""), file=sys.stderr)
     return 0
+
+
+def _no_usable_angle(best: dict) -> str:
+    """The sweep's summary line's words when even its best row's pattern is not usable."""
+    return f", no angle gives a usable pattern: {', '.join(best['unusable'])}" if best.get("unusable") else ""
 
 
 def _cmd_info(args) -> int:
@@ -601,8 +613,10 @@ def _cmd_info(args) -> int:
             print(f"  face {f['index']}: {f['kind']}, area {f['area']:.10g}, "
                   f"{'trimmed' if f['trimmed'] else 'untrimmed'}, bbox [{box}]")
         return 0
-    if opened.mesh is not None and opened.surface is None:  # a mesh of several parts
-        opened.choose_face()  # raises: says how to choose one
+    if opened.mesh is not None and opened.surface is None:
+        if opened.mesh.needs_region:  # closed, or with handles: described; only flattening it needs a region
+            return _info_mesh(opened, None, args.json)
+        opened.choose_face()  # a mesh of several parts: raises, saying how to choose one
     surface, source = opened.surface, opened.source
     fit = getattr(surface, "fit", None)
     if fit is not None:  # a mesh: the piece is the map's region, and the fit's deviation is the news
@@ -620,11 +634,39 @@ def _cmd_info(args) -> int:
 
 
 def _info_mesh(opened, fit, as_json: bool) -> int:
-    """``info`` of a mesh made a surface (core.meshsurf): the fit and the piece."""
+    """``info`` of a mesh made a surface (core.meshsurf): the fit and the piece. With ``fit``
+    None, a mesh that cannot be covered whole (``opened.mesh``, closed or with handles): its
+    vertices and triangles after repair, boundary loops and genus, size (bounding-box diagonal)
+    and area, and that a region is needed to flatten it."""
     import json
 
     from core.region import cover_for
 
+    if fit is None:
+        import numpy as np
+
+        from core.meshsurf import boundary_loops, clean_mesh
+
+        mesh = opened.mesh
+        V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name)
+        n_loops = len(boundary_loops(F, mesh.path.name))
+        n_edges = len(np.unique(np.sort(np.r_[F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=1), axis=0))
+        genus = (2 - (len(V) - n_edges + len(F)) - n_loops) // 2  # Euler: V - E + F = 2 - 2g - loops
+        size = float(np.linalg.norm(np.ptp(V, axis=0)))
+        area = float(0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum())
+        if as_json:
+            print(json.dumps({"vertices": len(V), "triangles": len(F), "closed": n_loops == 0,
+                              "boundary_loops": n_loops, "genus": genus, "size": size, "area": area,
+                              "repairs": list(repairs), "needs_region": mesh.needs_region}))
+            return 0
+        shape = "closed (no boundary)" if n_loops == 0 else f"{n_loops} boundary loop{'s' if n_loops != 1 else ''}"
+        handles = f"{genus} handle{'s' if genus != 1 else ''}"
+        print(f"{opened.source}: mesh of {len(V)} vertices and {len(F)} triangles"
+              + (f" ({'; '.join(repairs)})" if repairs else ""))
+        print(f"{shape}, genus {genus} ({handles}); size {size:.6g} (bounding-box diagonal), area {area:.10g}")
+        print("it needs a region to flatten: give flatten --region with a loop3d drawn on it, "
+              "or cut the piece out of the mesh (the window's Open does)")
+        return 0
     cover = cover_for(opened.surface, opened.region)
     if as_json:
         print(json.dumps({"domain": opened.surface.domain.tolist(), "area": cover.area,

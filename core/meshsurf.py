@@ -87,8 +87,12 @@ class MeshFit:
     faces: tuple = ()
 
     def metrics(self) -> dict:
-        """The keys the result file's metrics get."""
-        return {"fit_max_deviation": self.max_deviation, "fit_mean_deviation": self.mean_deviation}
+        """The keys the result file's metrics get (the deviations in model units and as percent of the
+        mesh's size, the judged one: :data:`core.metrics.FIT_DEVIATION_PCT`)."""
+        size = self.size if self.size > 0 else float("inf")
+        return {"fit_max_deviation": self.max_deviation, "fit_mean_deviation": self.mean_deviation,
+                "fit_max_deviation_pct": 100.0 * self.max_deviation / size,
+                "fit_mean_deviation_pct": 100.0 * self.mean_deviation / size}
 
     def to_dict(self) -> dict:
         return {"source": self.source, "vertices": self.vertices, "triangles": self.triangles, "size": self.size,

@@ -25,8 +25,8 @@ from core.energy import Energy, YarnConstraint, resolve_yarns
 from core.geom import outline_errors, require_finite
 from core.errors import SettingsError, SolverError
 from core.mesh import KIND_NAMES, MATERIALS, Material, SpringMesh, build_mesh, only_springs
-from core.metrics import (area_beyond_lock_pct, cell_areas, cell_shear_deg, deformation_summary, metric_limits,
-                          result_warnings, spring_lengths)
+from core.metrics import (Verdict, area_beyond_lock_pct, cell_areas, cell_shear_deg, deformation_summary, judge,
+                          metric_limits, spring_lengths)
 from core.nurbs import NurbsSurface
 from core.pattern import Pattern, make_pattern, node_frames
 from core.quadrature import boundary_length, boundary_polyline, domain_gauss_rule, region_area
@@ -38,7 +38,7 @@ from core.solvers import solver_entry, solver_names
 __all__ = ["FlattenSettings", "FlattenResult", "flatten", "flatten_iter", "result_to_dict",
            "make_problem", "compute_metrics", "state_from_dict", "check_result_finite", "SOLVERS",
            "validate_settings", "settings_to_dict", "SETTINGS_KEYS", "stopped_result", "coverage_metrics",
-           "warnings_for", "with_shear_angles"]
+           "judge_result", "judged", "with_shear_angles"]
 
 SOLVERS = solver_names("spring")
 """The spring method's solver choices, 'none' (the drape only) included (:mod:`core.solvers`)."""
@@ -194,10 +194,12 @@ class FlattenResult:
     drape_stats : dict from the drape; solve : SolveResult or None
     history : the energy EN after each solver iteration (kept in project files,
         so it outlives ``solve``, which is not saved)
-    warnings : one-line warnings about the result (:func:`warnings_for`,
-        :func:`core.metrics.result_warnings`): uncovered region, implausible
-        thread strain, shear beyond the lock angle, many nodes deleted, a
-        budget reached, a stopped solve; empty when all is within limits
+    warnings : one-line warnings about the result, every metric past its
+        warning limit and a solve that stopped early (:func:`judge_result`,
+        :func:`core.metrics.judge`); empty when all is within limits
+    status : the solver's status and what the numbers say of the pattern:
+        ``"converged"``, ``"converged, with warnings"``, ``"converged, pattern
+        not usable: boundary error 262 %"`` (:class:`core.metrics.Verdict`)
     """
 
     surface: NurbsSurface
@@ -211,6 +213,12 @@ class FlattenResult:
     solve: SolveResult | None = None
     history: tuple = ()
     warnings: tuple[str, ...] = ()
+    status: str = ""
+
+    @property
+    def usable(self) -> bool:
+        """False when a metric is past its bad limit (the status says which)."""
+        return ", pattern not usable: " not in self.status
 
     def state(self) -> State:
         """The mesh state, to warm-start another solve."""
@@ -232,6 +240,7 @@ def compute_metrics(surface: NurbsSurface, mesh: SpringMesh, xyz: np.ndarray, pa
          **outline_errors(pattern.perimeter, L3, pattern.area, A3)}
     m.update(deformation_summary(xyz, mesh))
     m.update(coverage_metrics(surface, xyz, mesh.r_weft, mesh.r_warp, cover if trimmed else None))
+    m["total_curvature"] = (cover if cover is not None else cover_for(surface)).total_curvature
     m["nodes"] = mesh.n_nodes
     m["springs"] = mesh.n_springs
     m["cells"] = int(len(mesh.cells))
@@ -259,14 +268,22 @@ def coverage_metrics(surface: NurbsSurface, xyz: np.ndarray, r_weft: float, r_wa
             "max_gap_spacings": float(d.max(initial=0.0) / max(r_weft, r_warp))}
 
 
-def warnings_for(result: "FlattenResult", warn_deg: float | None = None,
-                 lock_deg: float | None = None) -> tuple[str, ...]:
-    """The result's warnings (:func:`core.metrics.result_warnings`) against
-    :func:`core.metrics.metric_limits` of its material and the shear angles
-    (the material's unless given: the window gives the project's display angles)."""
-    return result_warnings(result.metrics, result.settings,
-                           metric_limits(result.settings.material, warn_deg, lock_deg),
-                           shear=(cell_shear_deg(result.xyz, result.mesh), cell_areas(result.xyz, result.mesh)))
+def judge_result(result: "FlattenResult", warn_deg: float | None = None,
+                 lock_deg: float | None = None) -> Verdict:
+    """The result's :class:`~core.metrics.Verdict` (:func:`core.metrics.judge`)
+    against :func:`core.metrics.metric_limits` of its material, its piece's
+    curvature and the shear angles (the material's unless given: the window
+    gives the project's display angles)."""
+    limits = metric_limits(result.settings.material, warn_deg, lock_deg,
+                           total_curvature=result.metrics.get("total_curvature"))
+    return judge(result.metrics, result.settings, limits,
+                 shear=(cell_shear_deg(result.xyz, result.mesh), cell_areas(result.xyz, result.mesh)))
+
+
+def judged(result: "FlattenResult") -> "FlattenResult":
+    """``result`` with the warnings and status of its :func:`judge_result`."""
+    v = judge_result(result)
+    return replace(result, warnings=v.warnings, status=v.status)
 
 
 def with_shear_angles(result: "FlattenResult", warn_deg: float, lock_deg: float) -> "FlattenResult":
@@ -280,8 +297,7 @@ def with_shear_angles(result: "FlattenResult", warn_deg: float, lock_deg: float)
     mesh = replace(result.mesh, material=material)
     shear, areas = cell_shear_deg(result.xyz, mesh), cell_areas(result.xyz, mesh)
     metrics = {**result.metrics, "area_beyond_lock_pct": area_beyond_lock_pct(np.abs(shear), areas, material.lock_deg)}
-    out = replace(result, settings=settings, mesh=mesh, metrics=metrics)
-    return replace(out, warnings=warnings_for(out))
+    return judged(replace(result, settings=settings, mesh=mesh, metrics=metrics))
 
 
 EDGE_REFILL_SPACINGS = 0.1
@@ -415,9 +431,25 @@ def _coarse_iterations(stats: dict) -> int:
 
 
 def _carried(options: SolverOptions, stats: dict) -> SolverOptions:
-    """The solver's options for a level: a start carried from a coarser level (``stats``
-    has its ``levels``) never refills a position its solve emptied (``dead_after`` 1)."""
+    """The solver's options for a level: what is left of the budgets after the solves
+    before it (the budgets are the whole run's, not each level's), and a start carried
+    from a coarser level (``stats`` has its ``levels``) never refills a position its
+    solve emptied (``dead_after`` 1)."""
+    before = _solved_before(stats)
+    if before:
+        spent = sum(lv["solve_seconds"] + lv["refine_seconds"] for lv in before)
+        options = replace(options, max_iter=max(0, options.max_iter - _coarse_iterations(stats)),
+                          max_seconds=max(0.0, options.max_seconds - spent))
     return replace(options, dead_after=1) if stats.get("levels") else options
+
+
+def _budget_message(solve: SolveResult, options: SolverOptions) -> str:
+    """The solve's status, a budget named as the run's (a level after coarser ones had what was left)."""
+    if solve.status == 1:
+        return f"stopped at the iteration budget ({options.max_iter})"
+    if solve.status == 2:
+        return f"stopped at the time budget ({options.max_seconds:g} s)"
+    return solve.message
 
 
 def _counted_from(gen, done: int):
@@ -662,7 +694,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         # every level's: the snapshots count on over a coarse-to-fine run, and a stopped one's count is theirs
         "iterations": (solve.nit if solve else 0) + _coarse_iterations(stats),
         "energy_evaluations": solve.nfev if solve else 0,
-        "solver_status": solve.message if solve else "no solver",
+        "solver_status": _budget_message(solve, settings.solver_options()) if solve else "no solver",
         "nodes_deleted": solve.deleted if solve else 0,
         "nodes_refilled": solve.added if solve else 0,
         # of the nodes the solve started with
@@ -684,7 +716,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     history = tuple(float(e) for lv in _solved_before(stats) for e in lv.pop("history"))
     result = FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
                            history + (tuple(float(e) for e in solve.history) if solve else ()))
-    return replace(result, warnings=warnings_for(result))
+    return judged(result)
 
 
 def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | None = None,
@@ -693,6 +725,7 @@ def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | N
     at every solver iteration; returning True stops the solve there (the
     result is then the last iterate, with its pattern and metrics, see
     :func:`stopped_result`)."""
+    t0 = time.perf_counter()
     gen = flatten_iter(surface, settings, initial, area, multilevel=multilevel)
     history = []
     while True:
@@ -703,11 +736,11 @@ def flatten(surface: NurbsSurface, settings: FlattenSettings, initial: State | N
         history.append(snap.energy)
         if callback is not None and callback(snap):
             gen.close()
-            return stopped_result(surface, settings, snap, area, history=history)
+            return stopped_result(surface, settings, snap, area, history=history, seconds=time.perf_counter() - t0)
 
 
 def stopped_result(surface: NurbsSurface, settings: FlattenSettings, snap, area: float | None = None,
-                   message: str = STOPPED, history=()) -> FlattenResult:
+                   message: str = STOPPED, history=(), seconds: float | None = None) -> FlattenResult:
     """The last iterate of a solve stopped at snapshot ``snap`` as a result.
 
     Its pattern and metrics are made by the pipeline from the snapshot's
@@ -715,7 +748,10 @@ def stopped_result(surface: NurbsSurface, settings: FlattenSettings, snap, area:
     the one that ran as far as it went (:func:`core.solver.stopped_result`):
     its solver, iterations, energy evaluations, ``message`` as status and
     ``history`` (the energy after each iteration) as the energy trace.
+    ``seconds``: the run's time from its start to the stop (``metrics["seconds"]``;
+    None: the time this function takes, all that is known of the run then).
     """
+    t0 = time.perf_counter()
     gen = flatten_iter(surface, replace(settings, solver="none"), _on_lattice(surface, settings, snap.mesh, snap.uv),
                        area)
     try:
@@ -727,10 +763,10 @@ def stopped_result(surface: NurbsSurface, settings: FlattenSettings, snap, area:
     solve = stopped_solve(snap, message, history)
     metrics = dict(result.metrics)
     metrics.update({"iterations": solve.nit, "energy_evaluations": solve.nfev, "solver_status": solve.message,
-                    "solve_seconds": solve.seconds})
-    result = replace(result, settings=settings, metrics=metrics, solve=solve,
-                     history=tuple(float(e) for e in history))
-    return replace(result, warnings=warnings_for(result))
+                    "solve_seconds": solve.seconds,
+                    "seconds": time.perf_counter() - t0 if seconds is None else float(seconds)})
+    return judged(replace(result, settings=settings, metrics=metrics, solve=solve,
+                          history=tuple(float(e) for e in history)))
 
 
 def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:
@@ -800,6 +836,7 @@ def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> 
             grid=cover_for(result.surface, result.settings.region).coverage_grid(
                 cell_diagonal(mesh.r_weft, mesh.r_warp)) if result.settings.region is not None else None)]
         if result.metrics.get("uncovered_pct") else [],
+        "status": result.status,
         "warnings": list(result.warnings),
     }
 

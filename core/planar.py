@@ -103,10 +103,11 @@ from core.errors import SettingsError, SolverError
 from core.geom import nan_word, outline_errors, require_finite
 from core.nurbs import NurbsSurface
 from core.mesh import MATERIALS
-from core.metrics import metric_limits, result_warnings
+from core.metrics import judge, metric_limits
 from core.pipeline import check_result_finite, coverage_metrics
 from core.pattern import DartOpening, Pattern, Piece, _resample_uv, polygon_area
 from core.quadrature import boundary_length, edge_lengths, region_area
+from core.region import cover_for
 
 __all__ = ["PLANAR_SOLVERS", "PlanarSettings", "Tessellation", "Unfolding", "RelaxResult", "PlanarResult",
            "tessellate", "cut_darts", "unfold", "spring_energy", "relax", "flatten_planar",
@@ -807,6 +808,7 @@ class PlanarResult:
     metrics: dict
     stats: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    status: str = ""  # the solver's and the pattern's (core.metrics.Verdict.status)
 
 
 def flatten_planar(surface: NurbsSurface, settings: PlanarSettings, area: float | None = None) -> PlanarResult:
@@ -837,10 +839,12 @@ def flatten_planar(surface: NurbsSurface, settings: PlanarSettings, area: float 
         "seconds": time.perf_counter() - t0,
     })
     check_result_finite(tess.uv, tess.xyz, pattern, metrics)
+    metrics["total_curvature"] = cover_for(surface).total_curvature
     # the spring method's limits; the planar metrics have no thread strain or cell shear to judge
-    warnings = result_warnings(metrics, settings, metric_limits(MATERIALS["isotropic"]))
+    verdict = judge(metrics, settings, metric_limits(MATERIALS["isotropic"],
+                                                     total_curvature=metrics["total_curvature"]))
     return PlanarResult(surface, settings, tess, edges, rest, unf, rr, xy, pattern, metrics,
-                        {"seeds": list(unf.seeds)}, warnings)
+                        {"seeds": list(unf.seeds)}, verdict.warnings, verdict.status)
 
 
 def _separate_pieces(xy: np.ndarray, tri: np.ndarray, gap: float) -> np.ndarray:
@@ -989,5 +993,6 @@ def planar_result_to_dict(result: PlanarResult, surface_source: str | None = Non
             "pieces": [pc.to_dict() for pc in pattern.pieces],
         },
         "darts": out_darts,
+        "status": result.status,
         "warnings": list(result.warnings),
     }

@@ -72,7 +72,7 @@ from core.mesh import MATERIALS, Material
 from core.nurbs import NurbsSurface
 from core.pipeline import SETTINGS_KEYS as _SETTINGS_KEYS
 from core.pipeline import (FlattenResult, FlattenSettings, flatten_iter, result_to_dict, state_from_dict,
-                           warnings_for)
+                           judged)
 from core.pipeline import settings_to_dict as pipeline_settings_to_dict
 from core.pipeline import validate_settings as pipeline_validate_settings
 from core.quadrature import region_area
@@ -507,8 +507,12 @@ def result_from_dict(d: Any, surface: NurbsSurface, where: str = "project") -> F
                                                and math.isfinite(e) for e in history)):
         raise f.fail("result.history must be a list of finite energies")
     metrics = dict(metrics)
-    for key in ("uncovered_pct", "max_gap_spacings"):  # files before version 3: measured on the rebuilt mesh
-        metrics.setdefault(key, rebuilt.metrics[key])
+    # measured on the rebuilt mesh when the file has none: coverage before version 3, the piece's
+    # curvature and the fit's share of the mesh's size before the limits scaled with them
+    for key in ("uncovered_pct", "max_gap_spacings", "total_curvature", "fit_max_deviation_pct",
+                "fit_mean_deviation_pct"):
+        if key in rebuilt.metrics:
+            metrics.setdefault(key, rebuilt.metrics[key])
     if "nodes_deleted_pct" not in metrics:
         deleted, refilled, n = (metrics.get(k) for k in ("nodes_deleted", "nodes_refilled", "nodes"))
         if all(isinstance(v, int) and not isinstance(v, bool) for v in (deleted, refilled, n)):
@@ -516,11 +520,10 @@ def result_from_dict(d: Any, surface: NurbsSurface, where: str = "project") -> F
     result = replace(rebuilt, settings=settings, metrics=metrics, drape_stats=dict(stats),
                      history=tuple(float(e) for e in history))
     warnings = d.get("warnings")
-    if warnings is None:  # before version 3: made from the saved metrics
-        return replace(result, warnings=warnings_for(result))
-    if not (isinstance(warnings, list) and all(isinstance(w, str) for w in warnings)):
+    if warnings is not None and not (isinstance(warnings, list) and all(isinstance(w, str) for w in warnings)):
         raise f.fail("result.warnings must be a list of texts")
-    return replace(result, warnings=tuple(warnings))
+    # judged anew from the saved metrics: a file saved before a limit changed tells today's truth
+    return judged(result)
 
 
 def project_from_dict(d: Any, where: str = "project") -> Project:

@@ -47,7 +47,7 @@ from core.nurbs import NurbsSurface
 
 __all__ = ["Region", "RegionDrawing", "Cover", "cover_for", "circle_loop", "region_from_cad_face", "region_from_spec",
            "region_from_drawing", "offset_region", "check_region", "check_region_size", "region_record",
-           "CORNER_DEG", "MIN_CELLS"]
+           "loops_on_surface", "CORNER_DEG", "MIN_CELLS", "LOOP_CHORD_TOL"]
 
 CORNER_DEG = 30.0
 """A loop vertex whose polyline turns by more than this (in (u, v)) is a
@@ -203,6 +203,11 @@ def _turning_corners(p: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return np.unique(np.r_[0, idx])
 
 
+CURVATURE_SAMPLES = 1000
+"""Points along the region's boundary of :attr:`Cover.total_curvature` (the octant's pi / 2 and
+the saddle's -2 pi / 3 to 5 digits)."""
+
+
 class Cover:
     """A surface and a region of its domain (None: the whole domain); see the
     module docstring. Use :func:`cover_for` to share one per (surface, region)."""
@@ -246,6 +251,39 @@ class Cover:
             return region_area(self.surface)
         from core.uvregion import region_area
         return float(region_area(self.surface, self._loops))
+
+    @functools.cached_property
+    def total_curvature(self) -> float:
+        """The integral of the Gaussian curvature over the region (dimensionless:
+        pi / 2 on a sphere's octant, 0 on a developable piece, -2 pi / 3 on the
+        saddle z = (x^2 - y^2) / 2 over [-1, 1]^2), by Gauss-Bonnet from the
+        region's loops: 2 pi (1 - holes) less the loops' turning in the surface's
+        tangent planes (each loop sampled at :data:`CURVATURE_SAMPLES` points,
+        the region on its left). From the edge, not the interior, so that bumps
+        a sampling could miss cannot upset it: what the boundary and area error
+        limits scale with (:func:`core.metrics.metric_limits`)."""
+        L = self.boundary_length
+        if not (np.isfinite(L) and L > 0):
+            return 0.0
+        outer, holes = self.boundary_samples(L / CURVATURE_SAMPLES, per_spacing=1, minimum=64)
+        size = float(np.ptp(outer[1], axis=0).max()) or 1.0
+        turning = 0.0
+        for k, (uv, xyz) in enumerate([outer, *holes]):
+            area = 0.5 * float(np.sum(uv[:, 0] * np.roll(uv[:, 1], -1) - np.roll(uv[:, 0], -1) * uv[:, 1]))
+            if (area < 0) == (k == 0):  # the region on the loop's left: the outer loop counter-clockwise
+                uv, xyz = uv[::-1], xyz[::-1]
+            step = np.linalg.norm(np.roll(xyz, -1, axis=0) - xyz, axis=1)
+            keep = step > 1e-12 * size  # a pole: the loop's points there are one point
+            uv, xyz = uv[keep], xyz[keep]
+            if len(xyz) < 3:
+                continue
+            n = self.surface.evaluate(uv).normal
+            e_in = xyz - np.roll(xyz, 1, axis=0)
+            e_out = np.roll(xyz, -1, axis=0) - xyz
+            a = e_in - np.einsum("ij,ij->i", e_in, n)[:, None] * n
+            b = e_out - np.einsum("ij,ij->i", e_out, n)[:, None] * n
+            turning += float(np.arctan2(np.einsum("ij,ij->i", n, np.cross(a, b)), np.einsum("ij,ij->i", a, b)).sum())
+        return float(2.0 * math.pi * (1 - len(holes)) - turning)
 
     @functools.cached_property
     def _loop_arcs(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -873,10 +911,82 @@ def offset_region(surface: NurbsSurface, region: Region | None, distance: float,
     return out
 
 
+LOOP_CHORD_TOL = 1e-4
+"""Largest distance of a chord of a region's loop on the surface from the loop's image there,
+relative to the loops' size on the surface (the diagonal of their bounding box):
+:func:`loops_on_surface`'s default."""
+
+_LOOP_PIECES = 64  # a loop segment starts cut into pieces of at most 1/64 of the domain (and half the mean knot span)
+_LOOP_ROUNDS = 40  # halvings of a piece at most (2^-40 of its start)
+
+
+def _segment_sq_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n,) squared distance of points p (n, 3) to the segments a -> b (n, 3) each."""
+    ab, ap = b - a, p - a
+    t = np.clip(np.einsum("ij,ij->i", ap, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+    r = ap - t[:, None] * ab
+    return np.einsum("ij,ij->i", r, r)
+
+
+def loops_on_surface(surface: NurbsSurface, region: Region,
+                     rel_tol: float = LOOP_CHORD_TOL) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per loop of ``region`` (outer first): ``(uv (k, 2), xyz (k, 3))``, the loop sampled along
+    its image on the surface, closed implicitly. ``uv`` is the loop's own polyline (clipped to the
+    domain) with points added on its segments, its own points among them in order, so it bounds the
+    same region; ``xyz = surface.points(uv)``. A segment is halved until the image of the middle of
+    every piece lies within ``rel_tol`` times the diagonal of the loops' bounding box on the surface
+    of the chord between the images of the piece's ends (pieces start at most 1/64 of the domain
+    and half the mean knot span long, so a bend between two checks is not missed).
+
+    A loop's own points alone draw a straight (u, v) segment, such as a CAD trim edge whose curve
+    on the face is a line, as one chord through the surface; its image is the edge's 3D curve."""
+    dom = surface.domain
+    size = dom[:, 1] - dom[:, 0]
+    loops = [np.clip(p, dom[:, 0], dom[:, 1]) for p in region.arrays()]
+    start = np.vstack(loops)
+    delta = np.vstack([np.roll(p, -1, axis=0) - p for p in loops])
+    which = np.repeat(np.arange(len(loops)), [len(p) for p in loops])
+    spans = np.array([np.count_nonzero(np.diff(np.unique(k[(k >= lo) & (k <= hi)])))
+                      for k, (lo, hi) in ((surface.knots_u, dom[0]), (surface.knots_v, dom[1]))])
+    step = size / np.maximum(_LOOP_PIECES, 2 * spans)
+    m = np.maximum(1, np.ceil(np.max(np.abs(delta) / np.maximum(step, 1e-300), axis=1))).astype(np.int64)
+    seg = np.repeat(np.arange(len(start)), m)
+    k = np.arange(len(seg)) - np.repeat(np.cumsum(m) - m, m)
+    ta, tb = k / m[seg], (k + 1) / m[seg]
+    xa = surface.points(start[seg] + ta[:, None] * delta[seg])
+    xb = np.roll(xa, -1, axis=0)  # a segment's last piece ends where the next one starts
+    last = np.cumsum(m) - 1
+    xb[last] = surface.points(start[seg[last]] + delta[seg[last]])
+    tol = rel_tol * float(np.linalg.norm(np.ptp(xa, axis=0)))
+    active = np.arange(len(seg))
+    for _ in range(_LOOP_ROUNDS):
+        if not active.size or not tol > 0:
+            break
+        s = seg[active]
+        tm = 0.5 * (ta[active] + tb[active])
+        xm = surface.points(start[s] + tm[:, None] * delta[s])
+        split = _segment_sq_distance(xm, xa[active], xb[active]) > tol * tol
+        idx, tm, xm = active[split], tm[split], xm[split]
+        n = len(seg)  # the second halves go to the end; the order is restored once, below
+        seg, ta, tb = np.r_[seg, seg[idx]], np.r_[ta, tm], np.r_[tb, tb[idx]]
+        xa, xb = np.vstack([xa, xm]), np.vstack([xb, xb[idx]])
+        tb[idx], xb[idx] = tm, xm
+        active = np.r_[idx, n + np.arange(len(idx))]
+    order = np.lexsort((ta, seg))
+    seg, ta = seg[order], ta[order]
+    uv = start[seg] + ta[:, None] * delta[seg]
+    xyz = xa[order]
+    cut = np.flatnonzero(np.diff(which[seg])) + 1
+    return list(zip(np.split(uv, cut), np.split(xyz, cut)))
+
+
 def region_record(surface: NurbsSurface, region: Region) -> dict:
-    """The region in a result file: loops in (u, v) and on the surface, and its drawn form."""
-    return {"loops_uv": [p.tolist() for p in region.arrays()],
-            "loops_xyz": [surface.points(p).tolist() for p in region.arrays()],
+    """The region in a result file: ``loops_uv`` and ``loops_xyz``, per loop (outer first) the
+    loop sampled along the surface (:func:`loops_on_surface`; parallel lists, the loop's own
+    points among them), and its drawn form."""
+    loops = loops_on_surface(surface, region)
+    return {"loops_uv": [uv.tolist() for uv, _ in loops],
+            "loops_xyz": [xyz.tolist() for _, xyz in loops],
             "drawn": region.drawn.to_dict() if region.drawn is not None else None}
 
 

@@ -1,10 +1,14 @@
 """The best fibre orientation: solve the piece at several weft angles (and
 seeds) and rank the results.
 
-A row is one solve from a new drape. Rows are ranked by the share of the
-area sheared past the lock angle (where the cloth wrinkles), then the largest
-shear, then the boundary error (:data:`RANK_KEYS`; :func:`rank_rows` says
-which differences count as ties). The woven lattice with
+A row is one solve from a new drape, with its verdict (the result's
+``status`` and ``unusable``: the metrics past their bad limit,
+:class:`core.metrics.Verdict`). Rows are ranked by what the designer sees
+first: a usable pattern (no metric past its bad limit) before one with one,
+before one with two, ...; then by the share of the area sheared past the lock
+angle (where the cloth wrinkles), then the largest shear, then the boundary
+error (:data:`RANK_KEYS`; :func:`rank_rows` says which differences count as
+ties). The woven lattice with
 equal weft and warp repeats every 90 degrees of weft angle (weft and warp
 swap), any other every 180, so the sweep covers one period.
 
@@ -34,7 +38,8 @@ __all__ = ["RANK_KEYS", "SweepResult", "angle_period", "sweep_seeds", "rank_rows
            "default_workers"]
 
 RANK_KEYS = ("area_beyond_lock_pct", "max_shear_deg", "boundary_error_pct")
-"""What a sweep ranks by, most important first; smaller is better."""
+"""The metrics a sweep ranks by after the rows' usability (:func:`rank_rows`), most important first;
+smaller is better."""
 
 ROW_KEYS = RANK_KEYS + ("area_error_pct", "energy", "p95_shear_deg", "max_thread_strain_pct", "nodes",
                         "iterations", "uncovered_pct")
@@ -86,8 +91,10 @@ BEYOND_TIE_PCT = 0.01
 
 
 def rank_rows(rows) -> list[dict]:
-    """The rows best first: by the area beyond the lock angle, then the largest
-    shear, then the boundary error, with the ties above; failed rows last."""
+    """The rows best first: by the number of metrics past their bad limit
+    (``unusable``; none: a usable pattern), then the area beyond the lock
+    angle, then the largest shear, then the boundary error, with the ties
+    above; failed rows last."""
     ok = [r for r in rows if not r.get("error")]
     if not ok:
         return list(rows)
@@ -96,8 +103,9 @@ def rank_rows(rows) -> list[dict]:
 
     def key(r):
         if r.get("error"):
-            return (1, 0, 0, 0.0, r["angle_deg"], tuple(r["seed"]))
-        return (0, math.floor((r["area_beyond_lock_pct"] - beyond0) / BEYOND_TIE_PCT + 1e-9),
+            return (1, 0, 0, 0, 0.0, r["angle_deg"], tuple(r["seed"]))
+        return (0, len(r.get("unusable", ())),
+                math.floor((r["area_beyond_lock_pct"] - beyond0) / BEYOND_TIE_PCT + 1e-9),
                 math.floor((r["max_shear_deg"] - shear0) / SHEAR_TIE_DEG + 1e-9),
                 round(r["boundary_error_pct"], 9), r["angle_deg"], tuple(r["seed"]))  # exact twins: lower angle
 
@@ -119,7 +127,7 @@ class SweepResult:
 
     def to_dict(self) -> dict:
         return {"rows": [dict(r) for r in self.rows], "best": dict(self.best), "lock_deg": self.lock_deg,
-                "period_deg": self.period_deg, "rank_by": list(RANK_KEYS),
+                "period_deg": self.period_deg, "rank_by": ["unusable", *RANK_KEYS],
                 "ties": {"area_beyond_lock_pct": BEYOND_TIE_PCT, "max_shear_deg": SHEAR_TIE_DEG},
                 "seconds": self.seconds}
 
@@ -127,7 +135,7 @@ class SweepResult:
 def _solve_row(job) -> dict:
     surface, settings, area = job
     from core.errors import FlatweaveError
-    from core.pipeline import flatten
+    from core.pipeline import flatten, judge_result
 
     row = {"angle_deg": float(settings.angle_deg), "seed": [float(settings.seed[0]), float(settings.seed[1])]}
     try:
@@ -139,6 +147,8 @@ def _solve_row(job) -> dict:
     for k in ROW_KEYS:
         if k in m:
             row[k] = float(m[k]) if not isinstance(m[k], int) else int(m[k])
+    row["status"] = result.status
+    row["unusable"] = list(judge_result(result).unusable)
     return row
 
 

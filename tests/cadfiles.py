@@ -203,6 +203,23 @@ def face_mixed_outer():
     return trimmed_face(s, [free, (arc, 0.0, math.pi)])
 
 
+STRAIGHT_OUTER = [(0.12, 0.1), (0.9, 0.18), (0.82, 0.92), (0.15, 0.8)]
+STRAIGHT_HOLE = [(0.4, 0.35), (0.45, 0.6), (0.62, 0.45)]
+"""The loops of face_straight_trims() in (u, v): a quadrilateral (counter-clockwise) and a
+triangular hole (clockwise)."""
+
+
+def face_straight_trims():
+    """B-spline face (40 x 30, waves of 8) trimmed by STRAIGHT_OUTER with the hole
+    STRAIGHT_HOLE: every edge a line in (u, v) and a curve in space."""
+    s = bspline_surface(wavy_net(amp=8.0))
+
+    def polygon(corners):
+        return [segment2d(corners[i], corners[(i + 1) % len(corners)]) for i in range(len(corners))]
+
+    return trimmed_face(s, polygon(STRAIGHT_OUTER), [polygon(STRAIGHT_HOLE)])
+
+
 def sticking_out_surface():
     return bspline_surface(wavy_net(seed=5))
 

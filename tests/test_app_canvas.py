@@ -144,7 +144,7 @@ def test_one_paint_pass_renders_each_view_once(canvas_window, qtbot):
 
 
 class _Busy:
-    stopping = False
+    abandoned = stopping = False
     paused = pause_requested = False
     history = ()
     stage = "test"

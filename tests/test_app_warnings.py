@@ -65,3 +65,19 @@ def test_the_shear_angles_of_the_project_decide_the_shear_warning(budget_result,
     win.set_project(loose)
     assert _colour(panel.labels["shear"]) == METRIC_COLOURS[0]
     assert not any("lock" in w for w in panel.warnings)
+
+
+def test_the_window_shows_every_warning_and_the_core_status(make_window):
+    """The Warnings cell lists what the CLI prints, and the Status cell is the result's status:
+    a dome stopped by its budget, sheared past the lock angle, is not usable, in red."""
+    dome = load_example("dome")
+    result = flatten(dome, FlattenSettings(spacing=0.1, max_iter=1))
+    assert not result.usable and len(result.warnings) >= 2, (result.status, result.warnings)
+    assert any("lock angle" in w for w in result.warnings) and any("budget" in w for w in result.warnings)
+    win = make_window(project=Project(dome, result.settings, name="dome", result=result))
+    panel = win.metrics
+    assert panel.warnings == result.warnings
+    assert panel.text("warnings") == "\n".join(result.warnings)
+    assert panel.text("status") == result.status
+    assert "pattern not usable: shear" in panel.text("status")
+    assert _colour(panel.labels["status"]) == METRIC_COLOURS[2]

@@ -16,7 +16,7 @@ from core.export import ExportOptions, export, export_all
 from core.fibres import CSV_COLUMNS, cell_fibres, reference_direction, result_fibres
 from core.mesh import MATERIALS, Material, build_mesh
 from core.metrics import area_beyond_lock_pct, cell_areas, cell_shear_deg, metric_limits
-from core.pipeline import FlattenSettings, flatten, warnings_for
+from core.pipeline import FlattenSettings, flatten, judge_result
 from core.project import load_project, new_project, project_to_dict, save_project
 from tests.helpers import diameter, hausdorff, rigid_align
 
@@ -159,7 +159,7 @@ def test_area_beyond_lock_is_the_area_weighted_share(saddle):
     assert tight.metrics["area_beyond_lock_pct"] == pytest.approx(by_hand, rel=1e-6)
     assert any("beyond the lock angle" in w for w in tight.warnings)
     assert metric_limits(tight.settings.material)["max_shear_deg"] == (lock / 2, lock)
-    assert warnings_for(tight) == tight.warnings
+    assert judge_result(tight).warnings == tight.warnings
 
 
 def test_cli_reports_the_lock_share_and_takes_the_angles(tmp_path, capsys):

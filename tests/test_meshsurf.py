@@ -321,7 +321,8 @@ def test_bad_meshes_refused_in_one_line(tmp_path, name):
 def test_bad_meshes_through_the_cli(tmp_path):
     files = _bad_files(tmp_path)
     for name in ("nan.obj", "truncated.stl", "claims_2gb.stl", "closed.stl", "two_parts.obj"):
-        for cmd in (["info", files[name]], ["flatten", files[name], "--spacing", "0.1", "--out", tmp_path / "r.json"]):
+        info = [] if name == "closed.stl" else [["info", files[name]]]  # info describes a closed mesh
+        for cmd in info + [["flatten", files[name], "--spacing", "0.1", "--out", tmp_path / "r.json"]]:
             r = _cli(*cmd)
             lines = r.stderr.strip().splitlines()
             assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("flatweave: error: "), (name, r.stderr)

@@ -304,6 +304,18 @@ def test_one_iteration_count_and_energy_trace_over_the_levels():
     assert "history" not in result.drape_stats["levels"][0]  # the trace is the result's, once
 
 
+@pytest.mark.parametrize("budget", [3, 9])
+def test_the_iteration_budget_is_the_whole_runs(budget):
+    """A budget of N iterations stops a coarse-to-fine run after N iterations in all, wherever
+    they fell (on a coarse level, or on the fine one after the levels' share), and says N."""
+    s, settings = _settings("octant", 3_000)
+    snaps, result = _drain(flatten_iter(s, dataclasses.replace(settings, max_iter=budget), multilevel=2))
+    m = result.metrics
+    assert m["iterations"] == budget == snaps[-1].iteration
+    assert m["solver_status"] == f"stopped at the iteration budget ({budget})"
+    assert result.status.startswith(f"stopped at the iteration budget ({budget})")
+
+
 def test_a_carried_start_never_refills_a_position_its_solve_emptied():
     from core.solver import SolverOptions, _Population
     from core.errors import SettingsError
@@ -317,4 +329,5 @@ def test_a_carried_start_never_refills_a_position_its_solve_emptied():
     # the pipeline asks it of every level carried from a coarser one, and only of those
     from core.pipeline import _carried
     opts = SolverOptions()
-    assert _carried(opts, {"levels": [{}]}).dead_after == 1 and _carried(opts, {}).dead_after == 2
+    level = {"iterations": 0, "solve_seconds": 0.0, "refine_seconds": 0.0}
+    assert _carried(opts, {"levels": [level]}).dead_after == 1 and _carried(opts, {}).dead_after == 2

@@ -1,5 +1,5 @@
 """Coverage (metrics uncovered_pct, uncovered regions) and the result's warnings
-(core.metrics.metric_limits / result_warnings, FlattenResult.warnings, the
+(core.metrics.metric_limits / judge, FlattenResult.warnings, the
 result file, the CLI)."""
 
 import json
@@ -15,8 +15,8 @@ from core.cli import main
 from core.darts import PlaneDart
 from core.examples import load_example
 from core.mesh import MATERIALS, parse_material
-from core.metrics import LIMIT_KEYS, is_woven, metric_limits, result_warnings
-from core.pipeline import FlattenSettings, flatten, result_to_dict, warnings_for
+from core.metrics import LIMIT_KEYS, is_woven, judge, metric_limits
+from core.pipeline import FlattenSettings, flatten, judge_result, result_to_dict
 
 SPACING = 0.05
 SADDLE_DART = PlaneDart((1.0, 0.0, 0.0, 0.0), (-2.0, 2.0, -2.0, 0.0, -2.0, 2.0), name="plane dart 1")
@@ -69,7 +69,8 @@ def test_a_covered_saddle_has_nothing_uncovered_and_no_warning(saddle_whole):
     want, _, _ = independent_uncovered_pct(saddle_whole.xyz, math.hypot(SPACING, SPACING))
     assert want < 0.05 and m["uncovered_pct"] < 0.05
     assert m["max_gap_spacings"] < 1.0  # no point of the region is a spacing from the cloth
-    assert saddle_whole.warnings == ()
+    # nothing about coverage; the woven saddle's shear (about 25 deg) is past the 15 deg warning angle
+    assert [w.split(",")[0] for w in saddle_whole.warnings] == [f"shear up to {m['max_shear_deg']:.1f} deg"]
 
 
 def test_the_uncovered_region_is_offered_with_its_outline(saddle, saddle_cut):
@@ -91,7 +92,8 @@ def test_the_uncovered_region_is_offered_with_its_outline(saddle, saddle_cut):
 
 def test_every_result_reports_coverage_and_warnings(saddle_whole):
     doc = result_to_dict(saddle_whole)
-    assert doc["warnings"] == [] and doc["uncovered_regions"] == []
+    assert doc["warnings"] == list(saddle_whole.warnings) and doc["uncovered_regions"] == []
+    assert doc["status"] == saddle_whole.status == "converged, with warnings"
     assert doc["metrics"]["uncovered_pct"] == saddle_whole.metrics["uncovered_pct"]
 
 
@@ -106,12 +108,15 @@ def test_the_planar_method_reports_coverage(saddle):
 # ---------------------------------------------------------------------- limits and warnings
 def test_metric_limits_per_material_and_shear_angles():
     woven, iso = metric_limits(MATERIALS["woven"]), metric_limits(MATERIALS["isotropic"], 10.0, 25.0)
-    assert tuple(woven) == LIMIT_KEYS == tuple(iso)
+    assert tuple(woven) == LIMIT_KEYS
+    # an isotropic sheet has no threads to lock: no shear limits
+    assert tuple(iso) == tuple(k for k in LIMIT_KEYS if k not in ("max_shear_deg", "area_beyond_lock_pct"))
     for lim in (woven, iso):
         assert all(0 < w < b for w, b in lim.values())
     assert woven["max_thread_strain_pct"] == (1.0, 3.0)
     assert iso["max_thread_strain_pct"][0] > woven["max_thread_strain_pct"][1]
-    assert woven["max_shear_deg"] == (15.0, 30.0) and iso["max_shear_deg"] == (10.0, 25.0)
+    assert woven["max_shear_deg"] == (15.0, 30.0)
+    assert metric_limits(MATERIALS["woven"], 10.0, 25.0)["max_shear_deg"] == (10.0, 25.0)
     assert is_woven(parse_material("300:200:5")) and not is_woven(parse_material("100:100:50"))
     with pytest.raises(ValueError):
         metric_limits(MATERIALS["woven"], 30.0, 15.0)
@@ -121,14 +126,14 @@ FINE = {"uncovered_pct": 0.0, "max_gap_spacings": 0.7, "max_thread_strain_pct": 
         "nodes_deleted": 3, "nodes_deleted_pct": 0.3, "nodes_refilled": 1, "solver_status": "converged"}
 
 
-def test_result_warnings_one_line_each_and_only_beyond_the_limits():
+def test_warnings_one_line_each_and_only_beyond_the_limits():
     s = FlattenSettings(spacing=0.05)
     lim = metric_limits(s.material)
-    assert result_warnings(FINE, s, lim) == ()
+    assert judge(FINE, s, lim).warnings == ()
     bad = {**FINE, "max_thread_strain_pct": 383.0, "max_shear_deg": 52.0, "nodes_deleted": 500,
            "nodes_deleted_pct": 24.7, "solver_status": "stopped at the time budget (5 s)"}
     shear = (np.array([52.0, 10.0, -40.0, 5.0]), np.array([1.0, 1.0, 1.0, 7.0]))
-    w = result_warnings(bad, s, lim, shear=shear)
+    w = judge(bad, s, lim, shear=shear).warnings
     assert len(w) == 4 and all("\n" not in t for t in w)
     assert "383 %" in w[0] and "1 %" in w[0]
     assert "52.0 deg" in w[1] and "30 deg" in w[1] and "20.0 % of the area" in w[1]  # 2 of 10 area units
@@ -136,13 +141,13 @@ def test_result_warnings_one_line_each_and_only_beyond_the_limits():
     assert "time budget" in w[3]
     # the same strain is within what an isotropic sheet takes; it has no lock angle
     iso = replace(s, material=MATERIALS["isotropic"])
-    w = result_warnings({**FINE, "max_thread_strain_pct": 8.0, "max_shear_deg": 52.0}, iso,
-                        metric_limits(iso.material))
+    w = judge({**FINE, "max_thread_strain_pct": 8.0, "max_shear_deg": 52.0}, iso,
+              metric_limits(iso.material)).warnings
     assert w == ()
-    assert result_warnings({**FINE, "solver_status": "stopped by the caller"}, s, lim)[0].startswith(
+    assert judge({**FINE, "solver_status": "stopped by the caller"}, s, lim).warnings[0].startswith(
         "the solve was stopped by the caller")
     # uncovered without darts: what to try instead of a gusset
-    w = result_warnings({**FINE, "uncovered_pct": 4.0}, s, lim)
+    w = judge({**FINE, "uncovered_pct": 4.0}, s, lim).warnings
     assert len(w) == 1 and "4.0 %" in w[0] and "seed" in w[0] and "gusset" not in w[0]
 
 
@@ -169,15 +174,15 @@ def test_warnings_survive_a_project_file_and_old_files_get_theirs(tmp_path):
     back = load_project(save_project(p, tmp_path / "w.flatweave"))
     assert back.result.warnings == p.result.warnings
     assert back.result.metrics["uncovered_pct"] == p.result.metrics["uncovered_pct"]
-    # version 2 saved no warnings: they are made from its metrics (its yarn plane, z = 0.45 for weft
-    # row 2, is one the threads cannot follow: the strain says so)
+    # version 2 saved no warnings: they are made from its metrics, as every file's are (its yarn
+    # plane, z = 0.45 for weft row 2, is one the threads cannot follow: the strain says so)
     path = Path(__file__).parent / "data" / "projects" / "v2-octant-yarn-solved.flatweave"
     raw = json.loads(path.read_text())
     assert raw["version"] == 2 and "warnings" not in raw["result"]
     old = load_project(path)
     assert old.result.metrics["max_thread_strain_pct"] == raw["result"]["metrics"]["max_thread_strain_pct"] > 3
     assert any("thread strain" in w and "yarn" in w for w in old.result.warnings)
-    assert old.result.warnings == warnings_for(old.result)
+    assert old.result.warnings == judge_result(old.result).warnings
     assert 0 < old.result.metrics["uncovered_pct"] < 5  # measured on the rebuilt (the saved) mesh
     assert old.settings.yarns[0].point is None and old.settings.yarns[0].index == 2
 
@@ -187,3 +192,20 @@ def test_a_stopped_solve_says_so_in_its_warnings():
     r = flatten(octant, FlattenSettings(spacing=0.1), callback=lambda snap: snap.iteration >= 2)
     assert r.metrics["solver_status"] == "stopped by the caller"
     assert r.warnings[-1].startswith("the solve was stopped by the caller")
+
+
+def test_a_stopped_solve_reports_the_runs_time():
+    """The stopped result's seconds are the run's, from its start to the stop (here at least the
+    0.3 s the callback waited), not the time its pattern took."""
+    import time
+
+    octant = load_example("octant")
+
+    def slow(snap):
+        time.sleep(0.15)
+        return snap.iteration >= 2
+
+    t0 = time.perf_counter()
+    r = flatten(octant, FlattenSettings(spacing=0.1), callback=slow)
+    elapsed = time.perf_counter() - t0
+    assert 0.3 <= r.metrics["seconds"] <= elapsed

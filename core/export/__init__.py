@@ -14,7 +14,10 @@ a failed export leaves no partial file and an existing file untouched (a full di
 refuses the file: a one-line FlatweaveError naming the file and the reason).
 :func:`export_all` is all or nothing: it checks every target, builds every
 file, writes each to a temporary file and renames them only when all are
-written. Check targets with :func:`check_target` before a long solve.
+written. Check targets with :func:`check_target` before a long solve, and
+ask :func:`surprises` what an export would do that its user may not expect
+(hundreds of pages, a piece metres across: often a model's units taken
+wrongly) before writing it.
 """
 
 from __future__ import annotations
@@ -24,17 +27,23 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from core.errors import SettingsError
 from core.export.dxf import VARIANTS as DXF_VARIANTS
 from core.export.mesh3d import OBJ_TEXTURES
-from core.export.pdf import PAPERS
+from core.export.pdf import PAPERS, page_count
 from core.export.sheet import UNITS, Sheet, build_sheet, mm_per_unit
 from core.fileio import atomic_write_many
 
 __all__ = ["ExportOptions", "Exporter", "FORMATS", "UNITS", "PAPERS", "DXF_VARIANTS", "OBJ_TEXTURES",
            "export", "export_all", "export_bytes",
            "check_target", "register_exporter", "unregister_exporter", "exporters", "exporter_for",
-           "dialog_filter", "build_sheet", "Sheet", "mm_per_unit"]
+           "dialog_filter", "build_sheet", "Sheet", "mm_per_unit", "Surprise", "surprises", "MAX_QUIET_PAGES",
+           "MAX_QUIET_PIECE_MM"]
+
+MAX_QUIET_PAGES = 50  # a PDF of more pages is a surprise
+MAX_QUIET_PIECE_MM = 5000.0  # so is a 2D file with a piece larger than this (its longer side, cut line)
 
 
 @dataclass(frozen=True)
@@ -218,6 +227,65 @@ def export_all(result, paths, options: ExportOptions = ExportOptions()) -> list[
         sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
     atomic_write_many([f for p in paths for f in _files(result, p, options, sheet)])
     return paths
+
+
+@dataclass(frozen=True)
+class Surprise:
+    """Something an export would do that its user may not expect.
+
+    files : the targets it concerns
+    text : one sentence, capitalised, without a full stop, e.g. ``"The PDF will have 8,182
+        pages at 1:1 on A4 (the piece is 53.2 x 15.1 m, units m)"``
+    """
+
+    files: tuple
+    text: str
+
+    def line(self) -> str:
+        """The files' names and the text on one line: ``"p.pdf: the PDF will have ..."``."""
+        return f"{', '.join(Path(f).name for f in self.files)}: {self.text[:1].lower()}{self.text[1:]}"
+
+
+def _metres(mm: float) -> str:
+    m = mm / 1000.0
+    return f"{m:.0f}" if m >= 100 else f"{m:.1f}" if m >= 10 else f"{m:.2f}"
+
+
+def surprises(result, paths, options: ExportOptions = ExportOptions(), sheet: Sheet | None = None) -> list[Surprise]:
+    """What writing ``result`` to ``paths`` with ``options`` would do that its user may
+    not expect, to warn of or ask about before writing; empty when nothing would surprise.
+
+    * a PDF of more than ``MAX_QUIET_PAGES`` pages (counted by :func:`core.export.pdf.page_count`,
+      the tiling the writer uses; nothing is drawn): one :class:`Surprise` naming the page
+      count, the paper, the largest piece's size and the model's units;
+    * a piece larger than ``MAX_QUIET_PIECE_MM`` (its cut line's longer side) in the other
+      2D files (drawn at 1:1 in mm): one naming its size and the units.
+
+    3D files (model units, nothing scaled) and unknown suffixes never surprise. The 2D
+    sheet is built from ``options`` unless given.
+    """
+    flat = [Path(p) for p in paths if (e := exporter_for(Path(p).suffix)) is not None and e.needs_sheet]
+    if not flat:
+        return []
+    if sheet is None:
+        sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
+    sizes = [tuple(float(d) for d in np.ptp(p.bounds(), axis=0)) for p in sheet.pieces]
+    w, h = max(sizes, key=max)
+    one = len(sizes) == 1
+    piece = f"the piece is {_metres(w)} x {_metres(h)} m" if one else \
+        f"the largest of {len(sizes)} pieces is {_metres(w)} x {_metres(h)} m"
+    out = []
+    pdfs = [p for p in flat if p.suffix.lower() == ".pdf"]
+    if pdfs:
+        pages = page_count(sheet, options.paper)
+        if pages > MAX_QUIET_PAGES:
+            paper = {"a4": "A4", "letter": "US Letter"}.get(options.paper.lower(), options.paper)
+            out.append(Surprise(tuple(pdfs), f"The PDF will have {pages:,} pages at 1:1 on {paper} "
+                                             f"({piece}, units {options.units})"))
+    rest = [p for p in flat if not (out and p in out[0].files)]
+    if rest and max(w, h) > MAX_QUIET_PIECE_MM:
+        out.append(Surprise(tuple(rest), f"{piece[:1].upper()}{piece[1:]} at 1:1 (units {options.units})"))
+    return out
 
 
 def _files(result, path: Path, options: ExportOptions, sheet: Sheet | None) -> list[tuple[Path, bytes]]:

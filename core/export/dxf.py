@@ -19,7 +19,10 @@ no TABLES section; the header holds only ``$ACADVER``, ``$EXTMIN`` and
 (``Piece Name:``, ``Size:``, ``Quantity:``, ``Material:``, ``Category:``) and
 the rest of the label on layer 15; the style system text (``Style Name:``,
 ``Creation Date:``, ``Author:``, ``Sample Size:``, ``Grading Rule Table:``,
-``Units: METRIC``) is TEXT on layer 1 in the model space, once, below the pieces.
+``Units: METRIC``) is TEXT on layer 1 in the model space, once, below the pieces
+and their labels. In both variants ``$EXTMIN`` / ``$EXTMAX`` bound everything drawn:
+the pieces, their labels (which stand out of a piece too small for them) and the
+style text, its glyphs measured by ezdxf.
 
 ``layered`` is plain AutoCAD R2000 (AC1015) for CAD and laser / knife cutters
 that read ordinary DXF (LibreCAD, AutoCAD, QCAD, GDAL, ...): a layer table with
@@ -36,7 +39,7 @@ import re
 import numpy as np
 
 import core
-from core.export.sheet import LINE_PITCH, Sheet, label_box
+from core.export.sheet import LINE_PITCH, Sheet
 
 __all__ = ["LAYERS", "VARIANTS", "dxf_bytes", "style_text"]
 
@@ -74,8 +77,18 @@ def style_text(sheet: Sheet) -> tuple:
             ("Grading Rule Table", "none"), ("Units", "METRIC"))
 
 
+def _extents(msp) -> tuple[np.ndarray, np.ndarray]:
+    """(lower-left, upper-right) of everything in the model space, the blocks' contents
+    and every TEXT's glyphs included (ezdxf measures text with the font its style names)."""
+    from ezdxf import bbox
+
+    box = bbox.extents(msp)
+    return np.array(box.extmin, dtype=float)[:2], np.array(box.extmax, dtype=float)[:2]
+
+
 def dxf_bytes(sheet: Sheet, variant: str = "astm") -> bytes:
-    """The sheet as a DXF file (bytes, in the file's own encoding)."""
+    """The sheet as a DXF file (bytes, in the file's own encoding). ``$EXTMIN`` /
+    ``$EXTMAX`` are the drawing's extent: the pieces, their labels and the style text."""
     import ezdxf
 
     if variant not in VARIANTS:
@@ -101,7 +114,6 @@ def dxf_bytes(sheet: Sheet, variant: str = "astm") -> bytes:
         return {"layer": layer, "color": LAYERS[layer][1]} if astm else {"layer": layer}
 
     taken: set = set()
-    lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
     for k, piece in enumerate(sheet.pieces):
         bname = _block_name(piece.name, k, taken)
         blk = doc.blocks.new(name=bname, base_point=(0.0, 0.0), dxfattribs={"layer": "1" if astm else "0"})
@@ -138,17 +150,15 @@ def dxf_bytes(sheet: Sheet, variant: str = "astm") -> bytes:
             t = blk.add_text(text, height=piece.label_height, dxfattribs=attribs("1" if i < n_system else "15"))
             t.set_placement((float(x), float(y - LINE_PITCH * piece.label_height * i)))
         msp.add_blockref(bname, tuple(map(float, off)), dxfattribs={"layer": "1" if astm else "0"})
-        b = piece.bounds()
-        lo, hi = np.minimum(lo, b[0]), np.maximum(hi, b[1])
-    if astm:  # the style system text, once, below the pieces
+    lo, hi = _extents(msp)  # the pieces with their labels, which may stand out of a small piece
+    if astm:  # the style system text, once, below everything else
         lines = [f"{k}: {v}" for k, v in style_text(sheet)]
         h = float(np.clip(0.01 * (hi - lo).max(), 3.0, 8.0))
         top = lo[1] - 3.0 * h
         for i, text in enumerate(lines):
             t = msp.add_text(text, height=h, dxfattribs=attribs("1"))
             t.set_placement((float(lo[0]), float(top - LINE_PITCH * h * i)))
-        box = label_box((lo[0], top), lines, h)
-        lo, hi = np.minimum(lo, box[0]), np.maximum(hi, box[1])
+        lo, hi = _extents(msp)
     extmin, extmax = (float(lo[0]), float(lo[1]), 0.0), (float(hi[0]), float(hi[1]), 0.0)
     stream = io.StringIO()
     if astm:

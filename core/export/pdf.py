@@ -2,7 +2,8 @@
 
 Pages, in order:
 
-1. overview: every piece scaled to fit one page, with a scale bar and the labels;
+1. overview: every piece scaled to fit one page, with a scale bar and the scale
+   (once, beside the bar), each piece's name inside it, and the labels in full;
 2. assembly map: the same drawing with the grid of tiles, each named by
    row letter and column number (A1 is the top-left tile);
 3. the tiles, row by row, at 1:1. Neighbouring tiles overlap by
@@ -29,8 +30,8 @@ import numpy as np
 from core.errors import SettingsError
 from core.export.sheet import Sheet
 
-__all__ = ["PAPERS", "MM", "TEST_SQUARE_MM", "TILE_SQUARES_MM", "OVERLAP_MM", "PAGE_MARGIN_MM", "tile_grid", "tiles",
-           "sheet_marks", "pdf_bytes"]
+__all__ = ["PAPERS", "MM", "TEST_SQUARE_MM", "TILE_SQUARES_MM", "OVERLAP_MM", "PAGE_MARGIN_MM", "FRONT_PAGES",
+           "tile_grid", "tiles", "page_count", "name_place", "scale_text", "sheet_marks", "pdf_bytes"]
 
 MM = 72.0 / 25.4  # PDF points per millimetre
 PAPERS = {"a4": (210.0, 297.0), "letter": (215.9, 279.4)}
@@ -40,6 +41,9 @@ TEST_SQUARE_MM = 100.0
 TILE_SQUARES_MM = (100.0, 50.0, 20.0)  # the test square of a tile: the largest that finds free space
 SQUARE_CLEARANCE_MM = 3.0
 SHEET_MARGIN_MM = 10.0  # blank border round the pieces
+FRONT_PAGES = 2  # the overview and the assembly map, before the tiles
+NAME_FONT = "Helvetica-Bold"  # the pieces' names on the scaled pages
+NAME_MM = (3.0, 2.5, 2.0, 1.5)  # their printed heights, the largest that fits inside the piece
 
 # stroke colours (r, g, b) and widths (mm) of the drawn lines
 STYLE = {
@@ -75,19 +79,25 @@ def tile_grid(sheet_size_mm: tuple[float, float], paper: str = "a4") -> tuple[in
 def tiles(sheet: Sheet, paper: str = "a4") -> list[tuple[int, int, bool]]:
     """Every tile of the 1:1 grid as (row, column, printed); a tile is printed
     when some piece lies in it (blank tiles are left out of the PDF)."""
-    from shapely.geometry import Polygon, box
+    import shapely
+    from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
     rows, cols, cw, ch = tile_grid(sheet.size, paper)
     H = sheet.size[1] + 2 * SHEET_MARGIN_MM
     region = unary_union([Polygon(p.outer).buffer(0) for p in sheet.pieces])
-    out = []
-    for r in range(rows):
-        for col in range(cols):
-            x0 = col * (cw - OVERLAP_MM) - SHEET_MARGIN_MM  # the window in sheet coordinates
-            y1 = H - r * (ch - OVERLAP_MM) - SHEET_MARGIN_MM
-            out.append((r, col, bool(region.intersects(box(x0, y1 - ch, x0 + cw, y1)))))
-    return out
+    shapely.prepare(region)
+    r, col = (a.ravel() for a in np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"))
+    x0 = col * (cw - OVERLAP_MM) - SHEET_MARGIN_MM  # each tile's window in sheet coordinates
+    y1 = H - r * (ch - OVERLAP_MM) - SHEET_MARGIN_MM
+    printed = shapely.intersects(region, shapely.box(x0, y1 - ch, x0 + cw, y1))
+    return [(int(a), int(b), bool(c)) for a, b, c in zip(r, col, printed)]
+
+
+def page_count(sheet: Sheet, paper: str = "a4") -> int:
+    """Pages :func:`pdf_bytes` writes for this sheet: the overview and the assembly map,
+    then one per printed tile of :func:`tiles` (cheap: nothing is drawn)."""
+    return FRONT_PAGES + sum(show for _, _, show in tiles(sheet, paper))
 
 
 def _tile_name(r: int, c: int) -> str:
@@ -122,13 +132,16 @@ def _region(c, p):
 
 def _draw_sheet(c, sheet: Sheet, unit_width: float, labels: bool = True, fill: bool = False):
     """Draw the pieces in the current user space (1 unit = 1 sheet mm); line
-    widths are given in mm and divided by ``unit_width`` (mm per unit drawn)."""
+    widths are given in mm and divided by ``unit_width`` (mm per unit drawn).
+    ``labels``: the full labels (1:1); else each piece's name (:func:`name_place`)."""
 
     def style(name):
         rgb, w = STYLE[name]
         c.setStrokeColorRGB(*rgb)
         c.setLineWidth(w / unit_width)
 
+    W, H = sheet.size
+    drawing = (-SHEET_MARGIN_MM, -SHEET_MARGIN_MM, W + SHEET_MARGIN_MM, H + SHEET_MARGIN_MM)
     c.setLineJoin(1)
     if fill:
         c.setFillColorRGB(0.95, 0.95, 0.93)
@@ -166,11 +179,66 @@ def _draw_sheet(c, sheet: Sheet, unit_width: float, labels: bool = True, fill: b
             x, y = p.label_at
             for i, line in enumerate(p.label):
                 c.drawString(float(x), float(y - 1.6 * p.label_height * i), line)
-        else:  # scaled pages: the name only, 3 mm high as printed
+        else:  # scaled pages: the name only, placed for the printed size (the label's place is for 1:1)
+            x, y, size = name_place(p, unit_width, drawing)
             c.setFillColorRGB(0.3, 0.3, 0.3)
-            c.setFont("Helvetica-Bold", 3.0 / unit_width)
-            x, y = p.label_at
-            c.drawString(float(x), float(y), p.name)
+            c.setFont(NAME_FONT, size)
+            c.drawString(x, y, p.name)
+
+
+def name_place(piece, scale: float, within) -> tuple[float, float, float]:
+    """Where a page drawn at ``scale`` (printed mm per sheet mm) writes a piece's name:
+    (x, y, size), the baseline's start and the font size, in sheet mm.
+
+    The name's box (``NAME_FONT``'s ascent and descent, the name's advance width) lies
+    inside the piece (inside its outer line, off its cut-outs), clear of its drawn lines
+    where it can be, at the largest printed height of ``NAME_MM`` that fits. A piece too
+    small for the smallest gets the name centred on its point farthest from the outline,
+    moved as little as needed to lie in ``within`` = (xmin, ymin, xmax, ymax), the drawn
+    area, so no part of it falls off the page.
+    """
+    import shapely
+    from reportlab.pdfbase.pdfmetrics import getAscentDescent, stringWidth
+    from shapely.geometry import LineString, Point, Polygon
+    from shapely.ops import polylabel, unary_union
+
+    cutouts = piece.hole_cuts if piece.cut is not None else piece.holes
+    region = Polygon(piece.outer, [h for h in cutouts if len(h) >= 3]).buffer(0)
+    if region.geom_type != "Polygon":
+        region = max(region.geoms, key=lambda g: g.area)
+    lines = [piece.sew, *piece.holes, *piece.internal, *piece.notches, piece.grain, *piece.grain_heads]
+    drawn = unary_union([LineString(q) for q in lines if len(q) >= 2] + [Point(d).buffer(1.0) for d in piece.drills])
+    b = np.asarray(region.bounds, dtype=float)
+    ascent, descent = getAscentDescent(NAME_FONT, 1.0)  # per unit of font size; descent < 0
+
+    def box_size(size):
+        return stringWidth(piece.name, NAME_FONT, size), (ascent - descent) * size
+
+    shapely.prepare(region)
+    for avoid_lines in (True, False):  # clear of every line at any size before crossing one
+        for printed in NAME_MM:
+            size = printed / scale
+            w, h = box_size(size)
+            gap = 0.3 * size
+            free = region.buffer(-gap, join_style="mitre")
+            if avoid_lines and not drawn.is_empty:
+                free = free.difference(drawn.buffer(gap))
+            if free.is_empty or w >= b[2] - b[0] or h >= b[3] - b[1]:
+                continue
+            X, Y = (g.ravel() for g in np.meshgrid(np.linspace(b[0], b[2] - w, 40), np.linspace(b[1], b[3] - h, 40)))
+            boxes = shapely.box(X, Y, X + w, Y + h)
+            ok = shapely.contains(free, boxes)
+            if ok.any():
+                k = int(np.argmax(shapely.distance(boxes[ok], free.boundary)))  # the most room round it
+                return float(X[ok][k]), float(Y[ok][k] - descent * size), float(size)
+    size = NAME_MM[-1] / scale
+    w, h = box_size(size)
+    extent = float(max(b[2] - b[0], b[3] - b[1]))
+    cx, cy = polylabel(region, tolerance=max(extent / 200.0, 1e-9)).coords[0]
+    x0, y0 = cx - w / 2, cy - h / 2
+    x0 = min(max(x0, within[0]), within[2] - w)
+    y0 = min(max(y0, within[1]), within[3] - h)
+    return float(x0), float(y0 - descent * size), float(size)
 
 
 def _test_square(c, x_mm: float, y_mm: float, side_mm: float = TEST_SQUARE_MM):
@@ -273,14 +341,29 @@ def _nice_length(limit: float) -> float:
     return k
 
 
+def scale_text(scale: float) -> str:
+    """The drawing's scale (printed mm per sheet mm) as a drawing states it, to 3 significant
+    figures: "scale 1:10.4" for a reduction, "scale 2.25:1" for an enlargement."""
+    if scale >= 1.0:
+        return f"scale {scale:.3g}:1"
+    return f"scale 1:{1 / scale:.3g}"
+
+
 def _scaled_page(c, sheet: Sheet, pw: float, ph: float, title: str, grid=None):
-    """Draw the whole sheet scaled to fit; returns (scale, origin) used."""
+    """Draw the whole sheet scaled to fit, and with ``grid`` the whole tile grid (its
+    tiles reach past a sheet smaller than one); returns (scale, origin) used."""
     W, H = (s + 2 * SHEET_MARGIN_MM for s in sheet.size)
+    fit_w, fit_h, below = W, H, 0.0  # what must fit, in drawing mm: the drawing, the grid's tiles
+    if grid is not None:
+        rows, cols, cw, ch, _ = grid
+        fit_w = max(W, cols * (cw - OVERLAP_MM) + OVERLAP_MM)
+        below = max(0.0, rows * (ch - OVERLAP_MM) + OVERLAP_MM - H)  # the bottom row's reach under y = 0
+        fit_h = H + below
     top, bottom = 22.0, PAGE_MARGIN_MM + TEST_SQUARE_MM + 6.0  # title above; scale bar, test square below
     aw, ah = pw - 2 * PAGE_MARGIN_MM, ph - top - bottom
-    scale = min(aw / W, ah / H)
-    ox = PAGE_MARGIN_MM + 0.5 * (aw - scale * W)
-    oy = bottom + 0.5 * (ah - scale * H)
+    scale = min(aw / fit_w, ah / fit_h)
+    ox = PAGE_MARGIN_MM + 0.5 * (aw - scale * fit_w)
+    oy = bottom + 0.5 * (ah - scale * fit_h) + scale * below
     c.setFont("Helvetica-Bold", 12)
     c.setFillColorRGB(0, 0, 0)
     c.drawString(PAGE_MARGIN_MM * MM, (ph - 14) * MM, title)
@@ -333,7 +416,7 @@ def _scaled_page(c, sheet: Sheet, pw: float, ph: float, title: str, grid=None):
         c.line((x0 + t * scale) * MM, y0 * MM, (x0 + t * scale) * MM, (y0 + h) * MM)
     c.setFont("Helvetica", 8)
     c.drawString((x0 + L * scale + 3) * MM, (y0 - 1) * MM,
-                 f"{L:g} mm    scale 1:{1 / scale:.3g}")
+                 f"{L:g} mm    {scale_text(scale)}")
     c.restoreState()
     return scale, (ox, oy)
 
@@ -350,7 +433,7 @@ def pdf_bytes(sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern")
     c.setTitle(title)
     c.setCreator("flatweave")
 
-    scale, _ = _scaled_page(c, sheet, pw, ph, f"{title}: overview (not to scale)")
+    scale, _ = _scaled_page(c, sheet, pw, ph, f"{title}: overview")  # its scale is stated by the bar
     _footer(c, pw, f"overview, {len(sheet.pieces)} piece(s), {W:.0f} x {H:.0f} mm; "
                    f"print the tiles at 100 % (no fit-to-page)")
     _test_square_corner(c, pw, ph)
