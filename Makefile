@@ -2,6 +2,7 @@
 #
 #   make run    create .venv if needed, install flatweave into it, open the app
 #   make test   install what the tests need (system packages too, as root), run pytest
+#   make test-fast  the same, without the tests marked slow (pytest -m "not slow"): a couple of minutes
 #   make lint   ruff (from the venv's dev extras) on the whole tree, configured in pyproject.toml
 #
 # The venv is (re)installed only when pyproject.toml is newer than the stamp file.
@@ -16,13 +17,16 @@ PYTEST_ARGS ?=
 # image (checked with `ldd .../PySide6/Qt/plugins/platforms/libqxcb.so`).
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: run test lint install system-deps check-qt clean-venv
+.PHONY: run test test-fast lint install system-deps check-qt clean-venv
 
 run: $(STAMP)
 	$(VENV)/bin/flatweave resources/surfaces/octant.json
 
 test: system-deps $(STAMP) check-qt
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+test-fast: system-deps $(STAMP) check-qt
+	$(PY) -m pytest -m "not slow" $(PYTEST_ARGS)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

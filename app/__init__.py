@@ -1,9 +1,10 @@
-"""flatweave app: the desktop GUI (PySide6 + pyvista) on top of :mod:`core`.
+"""flatweave.app: the desktop window (PySide6 + pyvista) over the engine, :mod:`flatweave`.
 
-:mod:`app.view3d`, :mod:`app.view2d`, :mod:`app.viewbase` and :mod:`app.canvas`
-are the only modules that touch pyvista or VTK; :mod:`app.mainwindow` holds the
-window, which puts together its parts (:mod:`app.actions`, :mod:`app.presenter`,
-:mod:`app.files`, :mod:`app.exporting`, :mod:`app.runcontrol`,
-:mod:`app.tooling`); :mod:`app.tools` holds the 3D view's tools; :mod:`app.main`
-is the ``flatweave`` command.
+:mod:`~flatweave.app.view3d`, :mod:`~flatweave.app.view2d`, :mod:`~flatweave.app.viewbase` and
+:mod:`~flatweave.app.canvas` are the only modules that touch pyvista or VTK;
+:mod:`~flatweave.app.mainwindow` holds the window, which puts together its parts
+(:mod:`~flatweave.app.actions`, :mod:`~flatweave.app.presenter`, :mod:`~flatweave.app.files`,
+:mod:`~flatweave.app.exporting`, :mod:`~flatweave.app.runcontrol`, :mod:`~flatweave.app.tooling`);
+:mod:`~flatweave.app.tools` holds the 3D view's tools; :mod:`~flatweave.app.main` is the
+``flatweave`` command (also ``python -m flatweave.app``).
 """

@@ -1,5 +1,5 @@
 """The window's actions: one table (:data:`ACTIONS`, with the tools' rows from
-:data:`app.tooling.TOOLS`) from which the actions, the menus and the toolbar
+:data:`flatweave.app.tooling.TOOLS`) from which the actions, the menus and the toolbar
 are built (:func:`build_actions`, :func:`build_menus`, :func:`build_toolbar`),
 and one function that enables, names and checks them for the window's state
 (:func:`update_actions`).
@@ -13,7 +13,7 @@ from typing import Callable
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QAction, QActionGroup, QKeySequence
 
-from app.tooling import TOOLS
+from flatweave.app.tooling import TOOLS
 
 __all__ = ["ActionSpec", "ACTIONS", "MENUS", "UiState", "build_actions", "build_menus",
            "build_toolbar", "update_actions", "view_choices", "show_view_choices"]
@@ -76,7 +76,7 @@ class ActionSpec:
 
 
 def _has_fit(s: UiState) -> bool:
-    """The document's surface was fitted to a mesh (:class:`core.meshsurf.FittedSurface`)."""
+    """The document's surface was fitted to a mesh (:class:`flatweave.geometry.meshfit.FittedSurface`)."""
     return s.has_doc and getattr(s.document.project.surface, "fit", None) is not None
 
 

@@ -1,6 +1,6 @@
 """What a document change touched, as the app sees it: :class:`Aspect` flags.
 
-:class:`core.document.Change` names its aspects with strings (core has no
+:class:`flatweave.document.history.Change` names its aspects with strings (core has no
 enum for them yet); :func:`aspects_of` is the one place that turns them into
 flags, so a misspelt or new aspect fails here instead of being ignored.
 No Qt here.
@@ -15,7 +15,7 @@ __all__ = ["Aspect", "aspects_of", "HISTORY", "WHOLE"]
 
 
 class Aspect(enum.Flag):
-    """The parts of a project a change can touch (see ``core.document.ASPECTS``)."""
+    """The parts of a project a change can touch (see ``flatweave.document.history.ASPECTS``)."""
 
     NONE = 0
     SURFACE = enum.auto()

@@ -4,7 +4,7 @@ core helpers (Tools > Suggest darts, Solve > Best orientation) share this.
 The call runs in a plain daemon ``threading.Thread`` (core code, no Qt in it);
 ``done(value, error)`` is emitted from that thread and, connected queued,
 reaches the dialog on the GUI thread: the value and None, or None and one line
-(:func:`app.worker.one_line`; an unexpected exception is also printed, since
+(:func:`flatweave.app.worker.one_line`; an unexpected exception is also printed, since
 it is a bug). A fault never leaves the thread, so it never takes the window down.
 """
 
@@ -17,8 +17,8 @@ from collections.abc import Callable
 
 from PySide6.QtCore import QObject, Qt, Signal
 
-from app.worker import one_line
-from core.errors import FlatweaveError
+from flatweave.app.worker import one_line
+from flatweave.errors import FlatweaveError
 
 __all__ = ["BackgroundCall"]
 

@@ -5,7 +5,7 @@ Why two: Qt composes a window holding a ``QOpenGLWidget`` with OpenGL on
 every paint pass, which a software renderer (Mesa's llvmpipe, no GPU, Xvfb)
 pays dearly for; :class:`CanvasPlotter` renders the same pyvista scene off
 screen and paints its pixels into an ordinary widget, so the window stays a
-raster window (measurements in docs/decisions.md, App).
+raster window (measurements in docs/decisions/0009-window-on-software-opengl.md).
 
 ``FLATWEAVE_VIEW`` chooses: ``gl`` (pyvistaqt), ``canvas``, or ``auto`` (the
 default): the canvas when Qt's OpenGL renderer is a software one, pyvistaqt
@@ -28,7 +28,7 @@ from pyvistaqt import QtInteractor
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-from app.choices import VIEW_KINDS, view_setting
+from flatweave.app.choices import VIEW_KINDS, view_setting
 
 __all__ = ["CanvasPlotter", "GLPlotter", "make_plotter", "view_kind", "is_software_renderer", "VIEW_KINDS"]
 
@@ -92,7 +92,7 @@ class GLPlotter(QtInteractor):
     VTK's Python wrapping keeps the GIL through that call: only methods VTK
     marks ``VTK_UNBLOCKTHREADS``, ``vtkRenderWindow.Render()`` among them,
     release it. So every render of a view stopped the solve thread for its
-    whole length (docs/decisions.md, App). Here the interactor's own render is switched off
+    whole length (docs/decisions/0009-window-on-software-opengl.md). Here the interactor's own render is switched off
     for the paint and a ``RenderEvent`` observer, first in line, renders the
     window instead: the same render, events and order, without the GIL.
     """
@@ -134,7 +134,7 @@ class GLPlotter(QtInteractor):
     def close(self) -> None:
         super().close()
         # pyvistaqt's wrappers of the Qt-owned GL context and surface must not outlive
-        # them: shiboken can hand a stale one out for a new object (docs/decisions.md, App).
+        # them: shiboken can hand a stale one out for a new object (docs/decisions/0009-window-on-software-opengl.md).
         forget = getattr(self, "_forget_context", None)
         if forget is not None:
             forget()

@@ -2,10 +2,11 @@
 (``--view`` / ``FLATWEAVE_VIEW``) and the solvers.
 
 No Qt or VTK here: the command checks its options before it loads either, and
-:mod:`app.canvas` and :mod:`app.panels` read the same lists.
+:mod:`flatweave.app.canvas` and :mod:`flatweave.app.panels` read the same lists.
 """
 
 from __future__ import annotations
+from flatweave.method.solvers import solver_labels as labels
 
 __all__ = ["VIEW_KINDS", "view_setting", "solver_labels"]
 
@@ -23,7 +24,6 @@ def view_setting(text: str | None) -> str:
 
 def solver_labels() -> dict[str, str]:
     """The iterative solvers of the paper's spring method by name, with the settings
-    panel's label of each (``--solver``'s choices), from :mod:`core.solvers`."""
-    from core.solvers import solver_labels as labels
+    panel's label of each (``--solver``'s choices), from :mod:`flatweave.method.solvers`."""
 
     return labels("spring", iterative=True)

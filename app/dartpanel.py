@@ -12,14 +12,16 @@ from __future__ import annotations
 
 import math
 
-from PySide6.QtCore import QSignalBlocker, QSize, Qt, Signal
+from PySide6.QtCore import QSignalBlocker, Qt, Signal
 from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox,
                                QHBoxLayout, QLabel, QLineEdit, QListWidget, QListWidgetItem, QPushButton,
                                QToolButton, QVBoxLayout, QWidget)
 
-from core.project import Project
+from flatweave.document.project import Project
 
-from app.panels import NumberEdit
+from flatweave.app.panels import NumberEdit
+from flatweave.app.regionpanel import RegionList
+from flatweave.app.shortlist import ShortList
 
 __all__ = ["DartPanel", "ShortList", "parse_numbers", "format_numbers", "yarn_label"]
 
@@ -38,24 +40,6 @@ def parse_numbers(text: str, n: int, what: str) -> tuple[float, ...]:
 
 def format_numbers(values) -> str:
     return ", ".join(f"{float(v):.6g}" for v in values)
-
-
-class ShortList(QListWidget):
-    """A list that asks for ``rows`` rows (a QListWidget asks for about ten):
-    the side panel's scroll area sizes the dock by its parts' preferred
-    heights, so two tall lists pushed the energy plot below the fold and added
-    a scroll bar. It still grows into the room there is (expanding policy)."""
-
-    def __init__(self, rows: int, parent=None):
-        super().__init__(parent)
-        self.rows = rows
-
-    def sizeHint(self) -> QSize:
-        h = self.rows * max(self.sizeHintForRow(0), self.fontMetrics().height() + 4) + 2 * self.frameWidth() + 4
-        return QSize(super().sizeHint().width(), h)
-
-    def minimumSizeHint(self) -> QSize:
-        return QSize(super().minimumSizeHint().width(), min(self.minimumHeight() or 10**6, self.sizeHint().height()))
 
 
 def yarn_label(y) -> str:
@@ -179,7 +163,6 @@ class DartPanel(QWidget):
         form.addRow(row)
         self.yarn_box.hide()
         layout.addWidget(self.yarn_box)
-        from app.regionpanel import RegionList  # (it imports ShortList from here)
         self.regions = RegionList()
         layout.addWidget(self.regions)
         layout.addStretch(1)

@@ -1,13 +1,13 @@
 """File > Export: the dialog (file, format, seam allowance, units, paper),
-the thread that writes the files with :mod:`core.export`, and the window's
+the thread that writes the files with :mod:`flatweave.export.registry`, and the window's
 export commands (:class:`Exports`).
 
 The format follows the file name's suffix (and choosing a format changes the
 suffix); "every format" writes one file per format next to each other. An
-export that would surprise (:func:`core.export.surprises`: a PDF of hundreds of
+export that would surprise (:func:`flatweave.export.registry.surprises`: a PDF of hundreds of
 pages, a piece metres across) is asked about first; No writes nothing and
 leaves the dialog open. The files are written off the GUI thread (a tiled PDF
-takes about a second), each atomically by ``core.export``.
+takes about a second), each atomically by ``flatweave.export.registry``.
 """
 
 from __future__ import annotations
@@ -21,18 +21,21 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, 
                                QFormLayout, QHBoxLayout, QLabel, QLineEdit, QMessageBox, QPushButton, QVBoxLayout,
                                QWidget)
 
-from core.errors import FlatweaveError
-from core.export import (DXF_VARIANTS, FORMATS, OBJ_TEXTURES, PAPERS, UNITS, ExportOptions, dialog_filter, export_all,
-                         surprises)
-from core.pipeline import FlattenResult
+from flatweave.errors import FlatweaveError
+from flatweave.export.dxf import VARIANTS as DXF_VARIANTS
+from flatweave.export.registry import FORMATS, ExportOptions, dialog_filter, export_all, surprises
+from flatweave.export.sheet import UNITS
+from flatweave.export.mesh3d import OBJ_TEXTURES
+from flatweave.export.pdf import PAPERS
+from flatweave.method.result import FlattenResult
 
-from app.worker import one_line
+from flatweave.app.worker import one_line
 
 __all__ = ["ExportDialog", "ExportThread", "Exports", "export_paths", "export_filter"]
 
 
 def export_filter() -> str:
-    """The export file dialog's filter: one entry per registered format (:mod:`core.export`)."""
+    """The export file dialog's filter: one entry per registered format (:mod:`flatweave.export.registry`)."""
     return dialog_filter()
 
 
@@ -71,7 +74,7 @@ class ExportDialog(QDialog):
     """Where and how to export. ``paths()`` and ``options()`` once accepted.
 
     ``check(paths, options)``, if given, lists the export's surprises
-    (:class:`core.export.Surprise`); Export asks about them and accepts only on Yes.
+    (:class:`flatweave.export.registry.Surprise`); Export asks about them and accepts only on Yes.
     """
 
     def __init__(self, path: Path, units: str, name: str, seam_allowance_mm: float = 10.0, paper: str = "a4",

@@ -1,13 +1,13 @@
 """The face picker: which face of a STEP or IGES file with several faces to open.
 
 A non-modal dialog lists the file's faces (index, kind, area, trimmed) and
-shows them all in a 3D view of its own (:class:`app.view3d.FaceView`), each
+shows them all in a 3D view of its own (:class:`flatweave.app.view3d.FaceView`), each
 face's surface sampled on a (u, v) grid and cut to its trimmed region
 (:func:`face_mesh`). A click on a face in the view or a row of the list
 chooses it (the others are drawn faint); a shift-click (in the view or the
 list) adds a face to the choice, or takes it out again. OK emits
 ``chosen(index)`` for one face, ``joined(indices)`` for several: the window
-joins them into one surface (:func:`core.cad.join_faces`), so that a piece
+joins them into one surface (:func:`flatweave.reading.cad.join_faces`), so that a piece
 can cross a fillet.
 """
 
@@ -18,10 +18,10 @@ from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (QAbstractItemView, QDialog, QDialogButtonBox, QHBoxLayout, QLabel,
                                QListWidget, QListWidgetItem, QVBoxLayout)
 
-from core.region import region_from_cad_face
+from flatweave.geometry.region import region_from_cad_face
 
-from app.presenter import piece_grid
-from app.view3d import FaceView
+from flatweave.app.presenter import piece_grid
+from flatweave.app.view3d import FaceView
 
 __all__ = ["FacePicker", "face_mesh", "face_label", "PICK_GRID"]
 
@@ -29,7 +29,7 @@ PICK_GRID = 40  # (u, v) samples a side of each face's mesh
 
 
 def face_mesh(face, n: int = PICK_GRID) -> tuple[np.ndarray, np.ndarray]:
-    """A CAD face (:class:`core.cad.CadFace`) as a triangle mesh on its
+    """A CAD face (:class:`flatweave.reading.cad.CadFace`) as a triangle mesh on its
     surface: points (n*n, 3) and triangles (m, 3), the grid's quads whose
     centres lie in the face's trimmed region, two triangles each."""
     _, xyz, _, keep, _ = piece_grid(face.surface, region_from_cad_face(face), n)
@@ -66,7 +66,7 @@ class ViewDialog(QDialog):
 
 
 class FacePicker(ViewDialog):
-    """Choose a face of ``opened`` (a :class:`core.readers.Opened` with
+    """Choose a face of ``opened`` (a :class:`flatweave.reading.registry.Opened` with
     ``cad``), or several to join. On OK ``chosen(index)`` is emitted with one
     face chosen, ``joined(indices)`` (a tuple, in the order they were chosen)
     with several; the dialog deletes itself when it closes."""

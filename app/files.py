@@ -1,9 +1,9 @@
 """Open, save, save as, autosave and recovery for the window.
 
-:func:`core.readers.open_path` decides whether a file is a project or a
+:func:`flatweave.reading.registry.open_path` decides whether a file is a project or a
 surface (the command uses it too); :func:`open_filter` and
 :func:`project_filter` build the file dialogs' filters. Work is never lost: a
-:class:`core.recovery.Session` autosaves the document (every minute when it
+:class:`flatweave.document.recovery.Session` autosaves the document (every minute when it
 changed, and after every solve) on a background thread,
 :meth:`Files.check_recovery` offers back what a crashed session left, and saves
 keep the last few versions as backups.
@@ -21,16 +21,17 @@ from PySide6.QtCore import QObject, Qt, QTimer, Signal
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import QFileDialog, QMessageBox
 
-from core.errors import FlatweaveError
-from core.examples import example_info, example_path, list_examples
-from core.project import PROJECT_SUFFIX, UNITS, Project
-from core.recovery import Orphan, Session, find_orphans, save_with_backups
-from core.readers import dialog_filter, open_path, reader_for
+from flatweave.errors import FlatweaveError
+from flatweave.reading.examples import example_info, example_path, list_examples
+from flatweave.document.project import PROJECT_SUFFIX, UNITS, Project
+from flatweave.document.recovery import Orphan, Session, find_orphans, save_with_backups
+from flatweave.reading.registry import dialog_filter, open_path, reader_for
 
-from app.actions import view_choices
-from app.facepicker import FacePicker
-from app.meshpicker import MeshLoopPicker
-from app.worker import one_line
+from flatweave.app.actions import view_choices
+from flatweave.app.facepicker import FacePicker
+from flatweave.app.meshpicker import MeshLoopPicker
+from flatweave.app.worker import one_line
+from flatweave.reading.cad import join_faces
 
 __all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS", "stored_view"]
 
@@ -43,7 +44,7 @@ def stored_view(project: Project) -> dict:
 
 
 def open_filter() -> str:
-    """The Open dialog's filter: every registered reader (:mod:`core.readers`)."""
+    """The Open dialog's filter: every registered reader (:mod:`flatweave.reading.registry`)."""
     return dialog_filter() + ";;All files (*)"
 
 
@@ -60,7 +61,7 @@ def example_units(units) -> str:
 class Files(QObject):
     """The window's files. ``window`` gives the document, ``set_project``,
     ``set_surface``, ``show_error`` and the status bar. ``recovery``: autosave
-    to a recovery file (see :mod:`core.recovery`)."""
+    to a recovery file (see :mod:`flatweave.document.recovery`)."""
 
     autosave_failed = Signal(str)  # from the autosave thread
 
@@ -152,7 +153,7 @@ class Files(QObject):
 
     def open_mesh_region(self, opened, loop3d, asked_at: int | None = None) -> bool:
         """Open the piece of a closed mesh inside ``loop3d`` ((k, 3) points drawn on it) as a
-        new document (:meth:`core.meshsurf.MeshFile.cut`: the smaller side of the loop)."""
+        new document (:meth:`flatweave.geometry.meshfit.MeshFile.cut`: the smaller side of the loop)."""
         doc = self.window.document
         if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
             return False
@@ -167,7 +168,7 @@ class Files(QObject):
         return True
 
     def open_face(self, opened, index: int, asked_at: int | None = None) -> bool:
-        """Open face ``index`` of a CAD file (``opened``, :func:`core.readers.open_path`'s)
+        """Open face ``index`` of a CAD file (``opened``, :func:`flatweave.reading.registry.open_path`'s)
         as a new document: its surface and trimmed region; the project's name and
         source say which face of which file (``source`` is ``"path#face=N"``).
         Unsaved work is asked about unless it was when the file was opened
@@ -188,12 +189,10 @@ class Files(QObject):
 
     def open_faces(self, opened, faces, asked_at: int | None = None) -> bool:
         """Open faces ``faces`` of a CAD file joined into one surface
-        (:func:`core.cad.join_faces`: tessellated, welded, fitted as a mesh) as a
+        (:func:`flatweave.reading.cad.join_faces`: tessellated, welded, fitted as a mesh) as a
         new document; ``source`` is ``"path#faces=2,5,7"``, and the project keeps
         the fitted surface, so it reopens without the CAD file."""
         from PySide6.QtWidgets import QApplication
-
-        from core.cad import join_faces
 
         doc = self.window.document
         if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):

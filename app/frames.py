@@ -17,15 +17,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from core.darts import DartSet
-from core.mesh import DIAG, SpringMesh
-from core.fibres import cell_fibres, reference_direction
-from core.metrics import area_beyond_lock_pct, cell_areas, cell_shear_deg, spring_strain
-from core.nurbs import NurbsSurface
-from core.pattern import Pattern, make_pattern
-from core.pipeline import FlattenResult, FlattenSettings
-from core.quadrature import boundary_length, region_area
-from core.region import cover_for
+from flatweave.method.darts import DartSet
+from flatweave.method.lattice import DIAG, SpringMesh
+from flatweave.method.fibres import cell_fibres, reference_direction
+from flatweave.method.metrics import area_beyond_lock_pct, cell_areas, cell_shear_deg, spring_strain
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.method.pattern import Pattern, make_pattern
+from flatweave.method.result import FlattenResult
+from flatweave.method.settings import FlattenSettings
+from flatweave.geometry.quadrature import boundary_length, region_area
+from flatweave.geometry.region import cover_for
 
 __all__ = ["Frame", "FrameMaker"]
 
@@ -52,7 +53,7 @@ class Frame:
     draping (property) : a frame of the drape (the mesh being laid; no energy yet)
     status : the solver's message (final frames)
     fibre : (c,) the weft's signed deviation from the rosette per cell, degrees
-        (:mod:`core.fibres`; NaN where the rosette does not reach)
+        (:mod:`flatweave.method.fibres`; NaN where the rosette does not reach)
     """
 
     topology: int
@@ -118,7 +119,7 @@ class FrameMaker:
 
     @property
     def total_curvature(self) -> float:
-        """The piece's integrated Gaussian curvature (cached by its :class:`core.region.Cover`)."""
+        """The piece's integrated Gaussian curvature (cached by its :class:`flatweave.geometry.region.Cover`)."""
         return cover_for(self.surface, self.settings.region).total_curvature
 
     def dart_curves(self) -> tuple:
@@ -191,7 +192,7 @@ class FrameMaker:
                 "area_error_pct": 100 * abs(pattern.area - self.A3) / self.A3}
 
     def from_snapshot(self, snap, pattern: Pattern | None = None) -> Frame:
-        """A live frame from a :class:`core.solver.Snapshot`."""
+        """A live frame from a :class:`flatweave.method.solver.Snapshot`."""
         return self.frame(snap.mesh, snap.uv, snap.xyz, snap.iteration, snap.energy, snap.seconds,
                           strain=snap.strain, pattern=pattern)
 

@@ -14,7 +14,7 @@ make the scripted mode used for documentation and smoke tests::
 
 which exits 0, or 1 with a one-line message when the solve fails or takes
 longer than ``--timeout``; a file that cannot be read exits 2. ``--view``
-(or ``FLATWEAVE_VIEW``) picks the views' render widget, see :mod:`app.canvas`.
+(or ``FLATWEAVE_VIEW``) picks the views' render widget, see :mod:`flatweave.app.canvas`.
 """
 
 from __future__ import annotations
@@ -24,7 +24,10 @@ import os
 import sys
 from pathlib import Path
 
-from app.choices import VIEW_KINDS, solver_labels, view_setting  # no Qt or VTK: checked before either loads
+from flatweave.app.choices import VIEW_KINDS, solver_labels, view_setting  # no Qt or VTK: checked before either loads
+from flatweave.reading.registry import open_path
+from flatweave.app.nonefix import keep_none_alive
+from flatweave.errors import FlatweaveError
 
 DEFAULT_EXAMPLE = "octant"
 READY_POLL_MS = 50
@@ -68,7 +71,6 @@ def build_parser() -> argparse.ArgumentParser:
 def load_start_project(args):
     """The project to open: a project file, or a surface with default settings
     (a bundled example's recommended spacing and units when FILE is one)."""
-    from core.readers import open_path
 
     opened = open_path(args.file if args.file is not None else DEFAULT_EXAMPLE)
     project = opened.as_project()
@@ -90,12 +92,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.view:
         os.environ["FLATWEAVE_VIEW"] = view
 
-    from app.nonefix import keep_none_alive
-
     keep_none_alive()  # before any Qt call
 
     # Load before any Qt work: a bad file is a one-line error, status 2.
-    from core.errors import FlatweaveError
 
     try:
         project, project_path = load_start_project(args)
@@ -106,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
 
-    from app.mainwindow import MainWindow
+    from flatweave.app.mainwindow import MainWindow  # Qt and VTK load once the arguments, view and file are known
 
     app = QApplication.instance() or QApplication([sys.argv[0] if sys.argv else "flatweave"])
     app.setApplicationName("flatweave")

@@ -4,16 +4,16 @@ settings and progress dock, the metrics, menus, a toolbar and a status bar.
 The window builds the widgets and puts its parts together (see
 docs/ARCHITECTURE.md); each part holds one concern:
 
-* :mod:`app.actions`: the one table of actions, menus and toolbar, and the one
+* :mod:`flatweave.app.actions`: the one table of actions, menus and toolbar, and the one
   place that enables them (:meth:`MainWindow.update_actions`);
-* :mod:`app.presenter`: document changes (as :class:`app.aspects.Aspect`
+* :mod:`flatweave.app.presenter`: document changes (as :class:`flatweave.app.aspects.Aspect`
   flags) and solve frames turned into view updates;
-* :mod:`app.files`: open, save, autosave and recovery;
-* :mod:`app.exporting`: File > Export;
-* :mod:`app.runcontrol`: Run, Pause, Stop, re-runs and a run's end;
-* :mod:`app.tooling`: the 3D view's tools (one table) and the darts panel's edits.
+* :mod:`flatweave.app.files`: open, save, autosave and recovery;
+* :mod:`flatweave.app.exporting`: File > Export;
+* :mod:`flatweave.app.runcontrol`: Run, Pause, Stop, re-runs and a run's end;
+* :mod:`flatweave.app.tooling`: the 3D view's tools (one table) and the darts panel's edits.
 
-The document is a :class:`core.document.Document`; every user edit is one
+The document is a :class:`flatweave.document.history.Document`; every user edit is one
 ``Document.apply``, and the window is its one listener
 (:meth:`_on_document_changed`), which hands the change to its parts.
 """
@@ -27,23 +27,25 @@ from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (QDockWidget, QHBoxLayout, QLabel, QMainWindow, QMessageBox, QScrollArea, QSplitter,
                                QTabWidget, QToolButton, QVBoxLayout, QWidget)
 
-from core.document import Change, Document
-from core.errors import FlatweaveError
-from core.nurbs import NurbsSurface
-from core.project import Project, new_project
+from flatweave.document.history import Change, Document
+from flatweave.errors import FlatweaveError
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.document.project import Project, new_project
 
-from app.actions import UiState, build_actions, build_menus, build_toolbar, show_view_choices, update_actions
-from app.aspects import aspects_of
-from app.dartpanel import DartPanel
-from app.exporting import Exports
-from app.files import Files, stored_view
-from app.panels import MetricsPanel, SettingsPanel
-from app.plot import EnergyPlot
-from app.presenter import Presenter
-from app.runcontrol import NO_DOCUMENT, RunControl
-from app.tooling import TOOLS, ToolControl
-from app.view2d import PatternView
-from app.view3d import SurfaceView
+from flatweave.app.actions import UiState, build_actions, build_menus, build_toolbar, show_view_choices, update_actions
+from flatweave.app.aspects import aspects_of
+from flatweave.app.dartpanel import DartPanel
+from flatweave.app.exporting import Exports
+from flatweave.app.files import Files, stored_view
+from flatweave.app.panels import MetricsPanel, SettingsPanel
+from flatweave.app.plot import EnergyPlot
+from flatweave.app.presenter import Presenter
+from flatweave.app.runcontrol import NO_DOCUMENT, RunControl
+from flatweave.app.tooling import TOOLS, ToolControl
+from flatweave.app.view2d import PatternView
+from flatweave.app.view3d import SurfaceView
+from flatweave.app.suggest import SuggestDialog
+from flatweave.app.sweepdialog import SweepDialog
 
 __all__ = ["MainWindow", "freeze_long_lived_objects"]
 
@@ -54,7 +56,7 @@ def freeze_long_lived_objects() -> None:
     """Move every object alive now (modules, Qt and VTK wrappers, the window)
     out of the cyclic garbage collector's reach, once per process: a full
     collection then walks only newer objects and no longer stalls the event
-    loop (docs/decisions.md, App). Objects made later are collected as usual."""
+    loop (docs/decisions/0009-window-on-software-opengl.md). Objects made later are collected as usual."""
     global _GC_FROZEN
     if not _GC_FROZEN:
         _GC_FROZEN = True
@@ -90,7 +92,7 @@ class MainWindow(QMainWindow):
     export_failed = Signal(str)
 
     def __init__(self, parent: QWidget | None = None, recovery: bool = True):
-        """``recovery``: autosave to a recovery file (see :mod:`core.recovery`)."""
+        """``recovery``: autosave to a recovery file (see :mod:`flatweave.document.recovery`)."""
         super().__init__(parent)
         self.document: Document | None = None
         self.last_error: str | None = None  # the last error shown, one line
@@ -329,8 +331,7 @@ class MainWindow(QMainWindow):
             QTimer.singleShot(0, self.view.reset_camera)
 
     def suggest_dialog(self):
-        """Tools > Suggest darts (:mod:`app.suggest`): one dialog at a time, non-modal."""
-        from app.suggest import SuggestDialog
+        """Tools > Suggest darts (:mod:`flatweave.app.suggest`): one dialog at a time, non-modal."""
 
         if self.document is None:
             return None
@@ -344,8 +345,7 @@ class MainWindow(QMainWindow):
         return self.suggest_box
 
     def sweep_dialog(self):
-        """Solve > Best orientation (:mod:`app.sweepdialog`): one dialog at a time, non-modal."""
-        from app.sweepdialog import SweepDialog
+        """Solve > Best orientation (:mod:`flatweave.app.sweepdialog`): one dialog at a time, non-modal."""
 
         if self.document is None:
             return None

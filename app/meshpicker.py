@@ -1,9 +1,9 @@
 """The region of a closed mesh: a mesh with no boundary (a scanned body, a
 last) cannot be covered whole, so when one is opened the window shows it in a
-non-modal dialog of its own (:class:`app.view3d.MeshLoopView`) and asks for
+non-modal dialog of its own (:class:`flatweave.app.view3d.MeshLoopView`) and asks for
 the piece's outline: clicks on the mesh place points, the loop through them is
 drawn, Backspace takes one back, and OK emits ``chosen(loop3d)``; the window
-then cuts the piece out (:meth:`core.meshsurf.MeshFile.cut`, the smaller side
+then cuts the piece out (:meth:`flatweave.geometry.meshfit.MeshFile.cut`, the smaller side
 of the loop, as ``--region {"loop3d": ...}`` does) and opens it.
 """
 
@@ -14,15 +14,15 @@ from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QKeySequence, QShortcut
 from PySide6.QtWidgets import QDialogButtonBox, QLabel, QPushButton, QVBoxLayout
 
-from app.facepicker import ViewDialog
-from app.view3d import MeshLoopView
+from flatweave.app.facepicker import ViewDialog
+from flatweave.app.view3d import MeshLoopView
 
 __all__ = ["MeshLoopPicker"]
 
 
 class MeshLoopPicker(ViewDialog):
     """Draw the piece's outline on ``opened``'s closed mesh (a
-    :class:`core.readers.Opened` with ``mesh``); the dialog deletes itself
+    :class:`flatweave.reading.registry.Opened` with ``mesh``); the dialog deletes itself
     when it closes."""
 
     chosen = Signal(object)  # (k, 3) float: the loop drawn

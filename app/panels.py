@@ -1,6 +1,6 @@
 """The side panels: the settings a user edits and the headline metrics.
 
-:class:`SettingsPanel` shows a :class:`~core.project.Project`'s settings and
+:class:`SettingsPanel` shows a :class:`~flatweave.document.project.Project`'s settings and
 reports every committed edit as ``settings_edited(label, changes)`` (fields of
 FlattenSettings) or ``display_edited(label, changes)`` (units, shear angles);
 it never changes the document itself: the window turns each report into one
@@ -21,13 +21,14 @@ from PySide6.QtGui import QDoubleValidator, QKeySequence
 from PySide6.QtWidgets import (QAbstractSpinBox, QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox,
                                QHBoxLayout, QLabel, QLineEdit, QSpinBox, QVBoxLayout, QWidget)
 
-from core.errors import SettingsError
-from core.mesh import MATERIALS, Material, parse_material
-from core.metrics import Verdict, metric_limits
-from core.pipeline import judge_result
-from core.project import UNITS, Project
+from flatweave.errors import SettingsError
+from flatweave.method.lattice import MATERIALS, Material, parse_material
+from flatweave.method.metrics import Verdict, metric_limits
+from flatweave.method.result import judge_result
+from flatweave.document.project import UNITS, Project
 
-from app.choices import solver_labels
+from flatweave.app.choices import solver_labels
+from flatweave.geometry.region import with_offset
 
 __all__ = ["NumberEdit", "SettingsPanel", "MetricsPanel", "DocumentUndoKeys"]
 
@@ -238,7 +239,6 @@ class SettingsPanel(QWidget):
         p = self._project
         if self._loading or p is None:
             return
-        from core.region import with_offset
 
         s = p.settings
         try:
@@ -326,7 +326,7 @@ METRIC_COLOURS = ("#207020", "#b36b00", "#c00000")  # within the limits, past th
 
 def metric_colour(value: float, limits: tuple[float, float]) -> str:
     """The colour of a value against its (warning, bad) thresholds
-    (:func:`core.metrics.metric_limits`)."""
+    (:func:`flatweave.method.metrics.metric_limits`)."""
     warn, bad = limits
     return METRIC_COLOURS[2 if value > bad else 1 if value > warn else 0]
 
@@ -335,7 +335,7 @@ class MetricsPanel(QWidget):
     """Headline numbers of the pattern shown: energy, boundary and area error,
     max shear, max thread strain, uncovered share, size, nodes, iterations,
     solver status and the result's warnings. Every number that has a limit
-    (:func:`core.metrics.metric_limits`: the material's and the project's
+    (:func:`flatweave.method.metrics.metric_limits`: the material's and the project's
     shear angles) is coloured against it."""
 
     ROWS = (("energy", "Energy EN"), ("boundary", "Boundary error"), ("area", "Area error"),
@@ -420,9 +420,9 @@ class MetricsPanel(QWidget):
         self.labels["warnings"].setText("\n".join(self.warnings) if self.warnings else "none" if frame.final else "-")
 
     def _verdict(self, project: Project) -> Verdict | None:
-        """The document's result's :class:`core.metrics.Verdict` for the project's shear angles
+        """The document's result's :class:`flatweave.method.metrics.Verdict` for the project's shear angles
         (made once per result and angles: the shear warning needs every cell's shear); the
-        core's judgement, as the CLI and the result file have it (:func:`core.pipeline.judge_result`)."""
+        core's judgement, as the CLI and the result file have it (:func:`flatweave.method.pipeline.judge_result`)."""
         r = project.result
         if r is None:
             return None

@@ -1,10 +1,10 @@
 """Turns document changes and solve frames into view updates.
 
 :meth:`Presenter.document_changed` gets what a change touched as
-:class:`app.aspects.Aspect` flags and updates the 3D view, the pattern view,
+:class:`flatweave.app.aspects.Aspect` flags and updates the 3D view, the pattern view,
 the metrics, the energy plot, the panels and the status labels that show those
 aspects, nothing else. The views own the VTK objects; this hands them numpy
-arrays (frames) and :class:`app.viewbase.ViewOptions`.
+arrays (frames) and :class:`flatweave.app.viewbase.ViewOptions`.
 """
 
 from __future__ import annotations
@@ -16,15 +16,19 @@ import numpy as np
 from PySide6.QtGui import QCursor
 from PySide6.QtWidgets import QToolTip
 
-from core.energy import yarn_nodes
-from core.errors import FlatweaveError
-from core.nurbs import NurbsSurface
-from core.project import Project
+from flatweave.method.energy import yarn_nodes
+from flatweave.errors import FlatweaveError
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.document.project import Project
 
-from app.aspects import HISTORY, WHOLE, Aspect
-from app.frames import FrameMaker
-from app.plot import result_note
-from app.viewbase import ViewOptions
+from flatweave.app.aspects import HISTORY, WHOLE, Aspect
+from flatweave.app.frames import FrameMaker
+from flatweave.app.plot import result_note
+from flatweave.app.viewbase import ViewOptions
+from flatweave.geometry.region import cover_for
+from flatweave.geometry.region import loops_on_surface
+from flatweave.reading.meshes import fit_mesh
+from flatweave.geometry.meshfit import vertex_deviation
 
 __all__ = ["Presenter", "surface_grid", "piece_grid", "piece_surface", "PieceSurface", "PieceCut", "history_rows",
            "fit_summary", "GRID_POINTS"]
@@ -34,9 +38,9 @@ CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
 KEEP_PATTERN_FOR_LIVE_FRAMES = True
 """A live frame without a pattern leaves the pattern view as it is when that shows a pattern (the
 last result's, or an earlier frame's): it changes when the run has a pattern of its own. The first
-frame of a re-solve has none (``app.worker.FIRST_PATTERN_AT_ONCE``), and drawing its mesh in the pattern
+frame of a re-solve has none (``flatweave.app.worker.FIRST_PATTERN_AT_ONCE``), and drawing its mesh in the pattern
 view (the grain label placed anew, a second view repainted) was about a third of the GUI's time on it
-(docs/decisions.md, "Live frames within a tenth of the run"). A paused run's frame and a dragged
+(docs/decisions/0044-live-frames-paced-first-frame-shows-the-v.md). A paused run's frame and a dragged
 point's previews go to both views as before (the designer is looking at that state)."""
 
 
@@ -55,7 +59,7 @@ def surface_grid(surface: NurbsSurface, n: int = GRID_POINTS):
 
 def piece_grid(surface: NurbsSurface, region=None, n: int = GRID_POINTS):
     """A surface's grid (:func:`surface_grid`) cut to a trimmed piece's region
-    (a :class:`core.region.Region`; None: the whole domain).
+    (a :class:`flatweave.geometry.region.Region`; None: the whole domain).
 
     Returns uv, xyz, normals as :func:`surface_grid`, keep : (n-1, n-1) bool,
     the quads whose centres lie in the region (None untrimmed), and loops :
@@ -63,7 +67,6 @@ def piece_grid(surface: NurbsSurface, region=None, n: int = GRID_POINTS):
     uv, xyz, normals = surface_grid(surface, n)
     if region is None:
         return uv, xyz, normals, None, None
-    from core.region import cover_for
 
     cover = cover_for(surface, region)
     loops = [surface.points(loop) for loop in cover.loops]
@@ -91,7 +94,7 @@ class PieceSurface(NamedTuple):
     (n, n, 3) the grid (:func:`surface_grid`); ``keep`` (n-1, n-1) bool, the grid's quads lying
     wholly in the piece, or None: every quad; ``cut`` the quads the loops cross, cut to the piece
     (:class:`PieceCut`), or None; ``loops`` the region's loops along the surface ((k, 3) each,
-    :func:`core.region.loops_on_surface`), or None for the whole domain."""
+    :func:`flatweave.geometry.region.loops_on_surface`), or None for the whole domain."""
 
     xyz: np.ndarray
     normals: np.ndarray
@@ -101,11 +104,10 @@ class PieceSurface(NamedTuple):
 
 
 def piece_surface(surface: NurbsSurface, region=None, n: int = GRID_POINTS) -> PieceSurface:
-    """The surface as the 3D view draws it with a region (a :class:`core.region.Region`; None:
+    """The surface as the 3D view draws it with a region (a :class:`flatweave.geometry.region.Region`; None:
     the whole domain): the piece only, the grid's quads clipped to the region in (u, v), so that
     the surface ends on its loops; a drawn region (``region.drawn``) keeps the whole surface in
     sight (the designer edits its boundary on it). The loops are sampled along the surface."""
-    from core.region import cover_for, loops_on_surface
 
     uv, xyz, normals = surface_grid(surface, n)
     if region is None:
@@ -145,7 +147,7 @@ def _clip_cells(surface: NurbsSurface, polygon, uv: np.ndarray) -> tuple[np.ndar
 
 
 def fit_summary(fit, units: str = "m") -> str:
-    """The metrics' line for a surface fitted to a mesh (:class:`core.meshsurf.MeshFit`):
+    """The metrics' line for a surface fitted to a mesh (:class:`flatweave.geometry.meshfit.MeshFit`):
     its largest and mean vertex deviation in model units and as a share of the mesh's size."""
     if fit is None:
         return "-"
@@ -278,7 +280,6 @@ class Presenter:
             return self._fit_drawn is surface and surface is not None
         if self._fit_failed is surface and not retry:
             return False
-        from core.meshsurf import fit_mesh, vertex_deviation
         try:
             mesh = fit_mesh(surface)
         except (FlatweaveError, OSError) as exc:
@@ -320,8 +321,7 @@ class Presenter:
         self.show_kept_regions(project)
 
     def show_kept_regions(self, project: Project) -> None:
-        """The shown candidate regions' loops (core.candidates), faint, beside the active region."""
-        from core.region import cover_for
+        """The shown candidate regions' loops (flatweave.document.candidates), faint, beside the active region."""
         loops = [project.surface.points(p) for c in project.candidates
                  if c.visible and c.region is not None for p in cover_for(project.surface, c.region).loops]
         self.view.set_kept_regions(loops)
@@ -370,7 +370,8 @@ class Presenter:
         w = self.window
         self.frame = frame
         opts = self.view_options
-        # Both views repaint in one paint pass: cheaper than a pass each (docs/decisions.md, App).
+        # Both views repaint in one paint pass: cheaper than a pass each
+        # (docs/decisions/0009-window-on-software-opengl.md).
         self.view.show_frame(frame, opts)
         shown = self.pattern_frame
         runs = getattr(w, "runs", None)

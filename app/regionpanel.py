@@ -1,4 +1,4 @@
-"""The darts panel's list of candidate regions (issue 21, :mod:`core.candidates`):
+"""The darts panel's list of candidate regions (:mod:`flatweave.document.candidates`):
 the active region first, then the regions kept beside it (tick to show one on
 the surface, double-click to rename); Keep copy, Use (make the selected one
 active) and Delete. Shown once there is a region. It never changes the document: each button or edit is
@@ -11,10 +11,10 @@ from PySide6.QtCore import QSignalBlocker, Qt, Signal
 from PySide6.QtGui import QFont
 from PySide6.QtWidgets import QAbstractItemView, QGroupBox, QHBoxLayout, QListWidgetItem, QToolButton, QVBoxLayout
 
-from core import candidates as cand
-from core.project import Project
+from flatweave.document import candidates as cand
+from flatweave.document.project import Project
 
-from app.dartpanel import ShortList
+from flatweave.app.shortlist import ShortList
 
 __all__ = ["RegionList"]
 

@@ -18,12 +18,12 @@ import time
 
 from PySide6.QtCore import QCoreApplication, QEvent, QObject, QTimer
 
-from core.project import Project, settings_equal, warm_start
+from flatweave.document.project import Project, settings_equal, warm_start
 
-from app.aspects import HISTORY, Aspect
-from app.plot import result_note
-from app.runner import Runner
-from app.worker import RunOutcome
+from flatweave.app.aspects import HISTORY, Aspect
+from flatweave.app.plot import result_note
+from flatweave.app.runner import Runner
+from flatweave.app.worker import RunOutcome
 
 __all__ = ["RunControl", "RERUN_DELAY_MS", "NO_DOCUMENT", "NOT_SOLVED", "result_text", "status_text"]
 
@@ -31,7 +31,7 @@ RERUN_DELAY_MS = 250  # settings edits closer together than this make one re-run
 RERUN_AT_ONCE = True
 """An edit with no run in flight re-runs at once (the delay only merges the
 edits that follow it while its run is in flight): Enter on a dart starts its
-solve without waiting (docs/decisions.md, "Window latency, session 7")."""
+solve without waiting (docs/decisions/0030-dragged-points-preview-outside-the-document.md)."""
 PREVIEW_INTERVAL_MS = 120
 """A preview in flight is replaced by a newer drag position once it has shown
 a frame, or after this long without one (so a drag never only restarts solves)."""
@@ -64,8 +64,8 @@ class _Soon(QObject):
     """A zero-delay single shot (``start``, ``stop``, ``isActive``) that runs ``callback`` from a posted event
     rather than a timer: Qt delivers posted events before timers, and a repaint (a low-priority posted event)
     after them, so an edit's re-run starts before the views repaint for the edit (its first iteration runs
-    while they do; a zero timer waited for the repaint, 40-70 ms with software OpenGL; docs/decisions.md,
-    "Window latency, session 9")."""
+    while they do; a zero timer waited for the repaint, 40-70 ms with software OpenGL;
+    docs/decisions/0030-dragged-points-preview-outside-the-document.md)."""
 
     _TYPE = QEvent.Type(QEvent.registerEventType())
 
@@ -270,9 +270,9 @@ class RunControl:
         self._preview_frames = 0
         self.previews_started += 1
         # as the edit's own re-run would start, so the release's result is the one Enter gives: a moved
-        # dart drapes anew (core.project.warm_start; the old opening is a worse start). Starting from the
+        # dart drapes anew (flatweave.document.project.warm_start; the old opening is a worse start). Starting from the
         # previous position's mid-solve state was measured too: after four positions, 148 iterations to a
-        # higher energy instead of 11 (docs/decisions.md).
+        # higher energy instead of 11 (docs/decisions/0030-dragged-points-preview-outside-the-document.md).
         self.runner.start(project, warm_start(project))
 
     def _preview_frame(self, frame) -> None:

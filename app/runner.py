@@ -1,4 +1,4 @@
-"""Runs solves for the window: one :class:`~app.worker.SolveThread` at a time,
+"""Runs solves for the window: one :class:`~flatweave.app.worker.SolveThread` at a time,
 a frame pump that hands the newest frame to the views at a bounded rate, and
 the bookkeeping of Run, Pause/Resume, Stop and "run again with new settings".
 
@@ -18,10 +18,10 @@ import time
 
 from PySide6.QtCore import QCoreApplication, QEvent, QObject, QTimer, Signal
 
-from core.project import Project
-from core.solver import State
+from flatweave.document.project import Project
+from flatweave.method.solver import State
 
-from app.worker import RunOutcome, SolveThread
+from flatweave.app.worker import RunOutcome, SolveThread
 
 __all__ = ["Runner"]
 
@@ -30,16 +30,16 @@ FRAME_INTERVAL_MS = 30
 FRAME_SHARE = 0.06
 """At most about this share of a run goes into drawing its live frames: after a
 frame that took the GUI c seconds (its slots and the repaint they asked for),
-the next waits c (1 / FRAME_SHARE - 1); with ``app.worker.PATTERN_SHARE`` for
+the next waits c (1 / FRAME_SHARE - 1); with ``flatweave.app.worker.PATTERN_SHARE`` for
 the live patterns, a tenth of the run. With software OpenGL on a loaded 2-core
 machine a frame can take 0.1 s, and drawing every one made the run 40 % longer
-(docs/decisions.md, "Window latency, session 7"). The repaint is most of a frame's
+(docs/decisions/0030-dragged-points-preview-outside-the-document.md). The repaint is most of a frame's
 cost (a 2,500-node frame: 20-30 ms in its slots, 40-80 ms repainting both views);
 counting only the slots, as sessions 7 to 9 did, spent three to four times the
-share (docs/decisions.md, "Live frames within a tenth of the run"). None: every
+share (docs/decisions/0044-live-frames-paced-first-frame-shows-the-v.md). None: every
 pump period. The run's first live frame goes out at once (a re-solve's answer
 starts there); the drape's frames are paced by the drape itself
-(``app.worker.DRAPE_FRAME_INTERVAL``), and a paused run shows its newest state at once."""
+(``flatweave.app.worker.DRAPE_FRAME_INTERVAL``), and a paused run shows its newest state at once."""
 PAINT_WAIT_MS = 250
 """How long a frame's drawing waits for the repaint of the watched views (``Runner.watch_paints``)
 before it counts as drawn without one (a hidden or minimised window paints nothing)."""
@@ -51,7 +51,8 @@ HOLD_FOR_FIRST_FRAME_MS = 300
 """A warm re-solve (an edit answered at once: a dart, a setting) holds the views' repaints until
 its first frame, at most this long: the edit's own repaint (40-80 ms of software OpenGL on both
 cores) would only delay the solve's first iteration, and the first live frame, a tenth of a second
-later, repaints everything the edit changed (docs/decisions.md, "The V's path"). 0: no hold."""
+later, repaints everything the edit changed
+(docs/decisions/0044-live-frames-paced-first-frame-shows-the-v.md). 0: no hold."""
 
 
 class _PaintHold(QObject):

@@ -1,11 +1,11 @@
-"""Tools > Suggest darts: :func:`core.autodarts.suggest_darts` on the document's
+"""Tools > Suggest darts: :func:`flatweave.studies.autodarts.suggest_darts` on the document's
 result, in a thread of its own, then a list to preview and accept them.
 
 Only darts that keep every metric within the limits it was within, and whose
 solve converged, are listed, with what the pattern's numbers say of each (usable,
 how many warnings); a piece within every warning limit gets none, and the dialog
 says why there are none, or fewer than asked for
-(:attr:`core.autodarts.Suggestions.reason`).
+(:attr:`flatweave.studies.autodarts.Suggestions.reason`).
 Selecting a row previews that proposal: its dart in orange on the surface and
 its re-solved piece (strain, pattern, metrics) in both views. Apply adds the
 ticked proposals as one undoable edit; when they are the first k (the ones
@@ -19,15 +19,16 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QHBoxLayout, QLabel, QListWidget, QListWidgetItem,
                                QPushButton, QSpinBox, QVBoxLayout)
 
-from app.background import BackgroundCall
-from app.frames import FrameMaker
+from flatweave.app.background import BackgroundCall
+from flatweave.app.frames import FrameMaker
+from flatweave.method.result import judge_result
+from flatweave.studies.autodarts import suggest_darts
 
 __all__ = ["SuggestDialog", "proposal_text", "verdict_text"]
 
 
 def verdict_text(result) -> str:
     """What the numbers say of a proposal's pattern, in a few words."""
-    from core.pipeline import judge_result
 
     unusable = judge_result(result).unusable
     if unusable:
@@ -96,7 +97,6 @@ class SuggestDialog(QDialog):
         self.suggest_button.setEnabled(False)
         self.status.setText(f"Trying darts on the piece (up to {count})...")
 
-        from core.autodarts import suggest_darts
         self.call.start(lambda: suggest_darts(result, count=count), "suggest-darts")
 
     def _done(self, proposals, error) -> None:

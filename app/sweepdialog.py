@@ -1,4 +1,4 @@
-"""Solve > Best orientation: :func:`core.sweep.sweep` on the document's piece,
+"""Solve > Best orientation: :func:`flatweave.studies.sweep.sweep` on the document's piece,
 in a thread of its own; the ranked table (a usable pattern first, each row
 saying whether its pattern is usable and why not), a plot of the largest
 shear against the weft angle, and Apply, which sets the chosen row's angle and seed as one
@@ -13,7 +13,9 @@ from PySide6.QtGui import QColor, QPainter, QPen, QPolygonF
 from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QHBoxLayout, QLabel, QPushButton, QSpinBox,
                                QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
-from app.background import BackgroundCall
+from flatweave.app.background import BackgroundCall
+from flatweave.studies.sweep import warm_pool
+from flatweave.studies.sweep import sweep
 
 __all__ = ["SweepDialog", "ShearPlot", "COLUMNS"]
 
@@ -115,7 +117,6 @@ class SweepDialog(QDialog):
         self.buttons.rejected.connect(self.close)
         lay.addWidget(self.buttons)
         self.resize(720, 460)
-        from core.sweep import warm_pool
         warm_pool()  # the workers import the solver while the user picks the angles, not during the sweep
 
     @property
@@ -132,7 +133,6 @@ class SweepDialog(QDialog):
         self.apply_button.setEnabled(False)
         self.status.setText(f"Solving at {angles} angles x {seeds} seed{'s' if seeds > 1 else ''}...")
 
-        from core.sweep import sweep
         self.call.start(lambda: sweep(project.surface, project.settings, angles=angles, seeds=seeds), "sweep")
 
     def _done(self, result, error) -> None:

@@ -1,8 +1,8 @@
-"""The window's side of the 3D view's tools (:mod:`app.tools`).
+"""The window's side of the 3D view's tools (:mod:`flatweave.app.tools`).
 
 :data:`TOOLS` is the one table of the tools a designer chooses: a tool is a
-:class:`~app.tools.Tool` subclass and a row here; its action, menu entry,
-toolbar button and darts-panel button come from the row (:mod:`app.actions`).
+:class:`~flatweave.app.tools.Tool` subclass and a row here; its action, menu entry,
+toolbar button and darts-panel button come from the row (:mod:`flatweave.app.actions`).
 :class:`ToolControl` keeps the active tool and the selected dart, hands the
 tool the 3D view's mouse (:class:`ToolMouse`) and the keys, and turns the darts
 panel's reports into document edits; tools reach the window only through
@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 from PySide6.QtWidgets import QAbstractSpinBox, QApplication, QLineEdit
 
-from core.errors import FlatweaveError
+from flatweave.errors import FlatweaveError
 
-from app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, SeedTool, Tool, YarnTool
-from app.worker import one_line
+from flatweave.app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, SeedTool, Tool, YarnTool
+from flatweave.app.worker import one_line
 
 __all__ = ["ToolSpec", "TOOLS", "ToolControl", "ToolMouse", "WindowToolHost"]
 
@@ -55,7 +55,7 @@ TOOLS = (
 
 
 class WindowToolHost:
-    """What a tool may ask of the window (the :class:`app.tools.ToolHost` protocol)."""
+    """What a tool may ask of the window (the :class:`flatweave.app.tools.ToolHost` protocol)."""
 
     def __init__(self, window, control: ToolControl):
         self._window, self._control = window, control
@@ -239,7 +239,7 @@ class ToolControl:
         return True
 
     def region_edit(self, label: str, change, solves: bool) -> bool:
-        """One edit of the candidate regions (app.regionpanel): ``change(project)`` made current;
+        """One edit of the candidate regions (flatweave.app.regionpanel): ``change(project)`` made current;
         a refused one shows its message and the list as it was."""
         doc = self.window.document
         if doc is None:

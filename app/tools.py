@@ -3,11 +3,11 @@ dart's points, pick a constrained yarn.
 
 A tool turns mouse events in the 3D view (display coordinates, VTK's origin
 bottom left) into previews drawn by the view and, when the designer commits,
-into one edit of the document through :class:`core.document.Document`'s dart
+into one edit of the document through :class:`flatweave.document.history.Document`'s dart
 and yarn methods, so undo, redo, re-runs and saving work as for any other edit.
 Tools never touch VTK: they ask the view for viewing rays, display positions
-and widget values, and core for the geometry (:func:`core.curves.project_points`
-puts a click on the surface, :func:`core.darts.curve_dart_through` builds the
+and widget values, and core for the geometry (:func:`flatweave.geometry.curves.project_points`
+puts a click on the surface, :func:`flatweave.method.darts.curve_dart_through` builds the
 dart).
 
 A tool's ``press``, ``move`` and ``release`` return True when they used the
@@ -20,7 +20,7 @@ point lands exactly under the cursor. The curve between the points is the
 projection of the drawn polyline along the camera's direction of projection,
 which is what the paper prescribes; for a perspective view it differs slightly
 from projecting every pixel along its own ray between the clicks (bound in
-docs/decisions.md, App), and not at all at the clicks.
+docs/decisions/0009-window-on-software-opengl.md), and not at all at the clicks.
 """
 
 from __future__ import annotations
@@ -32,11 +32,15 @@ from typing import Any, Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
-from core.curves import project_points
-from core.darts import CurveDart, PlaneDart, curve_dart_through, dart_handles
-from core.document import unique_name
-from core.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
-from core.errors import SettingsError
+from flatweave.geometry.curves import project_points
+from flatweave.method.darts import CurveDart, PlaneDart, curve_dart_through, dart_handles
+from flatweave.document.history import unique_name
+from flatweave.method.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
+from flatweave.errors import SettingsError
+from flatweave.geometry.region import check_region_size, cover_for, region_from_spec
+from flatweave.method.rosette import rosette, rosette_arrows
+from flatweave.method.rosette import seed_fraction
+from flatweave.method.rosette import angle_towards
 
 __all__ = ["Tool", "ToolHost", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
            "RegionTool", "SeedTool", "PointsTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS",
@@ -75,13 +79,13 @@ def _rim(surface) -> tuple[np.ndarray, np.ndarray]:
 
 
 class ToolHost(Protocol):
-    """What a tool may ask of the window (``app.tooling.WindowToolHost`` is the window's).
+    """What a tool may ask of the window (``flatweave.app.tooling.WindowToolHost`` is the window's).
 
-    view : the 3D view (``app.view3d.SurfaceView``): viewing rays, display
+    view : the 3D view (``flatweave.app.view3d.SurfaceView``): viewing rays, display
         points, previews, handles and the plane and box widgets
     editors : the darts panel's tool editors (``show_plane_editor(tool or None)``,
         ``show_yarn_editor(tool or None)``)
-    document : the open ``core.document.Document``: every commit is one of its edits
+    document : the open ``flatweave.document.history.Document``: every commit is one of its edits
     """
 
     view: Any
@@ -761,8 +765,7 @@ class YarnTool(Tool):
             self.host.drop_tool()
 
 
-
-# ---------------------------------------------------------------------- regions (issue 21)
+# ---------------------------------------------------------------------- regions
 INSERT_PIXELS = 8  # a double click this close to a side of the drawn region inserts a point there
 
 
@@ -778,7 +781,7 @@ class RegionTool(PointsTool):
 
     Drawing: clicks add points (each under the cursor; near the face's edge
     they snap onto it), the loop between them follows the surface as a curve
-    dart's curve does (:func:`core.region.region_from_spec`, projected along
+    dart's curve does (:func:`flatweave.geometry.region.region_from_spec`, projected along
     the view); Enter or a click on the first point closes it, Esc cancels,
     Backspace takes back a point. A loop drawn inside a drawn region is a hole
     of it; elsewhere it is a new region.
@@ -798,7 +801,7 @@ class RegionTool(PointsTool):
 
     def __init__(self, host):
         super().__init__(host)
-        self.preview = None                  # core.region.Region of the loop so far
+        self.preview = None                  # flatweave.geometry.region.Region of the loop so far
         self.grabbed: tuple[int, int] | None = None  # (loop, point) of the drawn region being dragged
         self.picked: tuple[int, int] | None = None   # the last point grabbed (Delete removes it)
         self.dragged: dict | None = None     # the drawing with the dragged point moved
@@ -886,7 +889,6 @@ class RegionTool(PointsTool):
     def _edit_of(self, spec) -> tuple:
         """(region, seed) the spec makes, checked as every commit is (SettingsError otherwise):
         the same for a drag's preview and its release, so the release adopts the preview."""
-        from core.region import check_region_size, cover_for, region_from_spec
 
         s = self.document.project.settings
         region = region_from_spec(self.surface, spec)
@@ -1030,7 +1032,6 @@ class RegionTool(PointsTool):
     # -- a new loop
     def _spec(self) -> dict:
         """The region the points make: a hole of the drawn region when they lie inside it."""
-        from core.region import cover_for
 
         view = [float(v) for v in self.view.view_direction()]
         loop = [p.tolist() for p in self.placed]
@@ -1045,8 +1046,6 @@ class RegionTool(PointsTool):
         return {"points": loop, "view_direction": view}
 
     def _update_preview(self) -> None:
-        from core.region import region_from_spec
-
         pts = np.array(self.placed) if self.placed else None
         self.preview = None
         curve = pts
@@ -1062,8 +1061,6 @@ class RegionTool(PointsTool):
         self.view.set_preview(curve, pts)
 
     def finish(self) -> bool:
-        from core.region import check_region_size, cover_for, region_from_spec
-
         if len(self.placed) < 3:
             self.hint("A region needs at least three points on the surface.")
             return False
@@ -1127,16 +1124,11 @@ class SeedTool(Tool):
         return ROSETTE_FRACTION * float(np.linalg.norm(np.ptp(xyz, axis=0)))
 
     def _draw(self, seed=None, angle=None) -> None:
-        from core.rosette import rosette, rosette_arrows
-
         s = self.document.project.settings
         r = rosette(self.surface, s.seed if seed is None else seed, s.angle_deg if angle is None else angle)
         self.view.set_rosette(rosette_arrows(r, self._length()))
 
     def press(self, x, y, double):
-        from core.region import cover_for
-        from core.rosette import seed_fraction
-
         hit = pick_surface(self.surface, self.view, x, y)
         if hit is None:
             return False
@@ -1149,8 +1141,6 @@ class SeedTool(Tool):
         return True
 
     def move(self, x, y):
-        from core.rosette import angle_towards
-
         if self.seed is None:
             return False
         if math.hypot(x - self.start[0], y - self.start[1]) < STROKE_PIXELS:

@@ -18,7 +18,7 @@ import pyvista as pv
 import shapely
 from vtkmodules.vtkRenderingCore import vtkTextActor
 
-from app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
+from flatweave.app.viewbase import ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
 __all__ = ["PatternView", "nice_length", "segment_distances"]
 
@@ -158,7 +158,7 @@ class PatternView(ViewBase):
         """Fit the camera to the pattern and its scale bar, looking down z, +y up.
 
         (Set directly: pyvista's view_xy / reset_camera gather every actor's
-        bounds in Python, too slow under load; docs/decisions.md, App.)"""
+        bounds in Python, too slow under load; docs/decisions/0009-window-on-software-opengl.md.)"""
         if self._closed:
             return
         polys = [p for p in (self.outline, self.scale_bar, *self.layer.springs) if p.n_points]

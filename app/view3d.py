@@ -1,11 +1,11 @@
 """The 3D view: the surface, the spring mesh on it coloured by strain (or its
 cells by shear), boundary and dart nodes, the darts' curves and a colour bar,
-and what the tools draw over them (:mod:`app.tools`): the dart being drawn,
+and what the tools draw over them (:mod:`flatweave.app.tools`): the dart being drawn,
 a curve dart's handles, a plane dart's plane and box widgets, constrained and
 picked yarns.
 
 It owns its pyvista and VTK objects; the rest of the app hands it numpy arrays
-and :class:`~app.frames.Frame` s (see :mod:`app.viewbase`), and gets display
+and :class:`~flatweave.app.frames.Frame` s (see :mod:`flatweave.app.viewbase`), and gets display
 coordinates, viewing rays and widget values back as numpy arrays. Left-button
 events go to ``mouse_handler`` first (a tool), which may take them from the
 camera.
@@ -23,8 +23,8 @@ from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
 from vtkmodules.vtkRenderingCore import (vtkActor2D, vtkCellPicker, vtkColorTransferFunction, vtkCoordinate,
                                          vtkPolyDataMapper2D)
 
-from app.camera import fit_view, home_view
-from app.viewbase import SCALE_TITLES, ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
+from flatweave.app.camera import fit_view, home_view
+from flatweave.app.viewbase import SCALE_TITLES, ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
 __all__ = ["SurfaceView", "FaceView", "MeshLoopView", "grid_faces", "grid_boundary", "bar_labels"]
 
@@ -271,7 +271,7 @@ class SurfaceView(ViewBase):
         ((nu-1, nv-1) bool) the grid's quads drawn whole, ``cut`` the quads its
         loops cross, cut to it (``(points (m, 3), normals (m, 3), triangles (t, 3),
         cells (c,))``: triangles into the grid's points followed by these, the flat
-        indices of the quads cut; :class:`app.presenter.PieceCut`), and ``loops`` its
+        indices of the quads cut; :class:`flatweave.app.presenter.PieceCut`), and ``loops`` its
         boundary loops on the surface ((k, 3) each, closed implicitly), drawn
         as black lines instead of the grid's rim. ``kept_cells`` counts the quads
         drawn, whole or cut. ``fit`` False: the camera stays.
@@ -341,7 +341,7 @@ class SurfaceView(ViewBase):
 
     @property
     def home(self) -> tuple[np.ndarray, np.ndarray]:
-        """(direction into the scene, view up) of the surface's home view (see :mod:`app.camera`)."""
+        """(direction into the scene, view up) of the surface's home view (see :mod:`flatweave.app.camera`)."""
         return self._home
 
     def reset_camera(self) -> None:
@@ -491,7 +491,7 @@ class SurfaceView(ViewBase):
     def set_fit_mesh(self, vertices, triangles, deviation) -> None:
         """Hold the mesh the shown surface was fitted to: ``vertices`` (n, 3),
         ``triangles`` (m, 3) and ``deviation`` (n,), each vertex's distance to the
-        surface (:func:`core.meshsurf.vertex_deviation`). It is drawn as the
+        surface (:func:`flatweave.geometry.meshfit.vertex_deviation`). It is drawn as the
         options say (``fit_deviation``: coloured by it; ``fit_mesh``: beside the
         surface, else over it); a new surface drops it."""
         self.clear_fit_mesh(render=False)
@@ -836,7 +836,7 @@ class SurfaceView(ViewBase):
 
 
 class FaceView(ViewBase):
-    """The face picker's 3D view (:mod:`app.facepicker`): every face of a CAD
+    """The face picker's 3D view (:mod:`flatweave.app.facepicker`): every face of a CAD
     file as a triangle mesh, the chosen one highlighted and the others faint.
     A left click (a press and release on one spot; a drag turns the camera)
     on a face calls ``on_pick(index)``."""
@@ -923,7 +923,7 @@ class FaceView(ViewBase):
 
 
 class MeshLoopView(FaceView):
-    """The closed-mesh region picker's view (:mod:`app.meshpicker`): the mesh,
+    """The closed-mesh region picker's view (:mod:`flatweave.app.meshpicker`): the mesh,
     and the loop being drawn on it. A click on the mesh calls
     ``on_point(xyz)`` with the point under the cursor."""
 

@@ -1,9 +1,9 @@
 """What the 3D view and the pattern view share: the render widget, colour
 scales as VTK sees them, the spring mesh layer and hover picking.
 
-With :mod:`app.view3d`, :mod:`app.view2d` and :mod:`app.canvas` (which
+With :mod:`flatweave.app.view3d`, :mod:`flatweave.app.view2d` and :mod:`flatweave.app.canvas` (which
 makes the render widget) this is the only code that touches pyvista or VTK;
-the rest of the app hands these classes numpy arrays (:class:`app.frames.Frame`)
+the rest of the app hands these classes numpy arrays (:class:`flatweave.app.frames.Frame`)
 and :class:`ViewOptions`.
 
 Live updates write into the existing ``pv.PolyData`` objects (points, cell
@@ -27,8 +27,8 @@ from vtkmodules.vtkCommonDataModel import vtkCellArray
 import vtkmodules.vtkRenderingFreeType  # noqa: F401  (the text renderer text_size measures with)
 from vtkmodules.vtkRenderingCore import vtkCellPicker, vtkColorTransferFunction, vtkTextRenderer
 
-from app.canvas import make_plotter
-from app.colours import YELLOW, ramp, shear_stops, strain_range, strain_stops
+from flatweave.app.canvas import make_plotter
+from flatweave.app.colours import YELLOW, ramp, shear_stops, strain_range, strain_stops
 
 __all__ = ["ViewOptions", "ColourScale", "MeshLayer", "ViewBase", "KINDS", "scale_stops", "group_stops", "cell_springs",
            "THREAD", "DIAGONAL", "SCALE_TITLES", "text_size"]
@@ -48,7 +48,7 @@ class ViewOptions:
     """How the views draw a frame (view state, not part of the document).
 
     mode : "strain" (springs coloured by strain), "shear" (cells by shear angle)
-        or "fibre" (cells by the weft's deviation from the rosette, :mod:`core.fibres`)
+        or "fibre" (cells by the weft's deviation from the rosette, :mod:`flatweave.method.fibres`)
     weft, warp, diag : which spring kinds are drawn (strain mode)
     surface : draw the surface under the mesh (3D view)
     nodes : draw boundary nodes (yellow) and dart nodes (red +, blue -)
@@ -107,7 +107,7 @@ def group_stops(frame, options: ViewOptions, group: str) -> list:
 
     Each group has its own scale: on woven cloth the diagonals (shear proxies)
     stretch a hundred times more than the threads, and one scale over both
-    painted every thread the same green (docs/decisions.md, App)."""
+    painted every thread the same green (docs/decisions/0021-strain-scales-dense-cells-home-view.md)."""
     kinds = [k for k, g in enumerate(KIND_GROUP) if g == group]
     kind = frame.mesh.kind
     strain = 100.0 * np.asarray(frame.strain)
@@ -128,7 +128,7 @@ def scale_stops(frame, options: ViewOptions) -> list:
 
 
 class ColourScale:
-    """A VTK colour transfer function that is exactly :func:`app.colours.ramp`
+    """A VTK colour transfer function that is exactly :func:`flatweave.app.colours.ramp`
     on the given stops (piecewise linear in RGB, clamped at the ends)."""
 
     def __init__(self):
@@ -157,7 +157,7 @@ class ColourScale:
         return rgba[:, :3].copy()
 
     def expected(self, values: np.ndarray) -> np.ndarray:
-        """(k, 3) float: the same colours by numpy (:func:`app.colours.ramp`)."""
+        """(k, 3) float: the same colours by numpy (:func:`flatweave.app.colours.ramp`)."""
         return ramp(values, self.stops)
 
 
@@ -203,7 +203,7 @@ def replace_geometry(poly: pv.PolyData, points: np.ndarray, lines=None, faces=No
     (``verts``); ``scalars`` become the cell array "value".
 
     Built with plain VTK calls: pyvista's constructors cost most of a live
-    frame's Python time when nodes come and go (docs/decisions.md, App)."""
+    frame's Python time when nodes come and go (docs/decisions/0009-window-on-software-opengl.md)."""
     points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
     has_lines = lines is not None and len(lines) > 0
     has_faces = faces is not None and len(faces) > 0
@@ -531,7 +531,7 @@ _IDS = itertools.count()
 
 
 class ViewBase:
-    """A render widget (:mod:`app.canvas`) with hover picking over a :class:`MeshLayer`.
+    """A render widget (:mod:`flatweave.app.canvas`) with hover picking over a :class:`MeshLayer`.
 
     ``hover_callback(text or None)`` is called (in the GUI thread) when the
     mouse moves over a spring or cell, or off them.
@@ -539,9 +539,9 @@ class ViewBase:
 
     def __init__(self, parent=None):
         # No multisampling, one headlight, a plain background: each costs a software
-        # renderer much of a render (docs/decisions.md, App); a headlight also lights
+        # renderer much of a render (docs/decisions/0009-window-on-software-opengl.md); a headlight also lights
         # whatever side faces the user.
-        # The widget is pyvistaqt's or a raster canvas, by the renderer: see app.canvas.
+        # The widget is pyvistaqt's or a raster canvas, by the renderer: see flatweave.app.canvas.
         self._plotter = make_plotter(parent)
         self._plotter.add_light(pv.Light(light_type="headlight"))
         self._plotter.set_background(BACKGROUND)

@@ -1,6 +1,6 @@
-"""The solve worker: :func:`core.pipeline.flatten_iter` in a QThread.
+"""The solve worker: :func:`flatweave.method.pipeline.flatten_iter` in a QThread.
 
-The thread turns every solver snapshot into a :class:`~app.frames.Frame`
+The thread turns every solver snapshot into a :class:`~flatweave.app.frames.Frame`
 (strain, shear, boundary and dart nodes, and at intervals the pattern) and
 leaves the newest in a slot; the GUI takes it from there on its own timer
 (:meth:`SolveThread.take_frame`), so a fast solver never floods the event loop
@@ -16,7 +16,7 @@ snapshots (the generator yields every iteration):
 * :meth:`pause` / :meth:`resume`: the thread waits between iterations.
 
 Any exception ends the run with :attr:`failed` (a one-line message); the
-traceback of one that is not a :class:`~core.errors.FlatweaveError` (a bug,
+traceback of one that is not a :class:`~flatweave.errors.FlatweaveError` (a bug,
 not a user error) also goes to stderr for a bug report.
 
 superqt's ``GeneratorWorker`` was the first choice; it is not used because it
@@ -39,12 +39,13 @@ from dataclasses import dataclass, replace
 
 from PySide6.QtCore import QThread, Signal
 
-from core.errors import FlatweaveError
-from core.pipeline import FlattenResult, flatten_iter, stopped_result
-from core.project import Project
-from core.solver import State
+from flatweave.errors import FlatweaveError
+from flatweave.method.result import FlattenResult
+from flatweave.method.pipeline import flatten_iter, stopped_result
+from flatweave.document.project import Project
+from flatweave.method.solver import State
 
-from app.frames import Frame, FrameMaker
+from flatweave.app.frames import Frame, FrameMaker
 
 __all__ = ["SolveThread", "RunOutcome", "one_line"]
 
@@ -52,26 +53,26 @@ DRAPE_FRAME_INTERVAL = 1 / 15
 """Seconds between frames of the drape (the mesh laid so far) at least, and so
 the longest wait for Stop or Pause during a drape; the drape spaces its
 reports further when they are dear (at most a tenth of its time, see
-core.drape.REPORT_SHARE). Each frame has a new mesh (the views rebuild their
+flatweave.method.drape.REPORT_SHARE). Each frame has a new mesh (the views rebuild their
 geometry). The most frequent interval that did not lengthen the run
-(docs/decisions.md, "Engine threads and frames")."""
+(docs/decisions/0020-drape-frames-and-report-share.md)."""
 PATTERN_INTERVAL = 0.25
 """Seconds between live patterns at least (more when a pattern is slow, see PATTERN_SHARE)."""
 PATTERN_SHARE = 0.04
 """At most about this share of a run goes into its live patterns (a pattern's
-cost sets the wait for the next one); with ``app.runner.FRAME_SHARE`` for
+cost sets the wait for the next one); with ``flatweave.app.runner.FRAME_SHARE`` for
 drawing them, live frames stay within a tenth of the run."""
 FIRST_PATTERN_AT_ONCE = False
 """The solve's first snapshot gets a pattern (after its frame without one is
 published). Off: a live pattern is made only for a frame the GUI takes, and the
 GUI takes the first frame at once, before a pattern could be ready, and the
-next one only when the frames' share allows (app.runner.FRAME_SHARE): in a
+next one only when the frames' share allows (flatweave.app.runner.FRAME_SHARE): in a
 short re-solve that is never, so the first pattern cost the run 20-90 ms and
-was seldom drawn (docs/decisions.md, "Live frames within a tenth of the run")."""
+was seldom drawn (docs/decisions/0044-live-frames-paced-first-frame-shows-the-v.md)."""
 FIRST_FRAME_WITH_PATTERN = True
 """The solve's first live frame waits for its own pattern and goes out once, with it: the
 dart's opening (the V) in both views from the first frame, for one frame's drawing
-(docs/decisions.md, "The V in the first live frame"). Only on meshes of at most
+(docs/decisions/0044-live-frames-paced-first-frame-shows-the-v.md). Only on meshes of at most
 FIRST_PATTERN_NODES nodes, where a pattern takes a few tens of milliseconds."""
 FIRST_PATTERN_NODES = 10_000
 
@@ -89,7 +90,7 @@ def one_line(exc: BaseException) -> str:
 
 SOLVE_NICENESS = 5
 """The solve thread's nice value: the lowest that keeps the window answering a
-camera drag during a solve (docs/decisions.md, "Engine threads and frames")."""
+camera drag during a solve (docs/decisions/0010-solve-thread-at-nice-5.md)."""
 
 
 def _lower_priority(niceness: int = SOLVE_NICENESS) -> None:
@@ -158,9 +159,9 @@ class SolveThread(QThread):
         self.pattern_seconds = 0.0
         self.frames_from = -math.inf
         """The GUI takes the next live frame from this time on (perf_counter seconds; inf while it draws
-        one): the runner's frame budget (``app.runner.FRAME_SHARE``). A snapshot's frame is made only when
+        one): the runner's frame budget (``flatweave.app.runner.FRAME_SHARE``). A snapshot's frame is made only when
         the GUI will take it before the next snapshot comes (a frame costs about 5 ms of a 35 ms iteration
-        at 2,500 nodes, and most were never drawn; docs/decisions.md, "Window latency, session 9")."""
+        at 2,500 nodes, and most were never drawn; docs/decisions/0044-live-frames-paced-first-frame-shows-the-v.md)."""
         self._unframed = None  # the newest snapshot whose frame was not made (made if the run pauses)
         self.frames_made = 0  # live frames made (for the tests and the benchmark)
         self.started_at = time.perf_counter()  # the run's start (perf_counter s): a stopped run's time counts from it
@@ -367,7 +368,7 @@ class SolveThread(QThread):
             self.stopped.emit(RunOutcome(result, self.project, stopped=True))
 
     def _stopped_result(self, snap, history: list, seconds: float) -> FlattenResult:
-        """The last iterate as a result (:func:`core.pipeline.stopped_result`): the run's settings
+        """The last iterate as a result (:func:`flatweave.method.pipeline.stopped_result`): the run's settings
         and solver, its iterations, the status 'stopped', and the run's time up to the Stop (not
         the time its pattern took). Its frame is published for the views. A FrameMaker of its own:
         the solve thread may still be using the run's."""

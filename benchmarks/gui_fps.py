@@ -1,41 +1,25 @@
-"""Live-update frame rate of the app: the woven octant at about 2,500 nodes.
+"""Live-update frame rate of the app: the woven octant solved in the main window.
 
-    xvfb-run -s '-screen 0 1600x1000x24' .venv/bin/python benchmarks/gui_fps.py \
-        [--spacing 0.025] [--view auto|gl|canvas] [--out benchmarks/results/gui_fps.md]
+Measured by ``benchmarks/suite.py`` (case ``gui_live_fps``, in a child
+process under an X display: Xvfb here, Mesa's software OpenGL). Opens the
+main window (1600x1000) with the views' render widget the app chooses, runs
+a solve exactly as the Run button does (after one run to warm up) and
+measures:
 
-Opens the main window (1600x1000) with the views' render widget the app
-chooses (or ``--view``'s, see app/canvas.py), runs solves exactly as the Run
-button does and measures:
-
-* run s: from pressing Run to the result, drape included; seconds: from the
-  first frame on screen to the result (the span the rates below are over);
-* drape s / solve s: Run to the first solver frame, and from there to the result;
-* snapshots/s: solver iterations per second (what there is to show);
-* run frames/s: new states handed to the views (the frame pump takes the
-  newest at most every 30 ms) per second from pressing Run to the result: the
-  live update rate a user sees; frames/s: the same from the first frame on;
-  drape frames/s: frames of the drape (the mesh laid so far, at most every
-  1/15 s, see app/worker.py) per second of drape; solve frames/s: over the
-  solve alone;
-* 3D and pattern repaints/s: renders of each view (both views repaint in
-  one paint pass);
-* draw ms: the window's Python work per frame (copying arrays into the views);
-* paint ms: one view's paint (the render, and for the canvas reading its
+* run_fps: new states handed to the views (the frame pump takes the newest
+  at most every 30 ms) per second from pressing Run to the result: the live
+  update rate a user sees; solve_fps: the same over the solve alone (after the drape);
+* paint_ms: one view's paint (the render, and for the canvas reading its
   pixels back and drawing them), median;
-* longest event-loop gap: between ticks of a 10 ms timer, whole run.
-
-A "replay" row feeds the frames of a recorded solve to the window as fast as
-the event loop takes them, with no solver competing for the CPU: the GUI's own
-ceiling. Not a timed test: numbers depend on the machine (software OpenGL under
-Xvfb here).
+* gap_ms: the longest event-loop gap (between ticks of a 10 ms timer), whole run;
+* replay_fps: the frames of a recorded solve fed to the window as fast as
+  the event loop takes them, with no solver competing for the CPU: the GUI's
+  own ceiling on this machine.
 """
 
 from __future__ import annotations
 
-import argparse
-import datetime as _dt
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -45,20 +29,18 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
-from app.nonefix import keep_none_alive
+from flatweave.app.nonefix import keep_none_alive
 
 keep_none_alive()  # before any Qt call
 
 from PySide6.QtCore import QTimer  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app.canvas import view_kind  # noqa: E402
-from app.frames import FrameMaker  # noqa: E402
-from app.mainwindow import MainWindow  # noqa: E402
-from app.choices import VIEW_KINDS  # noqa: E402
-from core.examples import example_path, load_example  # noqa: E402
-from core.pipeline import flatten_iter  # noqa: E402
-from core.project import new_project  # noqa: E402
+from flatweave.app.frames import FrameMaker  # noqa: E402
+from flatweave.app.mainwindow import MainWindow  # noqa: E402
+from flatweave.reading.examples import example_path, load_example  # noqa: E402
+from flatweave.method.pipeline import flatten_iter  # noqa: E402
+from flatweave.document.project import new_project  # noqa: E402
 
 
 class Probe:
@@ -188,83 +170,30 @@ def replay(probe, win, project, label):
                          frames[-1].stats["springs"])
 
 
-WIDGETS = {"gl": "pyvistaqt's OpenGL widget (FLATWEAVE_VIEW=gl)",
-           "canvas": "the raster canvas (FLATWEAVE_VIEW=canvas)"}
-
-
 class _FakeBusy:
     """Stands in for a running solve thread during the replay."""
-    stopping = False
+    stopping = abandoned = False
     paused = pause_requested = False
+    stop_point = None
     history = ()
     stage = "replay"
 
 
-def markdown(rows) -> str:
-    cols = ["case", "nodes", "springs", "iterations", "run s", "drape s", "solve s", "seconds", "snapshots/s",
-            "run frames/s", "frames/s", "drape frames/s", "solve frames/s", "3D repaints/s", "pattern repaints/s",
-            "draw ms", "paint ms", "gap ms"]
-    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    for r in rows:
-        cells = []
-        for c in cols:
-            v = r.get(c, "")
-            cells.append(f"{v:,}" if isinstance(v, int) else f"{v:.1f}" if isinstance(v, float) else str(v))
-        out.append("| " + " | ".join(cells) + " |")
-    return "\n".join(out)
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--spacing", type=float, default=0.025)
-    ap.add_argument("--paper-iterations", type=int, default=60, help="iteration budget of the paper solver row")
-    ap.add_argument("--repeat", type=int, default=3, help="fast-solver runs (one row each)")
-    ap.add_argument("--view", choices=VIEW_KINDS, default=None,
-                    help="the views' render widget (FLATWEAVE_VIEW; default: as the app chooses)")
-    ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / "gui_fps.md")
-    args = ap.parse_args(argv)
-
-    if args.view:
-        os.environ["FLATWEAVE_VIEW"] = args.view
+def measure(spacing: float) -> dict:
+    """One live run (after one to warm up) and a replay, in this process's QApplication."""
     app = QApplication.instance() or QApplication(["gui_fps"])
-    kind = view_kind()
     win = MainWindow()
     win.resize(1600, 1000)
     surface = load_example("octant")
-    project = new_project(surface, "octant", str(example_path("octant")), args.spacing)
+    project = new_project(surface, "octant", str(example_path("octant")), spacing)
     win.set_project(project)
     win.show()
     probe = Probe(app, win)
     probe.wait(lambda: win.view.is_ready() and win.pattern_view.is_ready(), 30)
-
-    rows = []
-    for _ in range(args.repeat):
-        rows.append(live_run(probe, win, project, "fast solver"))
-        print(markdown(rows[-1:]), flush=True)
-    rows.append(live_run(probe, win, project.with_settings(solver="paper", max_iter=args.paper_iterations),
-                         f"paper solver ({args.paper_iterations} it.)"))
-    rows.append(replay(probe, win, project, "replay, no solver"))
-    print(markdown(rows[-2:]), flush=True)
+    live_run(probe, win, project, "warm-up")
+    row = live_run(probe, win, project, "fast solver")
+    ceiling = replay(probe, win, project, "replay, no solver")
     win.close()
-
-    table = markdown(rows)
-    stamp = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
-    load = os.getloadavg() if hasattr(os, "getloadavg") else ("?",)
-    text = (f"# Live-update frame rate of the app\n\n"
-            f"`python benchmarks/gui_fps.py --spacing {args.spacing:g}` under Xvfb (1600x1000 window), {stamp}, "
-            f"{platform.python_implementation()} {platform.python_version()}, {os.cpu_count()} cores, "
-            f"load average {load[0]:.2f} at the end, Mesa software OpenGL (llvmpipe), "
-            f"views drawn by {WIDGETS[kind]}. "
-            f"Woven octant, spacing {args.spacing:g}.\n\n{table}\n\n"
-            "Columns: see the script's docstring. frames/s counts new states handed to the views; "
-            "repaints/s counts renders of each view, which is what a user sees move. "
-            "Live, the views keep up with the solver (repaints/s close to snapshots/s); "
-            "the replay row is the ceiling of the GUI itself on this machine.\n")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text, encoding="utf-8")
-    print(f"\nwritten to {args.out}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    return {"run_fps": row["run frames/s"], "solve_fps": row.get("solve frames/s", 0.0),
+            "replay_fps": ceiling["frames/s"], "paint_ms": row["paint ms"], "gap_ms": row["gap ms"],
+            "nodes": float(row["nodes"])}

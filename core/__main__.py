@@ -1,7 +1,7 @@
-"""``python -m core``: the headless CLI."""
+"""``python -m flatweave``: the headless CLI."""
 
 import sys
 
-from core.cli import main
+from flatweave.cli import main
 
 sys.exit(main())

@@ -1,15 +1,15 @@
-"""The headless command line: ``python -m core`` (also installed as ``flatweave-cli``).
+"""The headless command line: ``python -m flatweave`` (also installed as ``flatweave-cli``).
 
 Subcommands:
 
 * ``flatten SURFACE --spacing R ... --out RESULT.json``: drape, minimise, write the result
 * ``sweep SURFACE --spacing R [--angles K] [--seeds M] [--out SWEEP.json]``: solve at
-  several weft angles (and seeds), print the ranked table (:mod:`core.sweep`)
+  several weft angles (and seeds), print the ranked table (:mod:`flatweave.studies.sweep`)
 * ``info SURFACE``: domain, area and boundary length of a surface
 * ``examples``: the bundled example surfaces
 
-SURFACE is a surface file (any format of :mod:`core.readers`) or the name of a
-bundled example; the export formats are those of :mod:`core.export`. Errors a
+SURFACE is a surface file (any format of :mod:`flatweave.reading.registry`) or the name of a
+bundled example; the export formats are those of :mod:`flatweave.export.registry`. Errors a
 user can cause print one line, ``flatweave: error: ...``, and exit with status 2.
 """
 
@@ -22,7 +22,35 @@ import time
 import traceback
 from pathlib import Path
 
-from core.errors import FlatweaveError, SettingsError
+from flatweave.errors import FlatweaveError, SettingsError
+from flatweave.reading.registry import open_path
+from flatweave.reading.cad import is_cad_path, parse_face_list
+from flatweave.reading.cad import join_faces
+from flatweave.reading.registry import readers
+from flatweave.export.registry import exporters
+from flatweave.method.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
+from flatweave.method.energy import parse_yarn
+from flatweave.method.darts import PlaneDart
+from flatweave.files import write_json
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten, state_from_dict
+from flatweave.method.result import result_to_dict
+from flatweave.geometry.quadrature import region_area
+from flatweave.export.registry import ExportOptions, check_target, export_all, surprises
+from flatweave.geometry.region import cover_for
+from flatweave.method.lattice import parse_material
+from flatweave.studies.planar import PlanarSettings, flatten_planar, planar_result_to_dict
+from flatweave.method.solvers import solver_entry
+from flatweave.studies.sweep import sweep
+from flatweave.geometry.quadrature import boundary_length
+from flatweave.reading.examples import example_path, list_examples
+from flatweave.geometry.region import region_from_spec
+from flatweave.method.darts import curve_dart_from_file
+from flatweave.geometry.region import check_region_size
+from flatweave.studies.autodarts import suggest_darts
+from flatweave.reading.cad import cad_info
+from flatweave.geometry.meshfit import boundary_loops, clean_mesh
+from flatweave.geometry.region import offset_region
 
 __all__ = ["main", "build_parser"]
 
@@ -40,7 +68,6 @@ def _floats(text: str, n: int, what: str) -> tuple[float, ...]:
 def resolve_surface(name: str):
     """Load a surface from a path or a bundled example's name; returns (surface, source).
     A project file is refused: these commands take a surface."""
-    from core.readers import open_path
 
     opened = open_path(name, surface_only=True).choose_face()
     return opened.surface, opened.source
@@ -48,7 +75,6 @@ def resolve_surface(name: str):
 
 def reader_region(name: str) -> bool:
     """Whether the surface file's chosen face is trimmed."""
-    from core.readers import open_path
 
     return open_path(name, surface_only=True).choose_face().region is not None
 
@@ -56,7 +82,6 @@ def reader_region(name: str) -> bool:
 def resolve_piece(args):
     """The Opened surface of ``args.surface`` with its face (``--face``) and
     region (a CAD face's trims, or ``--region FILE.json``) chosen."""
-    from core.readers import open_path
 
     faces = _face_list(args)  # before the file is read: a bad list is refused at once
     opened = open_path(args.surface, surface_only=True)
@@ -74,7 +99,6 @@ def resolve_piece(args):
         opened = opened.choose_face(args.face)
     offset = getattr(args, "region_offset", None)
     if args.region:
-        from core.region import region_from_spec
 
         if opened.region is not None and getattr(opened.surface, "fit", None) is not None:
             raise SettingsError(f"{Path(args.surface).name} is a mesh: its region is the mesh's boundary; "
@@ -92,7 +116,6 @@ def resolve_piece(args):
     elif offset:  # a trimmed face's region, or the whole domain, moved along the surface
         import dataclasses
 
-        from core.region import offset_region
         opened = dataclasses.replace(opened, region=offset_region(opened.surface, opened.region, offset))
     return opened
 
@@ -102,7 +125,6 @@ def _face_list(args):
     text = getattr(args, "faces", None)
     if text is None:
         return None
-    from core.cad import is_cad_path, parse_face_list
 
     if getattr(args, "face", None) is not None:
         raise SettingsError("give --face N for one face or --faces A,B,... to join several, not both")
@@ -116,10 +138,8 @@ def _face_list(args):
 
 def _join_faces(args, opened, indices):
     """``--faces 2,5,7``: those faces of a STEP or IGES file joined into one
-    surface by the mesh route (:func:`core.cad.join_faces`)."""
+    surface by the mesh route (:func:`flatweave.reading.cad.join_faces`)."""
     import dataclasses
-
-    from core.cad import join_faces
 
     if opened.cad is None:
         raise SettingsError(f"{Path(args.surface).name}: --faces is for STEP and IGES files")
@@ -132,24 +152,18 @@ def _help(text: str) -> str:
 
 
 def _surface_help() -> str:
-    from core.readers import readers
-
     files = "; ".join(f"{', '.join(r.suffixes)}: {r.description}" for r in readers(project=False))
     return _help(f"surface file ({files}) or bundled example name")
 
 
 def _export_help() -> str:
-    from core.export import exporters
-
     formats = "; ".join(f"{e.suffix} ({e.description})" for e in exporters())
     return _help(f"write the pattern to PATH, the suffix picks the format: {formats}; repeatable")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from core.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
-
     p = argparse.ArgumentParser(
-        prog="python -m core",
+        prog="python -m flatweave",
         description="flatweave: flat patterns of woven fabric or isotropic sheets covering NURBS surfaces.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
@@ -283,8 +297,6 @@ def _angle(text: str):
 
 
 def _yarns(args) -> tuple:
-    from core.energy import parse_yarn
-
     if len(args.yarn_plane) != len(args.yarn):
         raise SettingsError(f"{len(args.yarn)} --yarn but {len(args.yarn_plane)} --yarn-plane: give one plane per yarn")
     if len(args.yarn_k) > len(args.yarn):
@@ -294,27 +306,18 @@ def _yarns(args) -> tuple:
 
 
 def _darts(args, surface) -> tuple:
-    from core.darts import PlaneDart
-
     darts = []
     for k, spec in enumerate(args.plane_dart):
         plane, _, box = spec.partition(":")
         darts.append(PlaneDart(_floats(plane, 4, "plane dart"),
                                _floats(box, 6, "plane dart box") if box else None, name=f"plane dart {k + 1}"))
     for k, path in enumerate(args.curve_dart):
-        from core.darts import curve_dart_from_file
 
         darts.append(curve_dart_from_file(surface, path, name=f"curve dart {k + 1}"))
     return tuple(darts)
 
 
 def _cmd_flatten(args) -> int:
-    from core.fileio import write_json
-    from core.pipeline import FlattenSettings, flatten, result_to_dict, state_from_dict
-    from core.quadrature import region_area
-
-    from core.export import ExportOptions, check_target, export_all, surprises
-
     if not args.out and not args.export:
         raise SettingsError("nothing to write: give --out RESULT.json and/or --export PATH")
     out = Path(args.out) if args.out else None
@@ -339,13 +342,11 @@ def _cmd_flatten(args) -> int:
                             name=args.name or Path(args.surface).stem, dxf_variant=args.dxf_variant,
                             obj_texture=args.obj_texture)
     surface, source, region = opened.surface, opened.source, opened.region
-    from core.region import cover_for
 
     cover = cover_for(surface, region)
     if opened.cad is not None and opened.face is not None:
         _check_face_size(opened, args.spacing)
     if region is not None:
-        from core.region import check_region_size
         check_region_size(surface, region, args.spacing, args.spacing_warp)
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
@@ -363,8 +364,6 @@ def _cmd_flatten(args) -> int:
     if args.angle == "auto":
         import dataclasses
 
-        from core.sweep import sweep
-
         swept = sweep(surface, settings, refine=True, area=cover.area if cover.trimmed else None,
                       seeds=1)
         settings = dataclasses.replace(settings, angle_deg=swept.best["angle_deg"])
@@ -377,7 +376,6 @@ def _cmd_flatten(args) -> int:
                      callback=None if args.quiet else _Progress())
     suggested = []
     if args.auto_darts:
-        from core.autodarts import suggest_darts
 
         suggested = suggest_darts(result, count=args.auto_darts)
         if suggested:
@@ -426,7 +424,7 @@ def _coarse_note(m: dict) -> str:
     if m.get("coarse_levels"):
         return (f", {m['coarse_iterations']} of them on {m['coarse_levels']} coarser level"
                 f"{'s' if m['coarse_levels'] > 1 else ''}")
-    if m.get("coarse_iterations"):  # a coarse solve showed the drape holds (core.pipeline._start)
+    if m.get("coarse_iterations"):  # a coarse solve showed the drape holds (flatweave.method.pipeline._start)
         return f", {m['coarse_iterations']} of them on a coarser drape that held"
     return ""
 
@@ -453,8 +451,6 @@ def _material(args):
     """The --material, with the --shear-angles given."""
     from dataclasses import replace
 
-    from core.mesh import parse_material
-
     material = parse_material(args.material)
     if getattr(args, "shear_angles", None) is None:
         return material
@@ -474,10 +470,7 @@ def _print_warnings(warnings) -> None:
 
 
 def _cmd_flatten_planar(args, out: Path) -> int:
-    """``flatten --method planar``: the comparison method of core.planar."""
-    from core.fileio import write_json
-    from core.planar import PlanarSettings, flatten_planar, planar_result_to_dict
-    from core.solvers import solver_entry
+    """``flatten --method planar``: the comparison method of flatweave.studies.planar."""
 
     unused = [name for name, value, default in (
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
@@ -541,11 +534,6 @@ def _read_json(path: str, what: str = "result") -> dict:
 
 
 def _cmd_sweep(args) -> int:
-    from core.fileio import write_json
-    from core.pipeline import FlattenSettings
-    from core.region import cover_for
-    from core.sweep import sweep
-
     out = Path(args.out) if args.out else None
     if out is not None and out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
@@ -591,16 +579,12 @@ def _no_usable_angle(best: dict) -> str:
 def _cmd_info(args) -> int:
     import json
 
-    from core.quadrature import boundary_length, region_area
-    from core.readers import open_path
-
     faces = _face_list(args)
     opened = open_path(args.surface, surface_only=True)
     if faces is not None:  # several faces joined: the piece and its fit, as for a mesh
         opened = _join_faces(args, opened, faces)
         return _info_mesh(opened, opened.surface.fit, args.json)
     if opened.cad is not None:
-        from core.cad import cad_info
 
         info = cad_info(opened.cad)
         if args.json:
@@ -634,18 +618,14 @@ def _cmd_info(args) -> int:
 
 
 def _info_mesh(opened, fit, as_json: bool) -> int:
-    """``info`` of a mesh made a surface (core.meshsurf): the fit and the piece. With ``fit``
+    """``info`` of a mesh made a surface (flatweave.geometry.meshfit): the fit and the piece. With ``fit``
     None, a mesh that cannot be covered whole (``opened.mesh``, closed or with handles): its
     vertices and triangles after repair, boundary loops and genus, size (bounding-box diagonal)
     and area, and that a region is needed to flatten it."""
     import json
 
-    from core.region import cover_for
-
     if fit is None:
         import numpy as np
-
-        from core.meshsurf import boundary_loops, clean_mesh
 
         mesh = opened.mesh
         V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name)
@@ -683,8 +663,6 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
 
 
 def _cmd_examples(args) -> int:
-    from core.examples import example_path, list_examples
-
     for e in list_examples():
         print(f"{e['name']:<14} {e.get('title', '')}  ({example_path(e['name'])})")
     return 0

@@ -22,7 +22,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
-from app.nonefix import keep_none_alive
+from flatweave.app.nonefix import keep_none_alive
 
 keep_none_alive()  # before any Qt call
 
@@ -30,7 +30,7 @@ import trimesh  # noqa: E402
 from PySide6.QtCore import QEventLoop  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app.mainwindow import MainWindow  # noqa: E402
+from flatweave.app.mainwindow import MainWindow  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -10,7 +10,7 @@ import time
 
 os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
-from app.nonefix import keep_none_alive
+from flatweave.app.nonefix import keep_none_alive
 
 keep_none_alive()  # before any Qt call
 
@@ -40,9 +40,9 @@ class Shot:
 
     def solved_window(self, example: str, spacing: float, size=(1600, 1000)):
         """A shown main window on ``example`` at ``spacing``, solved from the drape."""
-        from app.mainwindow import MainWindow
-        from core.examples import example_path, load_example
-        from core.project import new_project
+        from flatweave.app.mainwindow import MainWindow
+        from flatweave.reading.examples import example_path, load_example
+        from flatweave.document.project import new_project
 
         win = MainWindow()
         win.resize(*size)

@@ -5,7 +5,7 @@ Run from anywhere::
     python resources/make_surfaces.py
 
 It writes ``resources/surfaces/<name>.json`` (geomdl JSON, through
-:func:`core.surface_io.save_surface`) and ``resources/surfaces/index.json``,
+:func:`flatweave.geometry.surface_json.save_surface`) and ``resources/surfaces/index.json``,
 which lists every example with its title, description, units, recommended
 mesh spacing, exact area and boundary length where a closed form exists, and a
 reference area and boundary length computed here by adaptive quadrature
@@ -36,8 +36,8 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from core.nurbs import NurbsSurface  # noqa: E402
-from core.surface_io import save_surface  # noqa: E402
+from flatweave.geometry.nurbs import NurbsSurface  # noqa: E402
+from flatweave.geometry.surface_json import save_surface  # noqa: E402
 
 OUT = ROOT / "resources" / "surfaces"
 W45 = math.sqrt(2.0) / 2.0  # weight of the middle point of a 90-degree arc

@@ -8,9 +8,12 @@ import pytest
 
 
 def pytest_configure(config):
-    """The test session makes Qt calls as the app does: the same None guard first (app.nonefix)."""
-    from app.nonefix import keep_none_alive
+    """The test session makes Qt calls as the app does: the same None guard first (flatweave.app.nonefix).
+    Registers the ``slow`` mark: ``make test-fast`` (pytest -m "not slow") leaves those tests out."""
+    from flatweave.app.nonefix import keep_none_alive
 
+    config.addinivalue_line("markers", "slow: over about half a second on a 2-core machine (most window "
+                            "tests, the bigger solves); left out by make test-fast (pytest -m \"not slow\")")
     keep_none_alive()
 
 
@@ -30,7 +33,7 @@ def recovery_dir(tmp_path_factory, monkeypatch):
 
 @pytest.fixture(params=["canvas", "gl"])
 def each_widget(request, monkeypatch):
-    """Run a test with each of the views' render widgets (app.canvas): the
+    """Run a test with each of the views' render widgets (flatweave.app.canvas): the
     raster canvas (what this machine's software OpenGL gets) and pyvistaqt's
     OpenGL widget (what a GPU gets). Ask for it before any window fixture."""
     monkeypatch.setenv("FLATWEAVE_VIEW", request.param)
@@ -39,7 +42,7 @@ def each_widget(request, monkeypatch):
 
 def check_widget_kind(win) -> None:
     """The views use the render widget FLATWEAVE_VIEW names (if it names one)."""
-    from app.canvas import CanvasPlotter, GLPlotter
+    from flatweave.app.canvas import CanvasPlotter, GLPlotter
 
     want = {"canvas": CanvasPlotter, "gl": GLPlotter}.get(os.environ.get("FLATWEAVE_VIEW", ""))
     if want is not None:
@@ -50,7 +53,7 @@ def check_widget_kind(win) -> None:
 @pytest.fixture
 def make_window(qtbot):
     """A factory of shown, ready main windows; fails if a window's plotters outlive it."""
-    from app.mainwindow import MainWindow
+    from flatweave.app.mainwindow import MainWindow
 
     before = open_plotters()
     made = []
@@ -79,9 +82,10 @@ def make_window(qtbot):
 @pytest.fixture(scope="session")
 def octant_dart():
     """The octant with a dart from the equator edge towards the pole (one piece)."""
-    from core.darts import PlaneDart
-    from core.examples import load_example
-    from core.pipeline import FlattenSettings, flatten
+    from flatweave.method.darts import PlaneDart
+    from flatweave.reading.examples import load_example
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.method.pipeline import flatten
 
     dart = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
     return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))
@@ -90,9 +94,10 @@ def octant_dart():
 @pytest.fixture(scope="session")
 def octant_cut():
     """The octant cut in two by the plane x = y (two pieces)."""
-    from core.darts import PlaneDart
-    from core.examples import load_example
-    from core.pipeline import FlattenSettings, flatten
+    from flatweave.method.darts import PlaneDart
+    from flatweave.reading.examples import load_example
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.method.pipeline import flatten
 
     dart = PlaneDart((1.0, -1.0, 0.0, 0.0), None, name="cut")
     return flatten(load_example("octant"), FlattenSettings(spacing=0.1, darts=(dart,)))

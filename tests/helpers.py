@@ -73,7 +73,7 @@ class SurfaceFault:
     iterations, such as a live pattern) and only until that solve ends."""
 
     def __init__(self, monkeypatch, order=(0, 0), value=float("nan")):
-        from core.nurbs import NurbsSurface
+        from flatweave.geometry.nurbs import NurbsSurface
 
         real = NurbsSurface._homogeneous
         self.armed = False
@@ -92,7 +92,7 @@ class SurfaceFault:
         monkeypatch.setattr(NurbsSurface, "_homogeneous", homogeneous)
 
     def arm_after(self, k: int, iterate):
-        """Wrap a solver generator function (``core.solver.iterate``'s signature):
+        """Wrap a solver generator function (``flatweave.method.solver.iterate``'s signature):
         the fault arms once a snapshot of iteration ``k`` has been yielded, and
         disarms when that solve ends (by its error or otherwise). Every solve
         through the wrapper arms it again."""

@@ -25,7 +25,7 @@ edits land mid-run as a designer's would. The dimensions of darts, yarn planes
 and spacings follow the open surface's size.
 
 After every edit it asserts the document is consistent
-(``core.project.project_problems``; a result marked current was made with the
+(``flatweave.document.project.project_problems``; a result marked current was made with the
 current settings; the undo stack within its limit; at most one solve thread
 alive; Run enabled exactly when idle), that both views draw what the document
 holds (:meth:`Soak.view_problems`: the surface actor in the 3D view's
@@ -142,7 +142,7 @@ def view_image(view) -> np.ndarray:
     """(h, w, 3) uint8: the view's pixels, top row first. The canvas: what it
     painted last (what is on screen); the OpenGL widget: its framebuffer
     rendered now (``grabFramebuffer``)."""
-    from app.canvas import CanvasPlotter
+    from flatweave.app.canvas import CanvasPlotter
     from PySide6.QtGui import QImage
 
     if isinstance(view.plotter, CanvasPlotter):
@@ -159,7 +159,7 @@ def widget_state(view) -> str:
     """What a blank view's widget says of itself: its size and visibility, and
     for the OpenGL widget its context and the share of its pixels on the screen
     (the X server's own copy of the window) that differ from the background."""
-    from app.canvas import CanvasPlotter
+    from flatweave.app.canvas import CanvasPlotter
     from PySide6.QtGui import QGuiApplication, QImage
 
     w = view.widget
@@ -190,7 +190,7 @@ def drawn_share(view, image: np.ndarray, overlays=()) -> float:
     """The share of the view's pixels that differ from the background, over
     the view less ``overlays`` ((x0, y0, x1, y1) as fractions of the width and
     height, y down: colour bars, the axes), which are drawn whatever the scene holds."""
-    from app.viewbase import BACKGROUND
+    from flatweave.app.viewbase import BACKGROUND
 
     h, w = image.shape[:2]
     bg = np.array([int(BACKGROUND[i:i + 2], 16) for i in (1, 3, 5)])
@@ -374,9 +374,9 @@ class Soak:
 
     def _edit(self, kind: str) -> str | None:
         """Make one edit of ``kind``; what it was made with ("" if nothing to say), None if there was nothing to do."""
-        from core.darts import CurveDart, PlaneDart
-        from core.energy import YarnConstraint
-        from core.mesh import MATERIALS
+        from flatweave.method.darts import CurveDart, PlaneDart
+        from flatweave.method.energy import YarnConstraint
+        from flatweave.method.lattice import MATERIALS
 
         win, rng, doc = self.win, self.rng, self.doc
         darts = doc.project.settings.darts
@@ -485,7 +485,7 @@ class Soak:
                 pending.result(timeout=60)
             return ""
         if kind == "example":
-            from core.examples import example_names
+            from flatweave.reading.examples import example_names
             name = rng.choice(example_names())
             if not win.open_example(name):
                 self.errors["example failed"] += 1
@@ -657,7 +657,7 @@ class Soak:
         return f"{box.angles.value()} angles, closed"
 
     def export(self) -> str | None:
-        from core.export import ExportOptions, exporters
+        from flatweave.export.registry import ExportOptions, exporters
 
         win, rng = self.win, self.rng
         if win.project.result is None or win.exports.busy:
@@ -732,8 +732,8 @@ class Soak:
 
     # ------------------------------------------------------------------ the checks
     def check(self) -> list[str]:
-        from core.project import project_problems, settings_equal
-        from app.worker import SolveThread
+        from flatweave.document.project import project_problems, settings_equal
+        from flatweave.app.worker import SolveThread
 
         problems = []
         win, doc = self.win, self.doc
@@ -769,7 +769,7 @@ class Soak:
     def _document_grid(self, p) -> tuple[np.ndarray, np.ndarray]:
         """(grid, piece): the points of the presenter's grid of the document's surface, and
         those of the quads the 3D view draws (a trimmed piece's), cached per surface and region."""
-        from app.presenter import piece_grid
+        from flatweave.app.presenter import piece_grid
 
         key = (p.surface, p.settings.region)
         if self._grid_of is None or self._grid_of[0] is not key[0] or self._grid_of[1] is not key[1]:
@@ -788,7 +788,7 @@ class Soak:
         visible as the options say, opaque, this document's surface), a result's mesh
         drawn in both views and its outline in the pattern (nothing running), the images
         not blank, and the camera seeing the surface (inside the frustum, not clipped)."""
-        from app.canvas import CanvasPlotter
+        from flatweave.app.canvas import CanvasPlotter
         from PySide6.QtWidgets import QApplication
 
         win, doc = self.win, self.doc
@@ -910,14 +910,14 @@ def main(argv=None) -> int:
     log_path = args.log or folder / "edits.txt"
     print(f"the soak's files: {folder}", flush=True)
 
-    from app.nonefix import keep_none_alive
+    from flatweave.app.nonefix import keep_none_alive
 
     keep_none_alive()  # before any Qt call
     from PySide6.QtWidgets import QApplication
 
-    from app.mainwindow import MainWindow
-    from core.examples import example_path, load_example
-    from core.project import new_project
+    from flatweave.app.mainwindow import MainWindow
+    from flatweave.reading.examples import example_path, load_example
+    from flatweave.document.project import new_project
 
     app = QApplication.instance() or QApplication(["soak"])
     inputs = make_inputs(folder)
@@ -930,7 +930,7 @@ def main(argv=None) -> int:
     soak = Soak(win, rng, folder, inputs)
     soak.pump(500)
     base_threads = threading.active_count()
-    from app.canvas import view_kind
+    from flatweave.app.canvas import view_kind
     kind_of_view = view_kind()
 
     t0 = time.perf_counter()

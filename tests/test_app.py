@@ -18,10 +18,10 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QImage
 
-from app.presenter import GRID_POINTS
-from app.view3d import grid_boundary, grid_faces
-from core.examples import example_names, example_path
-from core.surface_io import load_surface
+from flatweave.app.presenter import GRID_POINTS
+from flatweave.app.view3d import grid_boundary, grid_faces
+from flatweave.reading.examples import example_names, example_path
+from flatweave.geometry.surface_json import load_surface
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -62,6 +62,7 @@ def test_grid_faces_and_boundary():
 
 
 # ---------------------------------------------------------------------- the window
+@pytest.mark.slow
 def test_window_shows_the_example_surface(window):
     surface = load_surface(example_path("octant"))
     pts = window.view.surface_points
@@ -100,6 +101,7 @@ def test_examples_menu_action_opens_the_example(window):
     np.testing.assert_allclose(pts[:, 2], (pts[:, 0] ** 2 - pts[:, 1] ** 2) / 2, atol=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("content", [
     None,  # missing file
     "{ this is not json",
@@ -123,6 +125,7 @@ def test_bad_file_shows_an_error_and_keeps_the_surface(window, qtbot, tmp_path, 
     np.testing.assert_array_equal(window.view.surface_points, old_points)
 
 
+@pytest.mark.slow
 def test_window_grab_is_not_blank(each_widget, window):
     window.view.render()
     img = window.grab().toImage().convertToFormat(QImage.Format.Format_RGB888)
@@ -136,10 +139,11 @@ def test_window_grab_is_not_blank(each_widget, window):
 
 # ---------------------------------------------------------------------- the command
 def run_app(*args, timeout=120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "app.main", *map(str, args)], cwd=REPO,
+    return subprocess.run([sys.executable, "-m", "flatweave.app.main", *map(str, args)], cwd=REPO,
                           capture_output=True, text=True, timeout=timeout, env=os.environ.copy())
 
 
+@pytest.mark.slow
 def test_startup_smoke_writes_a_screenshot(tmp_path):
     out = tmp_path / "x.png"
     proc = run_app("resources/surfaces/octant.json", "--screenshot", out, "--quit")
@@ -170,6 +174,7 @@ def test_missing_surface_file_exits_2(tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("view", ["auto", "gl", "canvas"])
 def test_scripted_run_writes_a_screenshot_of_the_solved_piece(tmp_path, view):
     out = tmp_path / "run.png"
@@ -187,6 +192,7 @@ def test_scripted_run_writes_a_screenshot_of_the_solved_piece(tmp_path, view):
     assert ((g > 200) & (r < 80) & (b < 80)).sum() > 200, "no zero-strain (green) springs drawn"
 
 
+@pytest.mark.slow
 def test_scripted_run_that_fails_exits_1_with_one_line(tmp_path):
     out = tmp_path / "never.png"
     proc = run_app("resources/surfaces/octant.json", "--spacing", "0.0001", "--run", "--screenshot", out,
@@ -197,9 +203,11 @@ def test_scripted_run_that_fails_exits_1_with_one_line(tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_opening_a_project_from_the_command_line(tmp_path):
-    from core.pipeline import FlattenSettings, flatten
-    from core.project import Project, save_project
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.method.pipeline import flatten
+    from flatweave.document.project import Project, save_project
 
     surface = load_surface(example_path("octant"))
     s = FlattenSettings(spacing=0.1)
@@ -218,8 +226,8 @@ def test_opening_a_project_from_the_command_line(tmp_path):
 def test_menus_and_toolbar_come_from_the_actions_table(window):
     from PySide6.QtWidgets import QToolBar
 
-    from app.actions import ACTIONS, MENUS
-    from app.tooling import TOOLS
+    from flatweave.app.actions import ACTIONS, MENUS
+    from flatweave.app.tooling import TOOLS
 
     assert list(window.actions) == [spec.key for spec in ACTIONS]
     assert [a.text() for a in window.menuBar().actions()] == list(MENUS)

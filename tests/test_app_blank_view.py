@@ -19,11 +19,11 @@ import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkMath
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper
 
-from app.viewbase import polyline_cells, replace_geometry
-from core.darts import PlaneDart
-from core.examples import load_example
-from core.nurbs import NurbsSurface
-from core.project import new_project
+from flatweave.app.viewbase import polyline_cells, replace_geometry
+from flatweave.method.darts import PlaneDart
+from flatweave.reading.examples import load_example
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.document.project import new_project
 
 from tests.soak import drawn_share, frustum, view_image
 

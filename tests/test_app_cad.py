@@ -42,9 +42,10 @@ def click(qtbot, view, x, y):
     qtbot.mouseClick(w, Qt.MouseButton.LeftButton, pos=QPoint(int(round(x)), w.height() - 1 - int(round(y))))
 
 
+@pytest.mark.slow
 def test_pick_a_face_by_clicking_run_export_save_and_reopen(make_window, qtbot, tmp_path, three_faces):
-    from core.export import ExportOptions
-    from app.facepicker import face_mesh
+    from flatweave.export.registry import ExportOptions
+    from flatweave.app.facepicker import face_mesh
 
     win = make_window()
     before = win.project

@@ -14,8 +14,8 @@ from PySide6.QtCore import QPoint, QPointF, Qt
 from PySide6.QtGui import QWheelEvent
 from PySide6.QtWidgets import QApplication
 
-from app import canvas
-from app.canvas import CanvasPlotter, GLPlotter, is_software_renderer, view_kind
+from flatweave.app import canvas
+from flatweave.app.canvas import CanvasPlotter, GLPlotter, is_software_renderer, view_kind
 
 from tests.test_app import run_app
 from tests.test_app_run import run_to_end, small_project
@@ -61,8 +61,8 @@ def test_auto_chooses_by_the_renderer(monkeypatch, qapp):
 
 
 def test_the_app_command_lists_the_widget_kinds():
-    from app.main import VIEW_KINDS
-    from app.choices import VIEW_KINDS as KINDS
+    from flatweave.app.choices import VIEW_KINDS
+    from flatweave.app.choices import VIEW_KINDS as KINDS
     assert VIEW_KINDS == canvas.VIEW_KINDS == KINDS
 
 
@@ -95,6 +95,7 @@ def shown(qtbot, view) -> np.ndarray:
     return view.widget.image()
 
 
+@pytest.mark.slow
 def test_the_canvas_shows_the_scene_as_it_is_now(canvas_window, qtbot):
     win = canvas_window
     before = {}
@@ -127,6 +128,7 @@ def test_the_canvas_follows_its_size(canvas_window, qtbot):
     assert tuple(view.plotter.iren.interactor.GetSize()) == (w, h)  # the interactor flips y with this height
 
 
+@pytest.mark.slow
 def test_one_paint_pass_renders_each_view_once(canvas_window, qtbot):
     win = canvas_window
     frame = win.frame

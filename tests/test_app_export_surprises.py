@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import re
 
+import pytest
 from PySide6.QtWidgets import QMessageBox
 
-from core.examples import example_path, load_example
-from core.export import MAX_QUIET_PAGES
-from core.project import new_project
+from flatweave.reading.examples import example_path, load_example
+from flatweave.export.registry import MAX_QUIET_PAGES
+from flatweave.document.project import new_project
 
 
 def solved_window(make_window, qtbot):
@@ -31,6 +32,7 @@ def open_export(win, qtbot, path, units):
     return dialog
 
 
+@pytest.mark.slow
 def test_export_asks_before_a_long_pdf_and_writes_nothing_on_no(make_window, qtbot, tmp_path, monkeypatch):
     from pypdf import PdfReader
 

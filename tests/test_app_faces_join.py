@@ -1,6 +1,6 @@
 """The face picker joins faces: a shift-click adds a face to the choice (a
 second one takes it out), OK opens the faces joined into one surface
-(core.cad.join_faces), and the project keeps the fitted surface and which
+(flatweave.reading.cad.join_faces), and the project keeps the fitted surface and which
 faces it joins, so it reopens without the CAD file."""
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def click(qtbot, view, x, y, shift=False):
 
 def spot_of(picker, index):
     """A display point where the picker's view shows face ``index``."""
-    from app.facepicker import face_mesh
+    from flatweave.app.facepicker import face_mesh
     pts, tris = face_mesh(picker.opened.cad.faces[index])
     centroids = pts[tris].mean(axis=1)
     for k in np.argsort(np.linalg.norm(centroids - centroids.mean(axis=0), axis=1))[:80]:
@@ -43,8 +43,9 @@ def spot_of(picker, index):
     pytest.fail(f"face {index} is nowhere in the picker's view")
 
 
+@pytest.mark.slow
 def test_shift_click_two_faces_join_them_run_save_and_reopen(make_window, qtbot, tmp_path, fillet_file):
-    from core.meshsurf import FittedSurface
+    from flatweave.geometry.meshfit import FittedSurface
     from tests.test_faces_join import L1, R, W
 
     win = make_window()
@@ -74,7 +75,7 @@ def test_shift_click_two_faces_join_them_run_save_and_reopen(make_window, qtbot,
     fit = project.surface.fit
     assert fit.max_deviation < 1e-3 * fit.size
     # the joined piece: the plate and the fillet, its outline drawn
-    from core.region import cover_for
+    from flatweave.geometry.region import cover_for
     cover = cover_for(project.surface, project.settings.region)
     assert cover.area == pytest.approx(W * (L1 + math.pi * R / 2), rel=1e-3)
     assert len(win.view.loops) == 1

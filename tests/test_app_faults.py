@@ -13,12 +13,12 @@ import threading
 
 import pytest
 
-import app.runner
-import core.pipeline
-from app.frames import FrameMaker
-from app.worker import SolveThread
-from core.export import FORMATS, ExportOptions
-from core.project import load_project, project_problems, project_to_dict
+import flatweave.app.runner
+import flatweave.method.pipeline
+from flatweave.app.frames import FrameMaker
+from flatweave.app.worker import SolveThread
+from flatweave.export.registry import FORMATS, ExportOptions
+from flatweave.document.project import load_project, project_problems, project_to_dict
 from tests.helpers import NO_SPACE, FullDisk, SurfaceFault
 from tests.test_app_run import RUN_TIMEOUT_MS, run_to_end, shown_rgb, small_project
 
@@ -64,6 +64,7 @@ def solved_window(make_window, qtbot):
 
 
 # ---------------------------------------------------------------------- the worker
+@pytest.mark.slow
 def test_an_exception_in_the_worker_mid_run_changes_nothing(make_window, qtbot, monkeypatch, capsys):
     win = solved_window(make_window, qtbot)
     before = snapshot(win)
@@ -89,11 +90,12 @@ def test_an_exception_in_the_worker_mid_run_changes_nothing(make_window, qtbot, 
     assert_usable(win, qtbot)
 
 
+@pytest.mark.slow
 def test_a_nan_mid_run_is_a_one_line_error_and_changes_nothing(make_window, qtbot, monkeypatch, capsys):
     win = solved_window(make_window, qtbot)
     before = snapshot(win)
     fault = SurfaceFault(monkeypatch)  # the surface gives NaN at one node from iteration 4 of the worker's solve
-    monkeypatch.setattr(core.pipeline, "iterate", fault.arm_after(3, core.pipeline.iterate))
+    monkeypatch.setattr(flatweave.method.pipeline, "iterate", fault.arm_after(3, flatweave.method.pipeline.iterate))
     with qtbot.waitSignal(win.run_failed, timeout=RUN_TIMEOUT_MS) as blocker:
         win.run()
     message = blocker.args[0]
@@ -109,6 +111,7 @@ def test_a_nan_mid_run_is_a_one_line_error_and_changes_nothing(make_window, qtbo
     assert_usable(win, qtbot)
 
 
+@pytest.mark.slow
 def test_cancel_mid_run_keeps_the_document_and_redraws_it(make_window, qtbot):
     win = solved_window(make_window, qtbot)
     # the paper's CG at a new spacing: a new drape and thousands of iterations
@@ -133,6 +136,7 @@ def test_cancel_mid_run_keeps_the_document_and_redraws_it(make_window, qtbot):
     assert_usable(win, qtbot)
 
 
+@pytest.mark.slow
 def test_a_run_is_never_started_twice_at_once(make_window, qtbot, monkeypatch):
     alive, peak, made = [0], [0], []
     lock = threading.Lock()
@@ -152,7 +156,7 @@ def test_a_run_is_never_started_twice_at_once(make_window, qtbot, monkeypatch):
                 with lock:
                     alive[0] -= 1
 
-    monkeypatch.setattr(app.runner, "SolveThread", Counted)
+    monkeypatch.setattr(flatweave.app.runner, "SolveThread", Counted)
     win = make_window(small_project(0.1))
     finished = []
     win.run_finished.connect(finished.append)
@@ -180,6 +184,7 @@ def test_a_run_is_never_started_twice_at_once(make_window, qtbot, monkeypatch):
 
 
 # ---------------------------------------------------------------------- files
+@pytest.mark.slow
 def test_export_on_a_full_disk_leaves_no_partial_file(make_window, qtbot, tmp_path, monkeypatch):
     win = make_window(small_project(0.1))
     run_to_end(qtbot, win)
@@ -230,7 +235,7 @@ def test_save_on_a_full_disk_keeps_the_document_dirty(make_window, qtbot, tmp_pa
 @pytest.mark.parametrize("error", [ValueError("Out of range float values are not JSON compliant: nan"),
                                    OSError(5, "Input/output error")])
 def test_an_unexpected_save_failure_is_still_a_one_line_error(make_window, monkeypatch, error, capsys):
-    import app.files
+    import flatweave.app.files
 
     win = make_window(small_project(0.1))
     win.document.edit_settings("Tolerance", tol=1e-8)
@@ -238,7 +243,7 @@ def test_an_unexpected_save_failure_is_still_a_one_line_error(make_window, monke
     def failing(project, path):
         raise error
 
-    monkeypatch.setattr(app.files, "save_with_backups", failing)
+    monkeypatch.setattr(flatweave.app.files, "save_with_backups", failing)
     assert not win.save_to("x.flatweave")
     assert win.last_error == f"Cannot save: {type(error).__name__}: {str(error).splitlines()[0]}"
     assert win.document.dirty and win.document.path is None

@@ -1,10 +1,10 @@
-"""View > Fibre angle shows what the fibre-angle CSV exports (issue 23, item 3)."""
+"""View > Fibre angle shows what the fibre-angle CSV exports."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from core.export import ExportOptions, export_all
+from flatweave.export.registry import ExportOptions, export_all
 from tests.test_app_run import run_to_end, small_project
 from tests.test_fibres import read_csv
 

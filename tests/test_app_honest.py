@@ -1,4 +1,4 @@
-"""GUI tests of the window telling the truth (issue 18): Open, Examples and
+"""GUI tests of the window telling the truth: Open, Examples and
 Recover ask before discarding unsaved work; the line under Run, the status
 bar, the energy plot and the title show the document as it is now; Ctrl+Z
 after a committed settings field undoes the document's edit."""
@@ -11,14 +11,14 @@ import pytest
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import QApplication, QFileDialog, QMessageBox
 
-from core.darts import PlaneDart
-from core.errors import FlatweaveError
-from core.examples import example_path
-from core.project import load_project
+from flatweave.method.darts import PlaneDart
+from flatweave.errors import FlatweaveError
+from flatweave.reading.examples import example_path
+from flatweave.document.project import load_project
 
-from app.actions import show_view_choices, view_choices
-from app.presenter import history_rows
-from app.runcontrol import NOT_SOLVED, result_text
+from flatweave.app.actions import show_view_choices, view_choices
+from flatweave.app.presenter import history_rows
+from flatweave.app.runcontrol import NOT_SOLVED, result_text
 
 from tests.test_app_recovery import click, write_orphan
 from tests.test_app_run import run_to_end, small_project
@@ -113,7 +113,7 @@ def test_a_failed_or_cancelled_save_opens_nothing(make_window, questions, tmp_pa
     def full_disk(*_args, **_kwargs):
         raise FlatweaveError("no space left on the device")
 
-    monkeypatch.setattr("app.files.save_with_backups", full_disk)
+    monkeypatch.setattr("flatweave.app.files.save_with_backups", full_disk)
     q = questions(Button.Save)
     assert not win.open_file(example_path("cone"))
     assert len(q.texts) == 1 and win.project is before and win.document.unsaved_work
@@ -169,6 +169,7 @@ def test_recovering_into_unsaved_work_asks_first(make_window, questions, qtbot, 
 
 
 # ---------------------------------------------------------------------- item 4: status text
+@pytest.mark.slow
 def test_status_text_follows_undo_redo_and_open(make_window, qtbot, tmp_path):
     win = make_window(small_project(0.1))
     assert win.progress.text() == NOT_SOLVED
@@ -215,6 +216,7 @@ def test_history_rows_end_at_the_solvers_iteration_count():
     assert [r[0] for r in history_rows([2.0, 1.0], None)] == [1, 2]  # no count known: one entry an iteration
 
 
+@pytest.mark.slow
 def test_the_energy_plot_counts_the_metrics_iterations(make_window, qtbot, tmp_path):
     win = make_window(small_project(0.1))  # refills here: the trace has more entries than iterations
     run_to_end(qtbot, win)
@@ -299,6 +301,7 @@ def test_ctrl_z_after_a_committed_spin_box_undoes_the_document(make_window, qtbo
 
 
 # ---------------------------------------------------------------------- item 9: the view comes back with the project
+@pytest.mark.slow
 def test_the_view_mode_comes_back_with_the_project(make_window, qtbot, tmp_path):
     win = make_window(small_project(0.1))
     run_to_end(qtbot, win)
@@ -320,6 +323,7 @@ def test_the_view_mode_comes_back_with_the_project(make_window, qtbot, tmp_path)
     assert other.open_file(example_path("saddle")) and other.view_options.mode == "shear"
 
 
+@pytest.mark.slow
 def test_view_choices_read_from_and_shown_on_the_actions(make_window, qtbot):
     """The window's half of keeping the view with the project (whatever core stores)."""
     win = make_window(small_project(0.1))

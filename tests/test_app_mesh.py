@@ -14,7 +14,7 @@ import pytest
 
 trimesh = pytest.importorskip("trimesh")
 
-from core.meshsurf import FittedSurface, MeshFit, fit_deviation  # noqa: E402
+from flatweave.geometry.meshfit import FittedSurface, MeshFit, fit_deviation  # noqa: E402
 
 RUN_TIMEOUT_MS = 90000
 
@@ -41,12 +41,13 @@ def cap_stl(tmp_path):
 
 
 def test_open_filter_lists_the_mesh_formats():
-    from app.files import open_filter
+    from flatweave.app.files import open_filter
 
     first = open_filter().split(";;")[0]
     assert all(f"*{s}" in first for s in (".stl", ".obj", ".ply", ".off"))
 
 
+@pytest.mark.slow
 def test_open_an_stl_run_and_the_fit_numbers(make_window, qtbot, cap_stl):
     path, V = cap_stl
     win = make_window(example=None)
@@ -69,6 +70,7 @@ def test_open_an_stl_run_and_the_fit_numbers(make_window, qtbot, cap_stl):
     assert win.metrics.text("boundary") == f"{m['boundary_error_pct']:.3f} %"  # the piece's pattern is shown
 
 
+@pytest.mark.slow
 def test_deviation_map_and_mesh_beside(make_window, qtbot, cap_stl):
     path, V = cap_stl
     win = make_window(example=None)
@@ -107,6 +109,7 @@ def test_deviation_map_and_mesh_beside(make_window, qtbot, cap_stl):
     assert win.metrics.text("fit") == "-"
 
 
+@pytest.mark.slow
 def test_a_reopened_project_reads_its_mesh_again_on_request(make_window, qtbot, cap_stl, tmp_path):
     path, _ = cap_stl
     win = make_window(example=None)
@@ -142,7 +145,7 @@ def test_a_closed_mesh_says_it_needs_a_region_and_its_piece_is_drawn_on_it(make_
     from PySide6.QtCore import QPoint, Qt
     from vtkmodules.vtkRenderingCore import vtkCoordinate
 
-    from core.region import cover_for
+    from flatweave.geometry.region import cover_for
 
     path = tmp_path / "ball.stl"
     path.write_bytes(trimesh.creation.icosphere(4).export(file_type="stl"))

@@ -10,13 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.colours import BLUE, GREEN, PURPLE, RED, YELLOW, ramp, shear_stops, strain_range, strain_stops
-from app.frames import FrameMaker
-from core.darts import CurveDart, DartSet, PlaneDart
-from core.examples import load_example
-from core.mesh import DIAG
-from core.metrics import cell_shear_deg, spring_strain
-from core.pipeline import FlattenSettings, flatten
+from flatweave.app.colours import BLUE, GREEN, PURPLE, RED, YELLOW, ramp, shear_stops, strain_range, strain_stops
+from flatweave.app.frames import FrameMaker
+from flatweave.method.darts import CurveDart, DartSet, PlaneDart
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import DIAG
+from flatweave.method.metrics import cell_shear_deg, spring_strain
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -52,7 +53,7 @@ def test_shear_scale_thresholds():
 
 
 def test_nice_length():
-    from app.view2d import nice_length  # needs pyvista, not Qt windows
+    from flatweave.app.view2d import nice_length  # needs pyvista, not Qt windows
 
     assert nice_length(0.63) == 0.5 and nice_length(1.0) == 1.0 and nice_length(3.7) == 2.0
     assert nice_length(999.0) == 500.0 and nice_length(0.0123) == 0.01
@@ -137,7 +138,7 @@ def test_many_qt_calls_never_use_up_none():
     on CPython 3.11 the process aborted when the count reached zero (about
     70,000 calls in the window). The launcher's guard makes None's count
     inexhaustible: 300,000 such calls must leave the process alive."""
-    code = ("from app.nonefix import keep_none_alive\n"
+    code = ("from flatweave.app.nonefix import keep_none_alive\n"
             "keep_none_alive()\n"
             "from PySide6.QtCore import QCoreApplication, QObject\n"
             "a = QCoreApplication([])\n"
@@ -151,7 +152,7 @@ def test_many_qt_calls_never_use_up_none():
 
 
 def test_the_none_guard_is_for_the_builds_that_need_it():
-    from app.nonefix import needs_none_guard
+    from flatweave.app.nonefix import needs_none_guard
 
     assert needs_none_guard("cpython", (3, 11, 7), (6, 12, 0))
     assert needs_none_guard("cpython", (3, 10, 0), (6, 13, 1))  # no fixed release known yet
@@ -161,11 +162,12 @@ def test_the_none_guard_is_for_the_builds_that_need_it():
     assert not needs_none_guard("cpython", (3, 11, 7), None)
 
 
+@pytest.mark.slow
 def test_importing_app_leaves_none_alone():
     """The guard is the launcher's call, not a side effect of ``import app``."""
     code = ("import sys\n"
             "before = sys.getrefcount(None)\n"
-            "import app, app.mainwindow\n"
+            "import app, flatweave.app.mainwindow\n"
             "print(sys.getrefcount(None) < 2 ** 59)\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           cwd=str(REPO))
@@ -184,15 +186,16 @@ def _app_imports(path: Path) -> set[str]:
 
 
 def test_the_views_do_not_import_the_command():
-    """app.main imports the window (through app.canvas); nothing it loads imports app.main back."""
+    """flatweave.app.main imports the window (through flatweave.app.canvas); nothing it loads
+    imports flatweave.app.main back."""
     for f in sorted((REPO / "app").glob("*.py")):
         if f.name != "main.py":
-            assert "app.main" not in _app_imports(f), f"{f.name} imports app.main"
+            assert "flatweave.app.main" not in _app_imports(f), f"{f.name} imports flatweave.app.main"
 
 
 def test_every_core_aspect_has_a_flag():
-    from app.aspects import Aspect, aspects_of
-    from core.document import ASPECTS
+    from flatweave.app.aspects import Aspect, aspects_of
+    from flatweave.document.history import ASPECTS
 
     flags = [aspects_of([name]) for name in ASPECTS]
     assert len(set(flags)) == len(ASPECTS) and Aspect.NONE not in flags
@@ -204,7 +207,7 @@ def test_every_core_aspect_has_a_flag():
 
 
 def test_the_window_never_asks_what_the_tool_is():
-    """Per-tool behaviour lives in the Tool classes and the tools table (app.tooling.TOOLS)."""
+    """Per-tool behaviour lives in the Tool classes and the tools table (flatweave.app.tooling.TOOLS)."""
     tree = ast.parse((REPO / "app" / "mainwindow.py").read_text(encoding="utf-8"))
     for node in ast.walk(tree):
         if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "isinstance":

@@ -13,11 +13,12 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import pytest
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QApplication, QMessageBox
 
-from core.project import load_project, project_problems, project_to_dict
-from core.recovery import backup_paths, find_orphans
+from flatweave.document.project import load_project, project_problems, project_to_dict
+from flatweave.document.recovery import backup_paths, find_orphans
 
 from tests.test_app_run import run_to_end, small_project
 
@@ -49,6 +50,7 @@ def test_a_solve_is_autosaved_and_a_save_clears_it(make_window, qtbot, recovery_
     assert not recovery_files(recovery_dir)
 
 
+@pytest.mark.slow
 def test_the_timer_autosaves_only_what_changed(make_window, qtbot, recovery_dir, tmp_path):
     win = make_window(small_project(0.12))
     assert win.save_to(tmp_path / "piece.flatweave")
@@ -78,7 +80,7 @@ def test_saving_keeps_backups_of_earlier_saves(make_window, tmp_path):
 
 def start_killable_app(recovery: Path, *args) -> subprocess.Popen:
     env = {**os.environ, "FLATWEAVE_RECOVERY_DIR": str(recovery)}
-    return subprocess.Popen([sys.executable, "-m", "app.main", *map(str, args)], cwd=REPO, env=env,
+    return subprocess.Popen([sys.executable, "-m", "flatweave.app.main", *map(str, args)], cwd=REPO, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
@@ -96,6 +98,7 @@ def wait_for_solved_autosave(folder: Path, proc: subprocess.Popen, timeout: floa
     raise AssertionError("no autosave of the solved document appeared")
 
 
+@pytest.mark.slow
 def test_work_survives_the_app_being_killed(make_window, qtbot, recovery_dir, tmp_path):
     """Run a solve in a real flatweave process, SIGKILL it once the solve is
     autosaved, then start again: the work is offered back and recovered."""
@@ -129,7 +132,7 @@ def test_work_survives_the_app_being_killed(make_window, qtbot, recovery_dir, tm
 
 def write_orphan(folder: Path, project, name: str) -> Path:
     """A recovery file whose session is gone (no lock held)."""
-    from core.recovery import Session
+    from flatweave.document.recovery import Session
 
     s = Session(folder)
     s.write(replace(project, name=name))
@@ -154,6 +157,7 @@ def test_discard_and_later(make_window, qtbot, tmp_path):
     assert win.document.project.name == "octant"  # the open document untouched
 
 
+@pytest.mark.slow
 def test_closing_with_unsaved_work_asks_first(make_window, qtbot, recovery_dir, tmp_path):
     win = make_window(small_project(0.12))
     win.confirm_close = True

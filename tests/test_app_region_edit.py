@@ -1,4 +1,4 @@
-"""GUI tests of editing a drawn region as a curve dart is edited (issue 21): a
+"""GUI tests of editing a drawn region as a curve dart is edited: a
 dragged point re-solves as it moves (previews outside the document, the release
 one edit that a preview answers), a double click on a side inserts a point, a
 double click on a point or Delete removes it, every edit one undo step.
@@ -13,9 +13,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from PySide6.QtCore import QPoint, Qt
 
-from core.region import cover_for, region_from_spec
+from flatweave.geometry.region import cover_for, region_from_spec
 
 from tests.test_app_region_tool import ring
 from tests.test_app_run import RUN_TIMEOUT_MS, run_to_end, small_project
@@ -50,6 +51,7 @@ def to_qt(view, p) -> QPoint:
     return QPoint(int(round(p[0])), view.widget.height() - 1 - int(round(p[1])))
 
 
+@pytest.mark.slow
 def test_a_dragged_region_point_re_solves_as_it_moves(make_window, qtbot):
     win = drawn_window(make_window, qtbot)
     view, doc = win.view, win.document
@@ -97,10 +99,11 @@ def test_a_dragged_region_point_re_solves_as_it_moves(make_window, qtbot):
     assert win.project is before and len(doc.history) == steps
 
 
+@pytest.mark.slow
 def test_insert_and_delete_region_points(make_window, qtbot):
     win = drawn_window(make_window, qtbot)
     view, doc = win.view, win.document
-    from app.tools import RegionTool
+    from flatweave.app.tools import RegionTool
 
     def tool():
         if not isinstance(win.tool, RegionTool):
@@ -158,6 +161,7 @@ def test_insert_and_delete_region_points(make_window, qtbot):
     assert "at least three points" in win.last_hint and doc.revision == revision
 
 
+@pytest.mark.slow
 def test_the_region_offset_in_the_settings_panel(make_window, qtbot, tmp_path):
     """Region offset d (model units along the surface): on the unit sphere the outer loop's
     farthest point from the ring's centre moves out by d radians (a vertex's fan is a circle of
@@ -205,7 +209,7 @@ def test_several_candidate_regions_one_active(make_window, qtbot, tmp_path):
     assert panel.names() == ["region", "region 2"] and doc.undo_label == "Keep region"
     assert len(view.kept_region_points) > 50  # the kept copy drawn on the surface (under the active one)
     # draw a smaller region elsewhere: it replaces the active one, the copy stays
-    from app.tools import RegionTool
+    from flatweave.app.tools import RegionTool
     if not isinstance(win.tool, RegionTool):
         win.actions["tool_region"].trigger()
     small = [pixel(view, t) for t in ring((1.0, 0.45, 0.75), 12, 5)]

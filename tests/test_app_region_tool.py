@@ -1,20 +1,21 @@
-"""GUI tests of the region tool (issue 21): a ply boundary drawn by clicks in the
+"""GUI tests of the region tool: a ply boundary drawn by clicks in the
 3D view on the octant (the unit sphere), closed by a click on its first point,
 a hole drawn inside it, undo and redo, save and reopen.
 
 Every click is a real mouse event; each placed point is checked against the
 ray-sphere intersection of its pixel's viewing ray (tests.test_app_tools'
-oracle, independent of core.curves)."""
+oracle, independent of flatweave.geometry.curves)."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
+import pytest
 from PySide6.QtCore import Qt
 
-from app.tools import RegionTool
-from core.region import cover_for
+from flatweave.app.tools import RegionTool
+from flatweave.geometry.region import cover_for
 
 from tests.test_app_run import RUN_TIMEOUT_MS, run_to_end, small_project
 from tests.test_app_tools import CAMERA, click, drag, pixel, ray_sphere, ready
@@ -30,6 +31,7 @@ def ring(centre, radius_deg, n):
     return math.cos(r) * c + math.sin(r) * (np.cos(t)[:, None] * a + np.sin(t)[:, None] * b)
 
 
+@pytest.mark.slow
 def test_draw_a_region_and_a_hole_undo_and_reopen(make_window, qtbot, tmp_path):
     win = make_window(small_project(0.1))
     run_to_end(qtbot, win)

@@ -8,9 +8,10 @@ from pathlib import Path
 import pytest
 from PySide6.QtWidgets import QFileDialog
 
-from core.examples import load_example
-from core.export import register_exporter, unregister_exporter
-from core.readers import Opened, register_reader, unregister_reader
+from flatweave.reading.examples import load_example
+from flatweave.export.registry import register_exporter, unregister_exporter
+from flatweave.reading.opened import Opened
+from flatweave.reading.registry import register_reader, unregister_reader
 
 
 @pytest.fixture
@@ -40,7 +41,7 @@ def test_the_open_dialog_offers_and_opens_a_registered_reader(toy_formats, make_
 
 
 def test_the_export_dialog_offers_a_registered_exporter(toy_formats, qtbot, monkeypatch, tmp_path):
-    from app.exporting import ExportDialog
+    from flatweave.app.exporting import ExportDialog
 
     dialog = ExportDialog(tmp_path / "piece.dxf", "m", "piece")
     qtbot.addWidget(dialog)

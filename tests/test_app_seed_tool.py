@@ -1,4 +1,4 @@
-"""GUI test of the seed tool (issue 21): the seed picked by a click inside the
+"""GUI test of the seed tool: the seed picked by a click inside the
 drawn piece, the weft direction by a drag from it, the rosette drawn as two
 arrows; a click outside the piece is refused with one line, nothing changed.
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.fibres import reference_direction
+from flatweave.method.fibres import reference_direction
 
 from tests.test_app_region_edit import CENTRE, drawn_window
 from tests.test_app_region_tool import ring

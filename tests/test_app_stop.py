@@ -11,10 +11,12 @@ from __future__ import annotations
 import threading
 import time
 
-import app.worker
-import core.solver
-from app.runcontrol import result_text
-from core.project import project_problems
+import pytest
+
+import flatweave.app.worker
+import flatweave.method.solver
+from flatweave.app.runcontrol import result_text
+from flatweave.document.project import project_problems
 from tests.test_app_run import RUN_TIMEOUT_MS, small_project
 
 BLOCK_AT = 10  # snapshots handed to the run before an iteration "takes long"
@@ -28,7 +30,7 @@ class SlowIteration:
         self.release = threading.Event()
         self.blocked = threading.Event()
         self.made: list[int] = []  # iterations of the snapshots handed to the run
-        snapshot = core.solver._Run.snapshot
+        snapshot = flatweave.method.solver.Run.snapshot
 
         def slow(run, *args, **kwargs):
             if len(self.made) >= BLOCK_AT and not self.release.is_set():
@@ -38,7 +40,7 @@ class SlowIteration:
             self.made.append(snap.iteration)
             return snap
 
-        monkeypatch.setattr(core.solver._Run, "snapshot", slow)
+        monkeypatch.setattr(flatweave.method.solver.Run, "snapshot", slow)
 
 
 class Answers:
@@ -70,6 +72,7 @@ def _stopped_mid_iteration(make_window, qtbot, slow):
     return win, answers, (t0, t1)
 
 
+@pytest.mark.slow
 def test_stop_is_shown_at_once_and_keeps_the_last_iterate(make_window, qtbot, monkeypatch):
     slow = SlowIteration(monkeypatch)
     try:
@@ -118,6 +121,7 @@ def test_stop_is_shown_at_once_and_keeps_the_last_iterate(make_window, qtbot, mo
     assert win.runner.last_history and win.runner.last_history[-1][0] == last
 
 
+@pytest.mark.slow
 def test_a_run_started_after_a_stop_waits_for_the_stopped_iteration(make_window, qtbot, monkeypatch):
     """Two solves never run at once: a run asked for while the stopped run's iteration runs out
     starts when its thread has ended, and ends with its own answer."""
@@ -145,7 +149,7 @@ def test_a_stop_whose_result_cannot_be_made_fails_in_one_line(make_window, qtbot
     def broken(*args, **kwargs):
         raise ValueError("no pattern today\nsecond line")
 
-    monkeypatch.setattr(app.worker, "stopped_result", broken)
+    monkeypatch.setattr(flatweave.app.worker, "stopped_result", broken)
     try:
         win, answers, _ = _stopped_mid_iteration(make_window, qtbot, slow)
         win.stop()

@@ -1,17 +1,19 @@
-"""Tools > Suggest darts in the window (issue 23): suggest, preview, accept one, undo."""
+"""Tools > Suggest darts in the window: suggest, preview, accept one, undo."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from PySide6.QtCore import Qt
 
-from core.mesh import MATERIALS
+from flatweave.method.lattice import MATERIALS
 
 from tests.test_app_run import run_to_end, small_project
 
 
+@pytest.mark.slow
 def test_suggest_preview_accept_and_undo(qtbot, make_window):
     # a 5 degree warning angle: the octant's 9.5 degree shear warns, so darts are wanted
     # (with the preset's 15 degrees every metric is within its limits and none is suggested)
@@ -66,9 +68,10 @@ def test_suggest_needs_a_current_result(qtbot, make_window):
     box.close()
 
 
+@pytest.mark.slow
 def test_best_orientation_table_plot_and_apply(qtbot, make_window):
-    from app.sweepdialog import COLUMNS
-    from core.pipeline import FlattenSettings
+    from flatweave.app.sweepdialog import COLUMNS
+    from flatweave.method.settings import FlattenSettings
 
     win = make_window(small_project(0.15))
     win.settings_panel.auto_rerun.setChecked(False)
@@ -100,8 +103,8 @@ def test_best_orientation_table_plot_and_apply(qtbot, make_window):
 
 
 def test_a_background_call_reports_one_line_and_never_raises(qtbot):
-    from app.background import BackgroundCall
-    from core.errors import SettingsError
+    from flatweave.app.background import BackgroundCall
+    from flatweave.errors import SettingsError
 
     got = []
     call = BackgroundCall(lambda value, error: got.append((value, error)))

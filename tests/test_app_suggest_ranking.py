@@ -8,11 +8,13 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from PySide6.QtWidgets import QDialogButtonBox
 
-import core.autodarts as autodarts
-from core.examples import example_path, load_example
-from core.project import new_project
+import flatweave.app.suggest as suggest_dialog
+import flatweave.studies.autodarts as autodarts
+from flatweave.reading.examples import example_path, load_example
+from flatweave.document.project import new_project
 from tests.test_app_run import run_to_end
 
 TIMEOUT_MS = 120000
@@ -32,6 +34,7 @@ def _suggest(qtbot, win):
     return box
 
 
+@pytest.mark.slow
 def test_darts_that_would_open_gaps_in_the_saddle_are_not_listed(qtbot, make_window):
     """The saddle's strongest candidates lower the energy by 85 % and leave over 3 % of it
     uncovered (not usable); the dialog lists only darts whose patterns are usable."""
@@ -55,13 +58,14 @@ def test_a_piece_within_every_warning_limit_gets_no_dart_and_the_dialog_says_why
     assert not box.buttons.button(QDialogButtonBox.StandardButton.Apply).isEnabled()
 
 
+@pytest.mark.slow
 def test_a_ruinous_dart_beside_a_good_one_is_not_listed(qtbot, make_window, monkeypatch):
     """Two candidates: one lowers the energy by 26 % but doubles the outline (the report's
     'boundary 153 %'), the other lowers it by 15 % and clears the shear warning, its
     outline a little longer (within its limit)."""
-    from core.darts import CurveDart
-    from core.mesh import MATERIALS
-    from core.pipeline import judged
+    from flatweave.method.darts import CurveDart
+    from flatweave.method.lattice import MATERIALS
+    from flatweave.method.result import judged
 
     good = CurveDart(np.array([[0.0, 0.5], [0.3, 0.5]]), name="good")
     ruin = CurveDart(np.array([[1.0, 0.5], [0.7, 0.5]]), name="ruin")
@@ -83,7 +87,7 @@ def test_a_ruinous_dart_beside_a_good_one_is_not_listed(qtbot, make_window, monk
     monkeypatch.setattr(autodarts, "candidate_darts", lambda result, sites, lengths=None: [(0, ruin), (1, good)])
     monkeypatch.setattr(autodarts, "_solve", solve)
     # the stubs live in this process: solve here, not in worker processes
-    monkeypatch.setattr(autodarts, "suggest_darts", lambda result, count: real(result, count=count, workers=1))
+    monkeypatch.setattr(suggest_dialog, "suggest_darts", lambda result, count: real(result, count=count, workers=1))
     box = _suggest(qtbot, win)
     assert box.list.count() == 1
     assert np.array_equal(box.proposals[0].dart.uv, good.uv)
@@ -94,7 +98,7 @@ def test_a_ruinous_dart_beside_a_good_one_is_not_listed(qtbot, make_window, monk
 
 
 def test_best_orientation_says_which_patterns_are_usable(qtbot, make_window):
-    from app.sweepdialog import COLUMNS
+    from flatweave.app.sweepdialog import COLUMNS
 
     win = make_window(_project("dome", 0.15))
     win.settings_panel.auto_rerun.setChecked(False)

@@ -1,4 +1,4 @@
-"""GUI tests of the interactive tools (issue 7): curve darts drawn by clicks in
+"""GUI tests of the interactive tools: curve darts drawn by clicks in
 the 3D view, plane darts placed with the widget, yarns picked by clicking a
 node, the darts and yarns list, undo and redo, and saving.
 
@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, Qt
 
-from core.darts import DartSet, PlaneDart, curve_dart_through
-from core.energy import yarn_nodes
-from core.project import project_problems, project_to_dict
+from flatweave.method.darts import DartSet, PlaneDart, curve_dart_through
+from flatweave.method.energy import yarn_nodes
+from flatweave.document.project import project_problems, project_to_dict
 
 from tests.test_app_run import RUN_TIMEOUT_MS, run_to_end, small_project
 
@@ -65,7 +65,7 @@ def drag(qtbot, view, a, b, steps: int = 12) -> None:
 def ray_sphere(view, x: float, y: float, octant_only: bool = False) -> np.ndarray | None:
     """Where the viewing ray of display pixel (x, y) first meets the unit sphere
     (VTK's own display-to-world, solved by hand: an oracle independent of
-    core.curves); with ``octant_only`` the first meeting in the first octant."""
+    flatweave.geometry.curves); with ``octant_only`` the first meeting in the first octant."""
     ren = view.plotter.renderer
     ends = []
     for z in (0.0, 1.0):
@@ -120,6 +120,7 @@ def solved(make_window, qtbot):
 
 
 # ---------------------------------------------------------------------- curve darts
+@pytest.mark.slow
 def test_a_three_click_curve_dart_lies_where_the_clicks_project_and_cuts(each_widget, solved, qtbot):
     win = solved
     view, doc = win.view, win.document
@@ -172,6 +173,7 @@ def test_a_three_click_curve_dart_lies_where_the_clicks_project_and_cuts(each_wi
     assert doc.undo_label == "Add curve dart 1"
 
 
+@pytest.mark.slow
 def test_a_click_that_misses_the_surface_adds_nothing(solved, qtbot):
     win = solved
     view, doc = win.view, win.document
@@ -205,6 +207,7 @@ def draw_dart(qtbot, win, targets=TARGETS):
     assert win.tool is None
 
 
+@pytest.mark.slow
 def test_a_double_click_finishes_the_dart(each_widget, solved, qtbot):
     win = solved
     win.actions["tool_curve_dart"].trigger()
@@ -216,6 +219,7 @@ def test_a_double_click_finishes_the_dart(each_widget, solved, qtbot):
 
 
 # ---------------------------------------------------------------------- plane darts
+@pytest.mark.slow
 def test_a_plane_dart_placed_with_the_widget(each_widget, solved, qtbot):
     win = solved
     view, panel = win.view, win.dart_panel
@@ -270,6 +274,7 @@ def test_a_plane_dart_placed_with_the_widget(each_widget, solved, qtbot):
 
 
 # ---------------------------------------------------------------------- yarns
+@pytest.mark.slow
 def test_a_yarn_picked_by_clicking_a_node(solved, qtbot):
     win = solved
     view, panel = win.view, win.dart_panel
@@ -342,6 +347,7 @@ def test_a_yarn_picked_by_clicking_a_node(solved, qtbot):
 
 
 # ---------------------------------------------------------------------- the list, editing, undo, saving
+@pytest.mark.slow
 def test_dart_list_rename_hide_move_points_and_delete(solved, qtbot):
     win = solved
     view, panel, doc = win.view, win.dart_panel, win.document
@@ -378,6 +384,7 @@ def test_dart_list_rename_hide_move_points_and_delete(solved, qtbot):
     assert len(view.handle_points) == 0 and view.dart_curves == []
 
 
+@pytest.mark.slow
 def test_a_dragged_dart_point_re_solves_as_it_moves(solved, qtbot):
     """While a dart's point is dragged the pattern follows it (previews, not
     edits); the release makes one edit whose result is the final position's."""
@@ -438,6 +445,7 @@ def test_a_dragged_dart_point_re_solves_as_it_moves(solved, qtbot):
     assert win.project is before and len(doc.history) == steps
 
 
+@pytest.mark.slow
 def test_a_dart_point_dragged_back_onto_its_spot_shows_the_document(solved, qtbot):
     """A point dragged away and back onto the spot the document's dart has
     starts no solve there (its answer is the document's result, which the views
@@ -478,6 +486,7 @@ def test_a_dart_point_dragged_back_onto_its_spot_shows_the_document(solved, qtbo
     assert not win.runner.busy and not win.runs.previewing
 
 
+@pytest.mark.slow
 def test_undo_and_redo_restore_the_exact_documents(solved, qtbot):
     win = solved
     doc = win.document
@@ -504,6 +513,7 @@ def test_undo_and_redo_restore_the_exact_documents(solved, qtbot):
     assert win.runner.runs_started == runs and not win.runner.busy  # undo and redo never solve
 
 
+@pytest.mark.slow
 def test_a_saved_project_with_darts_and_yarns_reopens_identically(solved, qtbot, make_window, tmp_path):
     win = solved
     doc = win.document
@@ -535,6 +545,7 @@ def test_a_saved_project_with_darts_and_yarns_reopens_identically(solved, qtbot,
     assert d0.view_dir == win.project.settings.darts[0].view_dir
 
 
+@pytest.mark.slow
 def test_a_click_just_off_the_rim_goes_onto_the_rim(solved, qtbot):
     win = solved
     view = win.view
@@ -557,11 +568,11 @@ def test_a_click_just_off_the_rim_goes_onto_the_rim(solved, qtbot):
 
 def test_a_tool_error_is_a_one_line_message(solved, qtbot, monkeypatch):
     win = solved
-    import app.tools
+    import flatweave.app.tools
 
     def broken(*_args):
         raise ZeroDivisionError("float division by zero\nsecond line")
-    monkeypatch.setattr(app.tools, "pick_surface", broken)
+    monkeypatch.setattr(flatweave.app.tools, "pick_surface", broken)
     revision = win.document.revision
     win.actions["tool_curve_dart"].trigger()
     click(qtbot, win.view, *pixel(win.view, TARGETS[0]))
@@ -572,6 +583,7 @@ def test_a_tool_error_is_a_one_line_message(solved, qtbot, monkeypatch):
     assert len(win.tool.handles) == 1
 
 
+@pytest.mark.slow
 def test_enter_in_a_settings_field_commits_the_field_not_the_dart(solved, qtbot):
     win = solved
     win.actions["tool_curve_dart"].trigger()

@@ -6,8 +6,8 @@ written to IGES and opened in the window. Open CASCADE, in this process, is the 
 face's edges' 3D curves, its surface (projection) and its classifier (which side of the trim a
 point of the surface is on), and its area (``BRepGProp``).
 
-The surface outside the trim is hidden, not drawn faint: the README promises the piece only,
-a CAD surface is often extended far beyond its trims (the rest would fill the view and its
+The surface outside the trim is hidden, not drawn faint: the guide (docs/guide/composite-ply-from-step.md)
+promises the piece only, a CAD surface is often extended far beyond its trims (the rest would fill the view and its
 framing), and a translucent sheet over or under the mesh would blur the strain colours. A
 region the designer drew keeps the whole surface in sight, to edit the boundary on it.
 """
@@ -20,7 +20,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from core.region import LOOP_CHORD_TOL
+from flatweave.geometry.region import LOOP_CHORD_TOL
 from tests.test_trimmed_face_loops import chord_gap, occ_edge_curves, occ_surface_distance
 
 try:
@@ -29,7 +29,7 @@ except (ImportError, ValueError):
     HAVE_OCP = False
 pytestmark = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
 
-GRID_CELLS = 59 * 59  # the whole surface's quads (app.presenter.GRID_POINTS = 60)
+GRID_CELLS = 59 * 59  # the whole surface's quads (flatweave.app.presenter.GRID_POINTS = 60)
 
 
 @pytest.fixture(scope="module")
@@ -69,15 +69,16 @@ def mesh_area(points: np.ndarray, triangles: np.ndarray) -> float:
     return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
 
 
+@pytest.mark.slow
 def test_a_trimmed_iges_face_is_drawn_as_the_piece_with_its_edges(make_window, straight_iges):
     """Opened from IGES (its region not drawn): the loops drawn follow OCC's edge curves on the
     surface, and the surface drawn is the piece, none of it outside the trim."""
-    from core.cad import read_cad_faces
-    from core.region import region_from_cad_face
+    from flatweave.reading.cad import read_cad_faces
+    from flatweave.geometry.region import region_from_cad_face
     from OCP.BRepGProp import BRepGProp
     from OCP.GProp import GProp_GProps
 
-    from app.presenter import piece_grid
+    from flatweave.app.presenter import piece_grid
     from tests.cadfiles import _static
 
     face, path = straight_iges
@@ -123,7 +124,7 @@ def test_a_drawn_region_keeps_the_whole_surface_in_sight(make_window, straight_i
     whole surface stays drawn, to edit the boundary on it, and its loop follows the surface."""
     from OCP.BRepTools import BRepTools
 
-    from core.region import cover_for, region_from_spec
+    from flatweave.geometry.region import cover_for, region_from_spec
     from tests import cadfiles as cf
     from tests.cadfiles import _static
 

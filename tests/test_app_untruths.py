@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.colours import GREEN, STRAIN_NOISE_PCT, ramp, strain_range, strain_stops
-from app.plot import NO_SOLVE
-from app.viewbase import DIAGONAL, SCALE_TITLES, THREAD
-from core.examples import example_path
-from core.metrics import spring_strain
+from flatweave.app.colours import GREEN, STRAIN_NOISE_PCT, ramp, strain_range, strain_stops
+from flatweave.app.plot import NO_SOLVE
+from flatweave.app.viewbase import DIAGONAL, SCALE_TITLES, THREAD
+from flatweave.reading.examples import example_path
+from flatweave.method.metrics import spring_strain
 from tests.test_app_recovery import click, write_orphan
 from tests.test_app_run import run_to_end, small_project
 
@@ -31,6 +31,7 @@ def _hover_a_spring(win) -> str:
     return win._hover_label.text()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("how", ["example", "open", "recover"])
 def test_the_hover_text_goes_with_its_document(make_window, qtbot, tmp_path, how):
     win = make_window(small_project(0.1))
@@ -86,6 +87,7 @@ def _plot_texts(win) -> list[str]:
     return [text for text, _ in plot.text_rects]
 
 
+@pytest.mark.slow
 def test_the_energy_plot_says_a_solve_converged_at_its_start(make_window, qtbot, tmp_path):
     win = make_window(example=None)
     assert NO_SOLVE in _plot_texts(win)

@@ -1,4 +1,4 @@
-"""GUI tests of what the views show (issue 18): the camera's framing of every
+"""GUI tests of what the views show: the camera's framing of every
 bundled surface and the wheel's zoom, strain colours per spring kind, coloured
 cells for dense meshes, and the layout of the side panel, colour bars, grain
 label and handles.
@@ -16,15 +16,15 @@ from PySide6.QtCore import QPoint, QPointF, Qt
 from PySide6.QtGui import QWheelEvent
 from PySide6.QtWidgets import QApplication, QScrollArea
 
-from app.camera import FILL, fit_view, home_view, project
-from app.colours import ramp, strain_range, strain_stops
-from app.presenter import surface_grid
-from app.view2d import segment_distances
-from app.view3d import bar_labels
-from app.viewbase import DENSE_PIXELS, SCALE_TITLES, THREAD, DIAGONAL, cell_springs
-from core.darts import CurveDart
-from core.examples import example_names, load_example
-from core.metrics import spring_strain
+from flatweave.app.camera import FILL, fit_view, home_view, project
+from flatweave.app.colours import ramp, strain_range, strain_stops
+from flatweave.app.presenter import surface_grid
+from flatweave.app.view2d import segment_distances
+from flatweave.app.view3d import bar_labels
+from flatweave.app.viewbase import DENSE_PIXELS, SCALE_TITLES, THREAD, DIAGONAL, cell_springs
+from flatweave.method.darts import CurveDart
+from flatweave.reading.examples import example_names, load_example
+from flatweave.method.metrics import spring_strain
 
 from tests.test_app_run import run_to_end, small_project
 
@@ -97,6 +97,7 @@ def test_bar_labels_never_crowd():
 
 
 # ---------------------------------------------------------------------- framing, in the window
+@pytest.mark.slow
 def test_every_example_opens_framed_and_reset_frames_it_again(make_window, qtbot):
     win = make_window()
     view = win.view
@@ -139,6 +140,7 @@ def test_opening_a_project_frames_it(make_window, qtbot, tmp_path):
     assert framing(view, grid("octant")[0])["fill"] >= 0.6
 
 
+@pytest.mark.slow
 def test_the_wheel_zooms_about_the_cursor(each_widget, make_window, qtbot):
     win = make_window(example="saddle")
     view = win.view
@@ -180,6 +182,7 @@ def solved(make_window, qtbot):
     return win
 
 
+@pytest.mark.slow
 def test_threads_and_diagonals_have_colour_scales_of_their_own(solved):
     win = solved
     r = win.project.result
@@ -257,6 +260,7 @@ def test_dense_springs_are_drawn_as_coloured_cells(solved, qtbot):
     assert pv_.layer.dense and pv_.layer.strain_cell_actor.GetVisibility()
 
 
+@pytest.mark.slow
 def test_a_dense_mesh_opens_as_cells_in_a_small_window(make_window, qtbot):
     win = make_window(small_project(0.04))
     win.resize(700, 500)
@@ -272,6 +276,7 @@ def side_scroll(win) -> QScrollArea:
     return next(s for s in win.findChildren(QScrollArea) if s.widget().isAncestorOf(win.energy_plot))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size", [None, (1600, 1000)])
 def test_the_darts_tab_leaves_the_energy_plot_room(make_window, qtbot, size):
     win = make_window(small_project(0.1))
@@ -299,6 +304,7 @@ def test_the_darts_tab_leaves_the_energy_plot_room(make_window, qtbot, size):
         win.dart_panel.yarn_box.hide()
 
 
+@pytest.mark.slow
 def test_colour_bar_titles_fit_their_frames(solved, qtbot):
     win = solved
     view = win.view
@@ -341,6 +347,7 @@ def test_segment_distances_are_the_nearest_segments_or_the_cap():
     assert (segment_distances(p, a[:0], b[:0], 0.1) == 0.1).all()
 
 
+@pytest.mark.slow
 def test_the_grain_label_keeps_clear_of_darts(make_window, qtbot):
     dart = CurveDart(np.array([[1.0, 0.5], [0.7, 0.5], [0.42, 0.52]]), name="front")
     win = make_window(small_project(0.08, darts=(dart,)))
@@ -364,6 +371,7 @@ def test_the_grain_label_keeps_clear_of_darts(make_window, qtbot):
     assert np.linalg.norm(samples[:, None, :] - avoid[None, :, :], axis=2).min() >= 0.3 * (y1 - y0)
 
 
+@pytest.mark.slow
 def test_curve_dart_handles_stand_out_from_dart_nodes(make_window, qtbot):
     dart = CurveDart(np.array([[1.0, 0.5], [0.7, 0.5], [0.42, 0.52]]), name="front",
                      handles=np.array([[1.0, 0.5], [0.7, 0.5], [0.42, 0.52]]))

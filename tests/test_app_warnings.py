@@ -6,13 +6,14 @@ from dataclasses import replace
 
 import pytest
 
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.metrics import metric_limits
-from core.pipeline import FlattenSettings, flatten
-from core.project import Project
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.metrics import metric_limits
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.document.project import Project
 
-from app.panels import METRIC_COLOURS, metric_colour
+from flatweave.app.panels import METRIC_COLOURS, metric_colour
 
 
 def test_metric_colours_follow_the_limits():

@@ -1,4 +1,4 @@
-"""Suggested darts (issue 23, item 1): they lower the strain at least as much as the
+"""Suggested darts: they lower the strain at least as much as the
 hand-placed darts of the paper's examples, start on the edge, and are ordinary darts."""
 
 import json
@@ -6,14 +6,15 @@ import json
 import numpy as np
 import pytest
 
-from core.autodarts import candidate_darts, dart_sites, suggest_darts
-from core.cli import main
-from core.darts import CurveDart, PlaneDart
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.metrics import metric_limits
-from core.pipeline import FlattenSettings, flatten
-from core.region import cover_for
+from flatweave.studies.autodarts import candidate_darts, dart_sites, suggest_darts
+from flatweave.cli import main
+from flatweave.method.darts import CurveDart, PlaneDart
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.metrics import metric_limits
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.geometry.region import cover_for
 
 SPACING = 0.05  # Table 1's is 0.025 (benchmarks/autodarts.py); the comparison holds here too
 
@@ -56,6 +57,7 @@ def test_sites_lie_on_the_edge_where_the_energy_is(base):
         assert base.surface.in_domain(d.uv).all()
 
 
+@pytest.mark.slow
 def test_one_suggested_dart_beats_the_hand_placed_one(base, suggested, octant):
     hand = flatten(octant, FlattenSettings(SPACING, material=base.settings.material, darts=(HAND_DART,)))
     one = suggested[0].metrics
@@ -77,12 +79,13 @@ def test_two_suggested_darts_lower_them_further(suggested, base):
 
 
 def test_a_suggested_dart_is_an_ordinary_dart(suggested, base):
-    from core.project import _darts_to_list, settings_from_dict, settings_to_dict
+    from flatweave.document.project import _darts_to_list, settings_from_dict
+    from flatweave.method.settings import settings_to_dict
 
     d = suggested[0].dart
     assert isinstance(d, CurveDart) and d.auto and d.name.startswith("suggested dart")
     settings = suggested[0].result.settings
-    doc = json.loads(json.dumps(settings_to_dict(settings)))
+    doc = json.loads(json.dumps(settings_to_dict(settings, "project")))
     back = settings_from_dict(doc, json.loads(json.dumps(_darts_to_list(settings.darts))))
     assert back.darts[0].auto and np.array_equal(back.darts[0].uv, d.uv)
     # re-solving the piece with the suggested dart given by hand gives its metrics
@@ -91,8 +94,9 @@ def test_a_suggested_dart_is_an_ordinary_dart(suggested, base):
     assert again.metrics["energy"] == pytest.approx(suggested[0].metrics["energy"], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_garment_one_suggested_dart_is_as_good_as_the_collar_dart():
-    """benchmarks/paper_tables.py's Example V: the collar dart, a slit down the centre line."""
+    """The paper's Example V (benchmarks/planar_compare.collar_dart): the collar dart, a slit down the centre line."""
     g = load_example("garment")
     collar = PlaneDart((1.0, 0.0, 0.0, -0.02), (-1, 1, 0.42, 1, -1, 1), name="collar dart")
     base = flatten(g, FlattenSettings(0.02))
@@ -116,6 +120,7 @@ def test_stops_when_no_dart_helps():
     assert got == [] and got.reason.startswith("no dart tried helps: of ")
 
 
+@pytest.mark.slow
 def test_cli_auto_darts(tmp_path, capsys):
     out = tmp_path / "r.json"
     # a 5 degree warning angle: the octant's 9.5 degree shear warns (within the presets' 15 no dart is wanted)

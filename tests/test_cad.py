@@ -1,7 +1,7 @@
-"""Reading STEP and IGES faces (core.cad) against Open CASCADE itself.
+"""Reading STEP and IGES faces (flatweave.reading.cad) against Open CASCADE itself.
 
 The files are written by Open CASCADE in the test (tests/cadfiles.py) and
-read back by core.cad in its child process; the oracle is Open CASCADE in
+read back by flatweave.reading.cad in its child process; the oracle is Open CASCADE in
 this process: its evaluation of the converted surfaces, its 3D edges and its
 ``BRepGProp`` areas. Tests of the paths without Open CASCADE (bad names,
 empty or binary files, a missing OCP) run everywhere; the others are skipped,
@@ -20,10 +20,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.cad import (CadFileError, CadUnavailableError, INSTALL_HINT, cad_info, face_table,
+from flatweave.reading.cad import (CadFileError, CadUnavailableError, INSTALL_HINT, cad_info, face_table,
                       read_cad_faces)
-from core.errors import FlatweaveError, SettingsError
-from core.uvregion import region_area
+from flatweave.errors import FlatweaveError, SettingsError
+from flatweave.geometry.uvregion import region_area
 
 try:
     HAVE_OCP = importlib.util.find_spec("OCP") is not None
@@ -92,7 +92,7 @@ _READS: dict[str, object] = {}
 
 
 def read(files, name: str):
-    """core.cad's reading of a test file (each file read once per session)."""
+    """flatweave.reading.cad's reading of a test file (each file read once per session)."""
     key = str(files[name])
     if key not in _READS:
         _READS[key] = read_cad_faces(files[name])
@@ -188,7 +188,6 @@ class Occ:
         return curves, np.array(verts)
 
 
-
 def occ_area(shape) -> float:
     """BRepGProp's area of a shape (adaptive, to 1e-10 relative)."""
     from OCP.BRepGProp import BRepGProp
@@ -263,10 +262,11 @@ def named(cad) -> dict:
 
 def occ_kind(face) -> str:
     from OCP.BRepAdaptor import BRepAdaptor_Surface
-    from core.cad import _KINDS
+    from flatweave.reading.cad import _KINDS
     return _KINDS[BRepAdaptor_Surface(face, False).GetType().name]
 
 
+@pytest.mark.slow
 @needs_ocp
 @pytest.mark.parametrize("name", ["main.step", "main.igs", "main144.iges"])
 def test_faces_kinds_and_flags(files, name):
@@ -297,6 +297,7 @@ def test_faces_kinds_and_flags(files, name):
         assert len(g.bbox) == 6 and all(g.bbox[k] <= g.bbox[k + 3] for k in range(3))
 
 
+@pytest.mark.slow
 @needs_ocp
 @pytest.mark.parametrize("name", ["main.step", "main.igs", "main144.iges", "assembly.step", "placed.igs", "seam.stp",
                                   "sticking.step"])
@@ -360,6 +361,7 @@ def test_solid_normals_point_outward(files, name):
     assert checked == 13
 
 
+@pytest.mark.slow
 @needs_ocp
 @pytest.mark.parametrize("name", ["main.step", "main.igs", "main144.iges", "assembly.step", "placed.igs", "seam.stp"])
 def test_loops_lie_on_the_face(files, name):
@@ -393,6 +395,7 @@ def test_loops_lie_on_the_face(files, name):
     _record("file trim deviation / stated tolerance", over)
 
 
+@pytest.mark.slow
 @needs_ocp
 @pytest.mark.parametrize("name", ["main.step", "main.igs", "main144.iges", "assembly.step", "placed.igs"])
 def test_region_area_agrees_with_brepgprop(files, name):
@@ -449,6 +452,7 @@ def test_loops_sticking_out_are_clipped(files, cf):
     assert [f.trimmed for f in by_area] == [True, False]  # the holed face has the smaller area
 
 
+@pytest.mark.slow
 @needs_ocp
 def test_reversed_face_is_flipped(files):
     """The reversed face is the free-outer face reversed: the same points at u -> a + b - u, the
@@ -483,6 +487,7 @@ def test_periodic_faces(files):
     assert np.max(np.abs(np.linalg.norm(P, axis=1) - 7.0)) < 1e-12
 
 
+@pytest.mark.slow
 @needs_ocp
 def test_assembly_places_each_instance(files, cf):
     """Three placements of one face: three faces, each the face moved."""
@@ -500,6 +505,7 @@ def test_assembly_places_each_instance(files, cf):
         assert np.max(np.abs(f.surface.points(uv) - moved)) < 1e-9
 
 
+@pytest.mark.slow
 @needs_ocp
 def test_units_are_the_files(files):
     mm = read(files, "mm.step")
@@ -567,6 +573,7 @@ def test_face_index_out_of_range(files):
         cad.face("1")
 
 
+@pytest.mark.slow
 @needs_ocp
 def test_small_file_reads_quickly(files):
     t = time.perf_counter()
@@ -585,15 +592,15 @@ def _domain_loop(surface) -> np.ndarray:
 @pytest.mark.parametrize("name", ["cone", "octant", "dome", "saddle", "half_cylinder", "garment"])
 def test_region_area_of_the_whole_domain(name):
     """The domain as a region: the examples' independent reference areas."""
-    from core.examples import example_info, load_example
+    from flatweave.reading.examples import example_info, load_example
     surface, info = load_example(name), example_info(name)
     assert region_area(surface, [_domain_loop(surface)]) == pytest.approx(info["reference_area"], rel=1e-10)
 
 
 def test_region_area_and_box_of_flat_polygons():
     """A flat patch x = 2u, y = 3v: area = 6 x polygon area, holes out."""
-    from core.nurbs import NurbsSurface
-    from core.uvregion import region_bbox
+    from flatweave.geometry.nurbs import NurbsSurface
+    from flatweave.geometry.uvregion import region_bbox
     P = np.array([[[0, 0, 1.0], [0, 3, 1.0]], [[2, 0, 1.0], [2, 3, 1.0]]])
     s = NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], P)
     outer = np.array([[0.1, 0.1], [0.9, 0.1], [0.9, 0.8], [0.1, 0.8]])
@@ -606,8 +613,8 @@ def test_region_area_and_box_of_flat_polygons():
 
 
 def test_region_box_of_the_octant():
-    from core.examples import load_example
-    from core.uvregion import region_bbox
+    from flatweave.reading.examples import load_example
+    from flatweave.geometry.uvregion import region_bbox
     s = load_example("octant")
     assert np.allclose(region_bbox(s, [_domain_loop(s)]), [0, 0, 0, 1, 1, 1], atol=1e-12)
 
@@ -615,7 +622,7 @@ def test_region_box_of_the_octant():
 def test_loop_helpers():
     """Reversal keeps point 0 and maps the corners; cleaning clips to the
     domain and drops repeats; flip_u mirrors knots, rows and loops."""
-    from core.cad import _clean_loop, _reverse_loop, flip_u
+    from flatweave.reading.cad import _clean_loop, _reverse_loop, flip_u
     p = np.array([[0, 0], [1, 0], [2, 0], [2, 1], [1, 1], [0, 1.0]])
     q, b = _reverse_loop(p, np.array([0, 2, 3, 5]))
     assert np.array_equal(q, p[[0, 5, 4, 3, 2, 1]]) and list(b) == [0, 1, 3, 4]
@@ -670,6 +677,7 @@ def test_bad_names(tmp_path):
     one_line_error(exc, "dir.step")
 
 
+@pytest.mark.slow
 @needs_ocp
 def test_bad_files_read_by_occ(files):
     with pytest.raises(CadFileError) as exc:
@@ -690,6 +698,7 @@ def test_child_crash_is_one_line(monkeypatch):
     one_line_error(exc, "tiny.step", "crashed", "SIGABRT")
 
 
+@pytest.mark.slow
 def test_child_hang_is_stopped(monkeypatch):
     monkeypatch.setenv("FLATWEAVE_CAD_FAULT", "hang")
     t = time.perf_counter()
@@ -714,9 +723,9 @@ def test_missing_open_cascade(monkeypatch):
 
 
 def test_core_imports_without_open_cascade():
-    """import core, core.cad and core.uvregion with OCP unimportable."""
+    """import core, flatweave.reading.cad and flatweave.geometry.uvregion with OCP unimportable."""
     code = ("import sys; sys.modules['OCP'] = None\n"
-            "import core, core.cad, core.uvregion, core.surface_io\n"
+            "import core, flatweave.reading.cad, flatweave.geometry.uvregion, flatweave.geometry.surface_json\n"
             "assert sys.modules['OCP'] is None\n"
             "print('ok')\n")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60)

@@ -1,4 +1,4 @@
-"""core.candidates: several regions kept in a project, one active (issue 21).
+"""flatweave.document.candidates: several regions kept in a project, one active.
 Keeping, naming, showing and hiding are labels (no solve changes); making one
 active swaps it with the active region; the project file keeps them under an
 optional key, so every frozen older file still reads and a file without any
@@ -10,12 +10,12 @@ import json
 
 import pytest
 
-from core.candidates import activate, keep_copy, remove, rename, set_visible
-from core.document import Document, changed_aspects
-from core.errors import SettingsError
-from core.examples import example_path, load_example
-from core.project import load_project, new_project, project_to_dict, save_project
-from core.region import cover_for, region_from_spec
+from flatweave.document.candidates import activate, keep_copy, remove, rename, set_visible
+from flatweave.document.history import Document, changed_aspects
+from flatweave.errors import SettingsError
+from flatweave.reading.examples import example_path, load_example
+from flatweave.document.project import load_project, new_project, project_to_dict, save_project
+from flatweave.geometry.region import cover_for, region_from_spec
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""The headless CLI: ``python -m core``."""
+"""The headless CLI: ``python -m flatweave``."""
 
 import json
 import subprocess
@@ -7,10 +7,10 @@ import sys
 import numpy as np
 import pytest
 
-from core.cli import main
-from core.examples import example_path
-from core.nurbs import NurbsSurface
-from core.surface_io import save_surface
+from flatweave.cli import main
+from flatweave.reading.examples import example_path
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.geometry.surface_json import save_surface
 from tests.helpers import SurfaceFault
 
 REQUIRED_METRICS = {"energy", "max_thread_strain_pct", "max_shear_deg", "mean_shear_deg", "nodes", "springs",
@@ -18,8 +18,8 @@ REQUIRED_METRICS = {"energy", "max_thread_strain_pct", "max_shear_deg", "mean_sh
 
 
 def run_cli(*args):
-    """Run ``python -m core`` in a subprocess: (exit status, stdout, stderr)."""
-    p = subprocess.run([sys.executable, "-m", "core", *args], capture_output=True, text=True, timeout=300)
+    """Run ``python -m flatweave`` in a subprocess: (exit status, stdout, stderr)."""
+    p = subprocess.run([sys.executable, "-m", "flatweave", *args], capture_output=True, text=True, timeout=300)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -41,6 +41,7 @@ def test_flatten_drape_only_writes_the_documented_result(tmp_path):
     assert len(r["pattern"]["outline"]) == len(r["pattern"]["outline3d"]) > 100
 
 
+@pytest.mark.slow
 def test_flatten_any_geomdl_surface(tmp_path):
     # a surface that is not one of the examples: a random bicubic bump, 9 x 7
     rng = np.random.default_rng(4)
@@ -59,6 +60,7 @@ def test_flatten_any_geomdl_surface(tmp_path):
     assert r["settings"]["seed"] == [0.4, 0.6] and r["settings"]["angle_deg"] == 30
 
 
+@pytest.mark.slow
 def test_example_name_warm_start_and_yarn(tmp_path):
     a, b = tmp_path / "a.json", tmp_path / "b.json"
     assert main(["flatten", "octant", "--spacing", "0.1", "--quiet", "--out", str(a)]) == 0
@@ -69,6 +71,7 @@ def test_example_name_warm_start_and_yarn(tmp_path):
     assert rb["settings"]["yarns"] == [{"kind": "warp", "index": 0, "plane": [1.0, -1.0, 0.0, 0.0], "k": 100.0}]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, words", [
     (["flatten", "{bad}", "--spacing", "0.1"], ["weights"]),
     (["flatten", "{octant}", "--spacing", "-1"], ["spacing"]),
@@ -100,11 +103,13 @@ def test_bad_input_is_one_line_and_status_2(tmp_path, args, words):
     assert not (tmp_path / "out.json").exists()
 
 
+@pytest.mark.slow
 def test_unwritable_output_is_a_clean_error(tmp_path):
     code, _, err = run_cli("flatten", "octant", "--spacing", "0.2", "--out", str(tmp_path / "no" / "r.json"))
     assert code == 2 and "does not exist" in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_info_and_examples():
     code, out, _ = run_cli("info", "octant")
     assert code == 0 and "area 1.570796327" in out and "boundary length 4.71238898" in out
@@ -113,7 +118,7 @@ def test_info_and_examples():
 
 
 def test_export_every_format_from_the_cli(tmp_path):
-    """The octant with a dart, to every format in one run (as in the README)."""
+    """The octant with a dart, to every format in one run (as in the README and docs/guide/exports.md)."""
     import ezdxf
 
     paths = [tmp_path / f"octant{s}" for s in (".dxf", ".svg", ".pdf", ".vtp", ".obj")]
@@ -128,6 +133,7 @@ def test_export_every_format_from_the_cli(tmp_path):
     assert "seam allowance 15 mm" in texts and "model in cm" in texts and "octant" in texts
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, words", [
     (["--export", "{tmp}/p.xyz"], ["unknown format", ".xyz"]),
     (["--export", "{tmp}/missing/p.dxf"], ["does not exist"]),
@@ -152,11 +158,11 @@ def test_bad_exports_fail_before_the_solve(tmp_path, args, words):
 def test_a_nan_in_the_solve_is_one_line_and_status_2(tmp_path, monkeypatch, capsys, method, expected):
     # in this process, so the surface can be made to fail: after iteration 3 of
     # the spring method's solve, from the start of the planar method's triangulation
-    import core.pipeline
+    import flatweave.method.pipeline
 
     fault = SurfaceFault(monkeypatch)
     if method == "spring":
-        monkeypatch.setattr(core.pipeline, "iterate", fault.arm_after(3, core.pipeline.iterate))
+        monkeypatch.setattr(flatweave.method.pipeline, "iterate", fault.arm_after(3, flatweave.method.pipeline.iterate))
     else:
         fault.armed = True
     out = tmp_path / "r.json"
@@ -167,6 +173,7 @@ def test_a_nan_in_the_solve_is_one_line_and_status_2(tmp_path, monkeypatch, caps
     assert not out.exists() and fault.hits >= 1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, spacing, words", [
     ("octant", "0.025", "of them on 1 coarser level"),  # carried from a quarter-size solve
     ("saddle", "0.045", "of them on a coarser drape that held"),  # the coarse solve kept every node

@@ -1,4 +1,4 @@
-"""``python -m core info`` on a mesh that cannot be covered whole: described, not refused."""
+"""``python -m flatweave info`` on a mesh that cannot be covered whole: described, not refused."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import re
 import pytest
 import trimesh
 
-from core.cli import main
+from flatweave.cli import main
 
 
 def _write(mesh: trimesh.Trimesh, path) -> str:

@@ -8,30 +8,30 @@ import math
 import numpy as np
 import pytest
 
-from core import geom
-from core.cli import build_parser
-from core.darts import CUT_DART_KEYS, DART_KINDS, RESULT_DART_KEYS, CurveDart, Dart, PlaneDart, dart_from_dict
-from core.energy import YarnConstraint
-from core.errors import SettingsError, SolverError
-from core.mesh import Material
-from core.pipeline import SOLVERS, FlattenSettings, settings_to_dict
-from core.project import ProjectError, _Fields, settings_from_dict
-from core.project import settings_to_dict as project_settings_to_dict
-from core.solver import METHODS
-from core.solvers import (SOLVER_REGISTRY, method_names, solver_entry, solver_help, solver_label, solver_labels,
-                          solver_names)
+from flatweave.geometry import numerics as geom
+from flatweave.cli import build_parser
+from flatweave.method.darts import (CUT_DART_KEYS, DART_KINDS, RESULT_DART_KEYS, CurveDart, Dart, PlaneDart,
+                                    dart_from_dict)
+from flatweave.method.energy import YarnConstraint
+from flatweave.errors import SettingsError, SolverError
+from flatweave.method.lattice import Material
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.settings import settings_to_dict
+from flatweave.document.project import ProjectError, _Fields, settings_from_dict
+from flatweave.method.solvers import (solvers, method_names, solver_entry, solver_help, solver_label,
+                                      solver_labels, solver_names)
 
 
 # ---------------------------------------------------------------------- solvers
 def test_the_solver_lists_come_from_the_registry():
-    assert solver_names("spring") == SOLVERS == ("fast", "paper", "none")
-    assert solver_names("spring", iterative=True) == METHODS == ("fast", "paper")
+    assert solver_names("spring") == ("fast", "paper", "none")
+    assert solver_names("spring", iterative=True) == ("fast", "paper")
     assert solver_names("planar") == ("planar",) and method_names() == ("spring", "planar")
     assert solver_labels("spring", iterative=True) == {"fast": "fast (Levenberg-Marquardt)",
                                                        "paper": "paper (steepest descent + CG)"}
     assert solver_label("none") == "none (the drape only)"
-    assert all(e.run is not None for e in SOLVER_REGISTRY if e.target is not None)
-    from core.planar import flatten_planar
+    assert all(e.run is not None for e in solvers() if e.target is not None)
+    from flatweave.studies.planar import flatten_planar
     assert solver_entry("planar").run is flatten_planar and solver_entry("none").run is None
 
 
@@ -99,8 +99,8 @@ def test_one_encoding_of_the_settings_for_result_and_project_files():
     assert list(r) == ["spacing", "spacing_warp", "material", "seed", "angle_deg", "paths", "solver", "tol",
                        "max_iter", "max_seconds", "yarns", "darts", "max_nodes"]
     assert r["spacing_warp"] == 0.1 and r["darts"][1] == {"kind": "curve", "name": "curve", "uv": CURVE.uv.tolist()}
-    p = project_settings_to_dict(s)
-    assert p["spacing_warp"] is None and "darts" not in p and p == settings_to_dict(s, "project")
+    p = settings_to_dict(s, "project")
+    assert p["spacing_warp"] is None and "darts" not in p
     back = settings_from_dict(p, [d.to_dict() for d in s.darts], [y.to_dict() for y in s.yarns])
     assert settings_to_dict(back, "result") == r
 

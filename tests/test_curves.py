@@ -12,9 +12,9 @@ from geomdl import NURBS
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from core.curves import Biarcs, fit_biarcs, project_points, project_polyline
-from core.errors import SettingsError
-from core.examples import load_example
+from flatweave.geometry.curves import Biarcs, fit_biarcs, project_points, project_polyline
+from flatweave.errors import SettingsError
+from flatweave.reading.examples import load_example
 
 VIEWS = {
     "down": (0.0, 0.0, -1.0),
@@ -140,6 +140,7 @@ def test_side_view_of_the_saddle_meets_it_twice_and_keeps_the_front(saddle):
     assert np.allclose(pr.xyz[:, 1], -np.sqrt(x ** 2 + 0.4), atol=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,view", [("octant", "oblique"), ("octant", "side"),
                                        ("saddle", "side"), ("saddle", "low")])
 def test_nearest_hit_against_dense_sampling(name, view):

@@ -1,4 +1,4 @@
-"""The core side of the interactive tools (issue 7): curve darts through drawn
+"""The core side of the interactive tools: curve darts through drawn
 points, their labels in the project file, the document's dart and yarn edits,
 and the yarn's default plane and its turning angle. No Qt."""
 
@@ -10,14 +10,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from core.darts import CurveDart, PlaneDart, curve_dart_through, dart_handles
-from core.document import Document, changed_aspects, unique_name
-from core.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
-from core.errors import SettingsError
-from core.examples import load_example
-from core.pipeline import FlattenSettings, flatten
-from core.project import (Project, ProjectError, labels_equal, load_project, project_to_dict, save_project,
-                          settings_equal)
+from flatweave.method.darts import CurveDart, PlaneDart, curve_dart_through, dart_handles
+from flatweave.document.history import Document, changed_aspects, unique_name
+from flatweave.method.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
+from flatweave.errors import SettingsError
+from flatweave.reading.examples import load_example
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.document.project import (Project, ProjectError, labels_equal, load_project, project_to_dict,
+                                        save_project, settings_equal)
 
 VIEW = -np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)  # from a camera on the octant's diagonal, into the scene
 HANDLES = np.array([[0.2, 0.1], [0.45, 0.45], [0.6, 0.85]])

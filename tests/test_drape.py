@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from core.drape import DrapeSettings, drape, refill
-from core.errors import SettingsError
-from core.examples import example_names, load_example
-from core.mesh import DIAG, MATERIALS, build_mesh
-from core.quadrature import region_area
+from flatweave.method.drape import DrapeSettings, drape, refill
+from flatweave.errors import SettingsError
+from flatweave.reading.examples import example_names, load_example
+from flatweave.method.lattice import DIAG, MATERIALS, build_mesh
+from flatweave.geometry.quadrature import region_area
 
 
 def dense_points(surface, n=200):
@@ -42,6 +42,7 @@ def check_drape(surface, result, spacing):
     assert not pairs
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", example_names())
 @pytest.mark.parametrize("div", [10, 25, 60])
 def test_drape_criteria_on_every_example(name, div):
@@ -114,7 +115,7 @@ def test_bad_settings(kw, word):
 
 def test_oversize_mesh_is_refused_up_front(monkeypatch):
     # the node count, not the machine's memory, is the limit here (see test_hard_surfaces for memory)
-    monkeypatch.setattr("core.drape.available_memory", lambda: None)
+    monkeypatch.setattr("flatweave.method.drape.available_memory", lambda: None)
     s = load_example("octant")
     with pytest.raises(SettingsError, match="nodes") as err:
         drape(s, DrapeSettings(1e-4, max_nodes=100_000), MATERIALS["woven"], area=region_area(s))
@@ -156,7 +157,7 @@ def test_slow_progress_reports_come_less_often():
     drape before the next: slow viewers cost the drape at most a tenth."""
     import time
 
-    from core.drape import REPORT_SHARE
+    from flatweave.method.drape import REPORT_SHARE
 
     surface = load_example("octant")
     s = DrapeSettings(0.02, 0.02)  # ~4,000 nodes: a drape long enough for several reports
@@ -178,8 +179,9 @@ def test_slow_progress_reports_come_less_often():
 
 
 def test_the_pipeline_shows_the_drape_as_the_solver_will_build_it():
-    from core.darts import PlaneDart
-    from core.pipeline import FlattenSettings, flatten_iter, make_problem
+    from flatweave.method.darts import PlaneDart
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.method.pipeline import flatten_iter, make_problem
 
     surface = load_example("octant")
     s = FlattenSettings(spacing=0.08, solver="none", darts=(PlaneDart((1.0, 0.0, 0.0, -0.5)),))
@@ -203,7 +205,7 @@ def test_fronts_found_near_the_last_front_are_those_of_the_whole_lattice(monkeyp
     """Every front is looked for only around the nodes the last one placed: it
     must be the front a scan of the whole lattice finds, positions, order and
     configurations."""
-    import core.drape as D
+    import flatweave.method.drape as D
 
     near = D._Builder._valid_near
     fronts = []
@@ -237,7 +239,7 @@ def test_the_near_node_test_is_the_brute_force_one():
     """The drape's k-d tiers (old, middle, newest nodes) answer "at least half a
     spacing from every node and from each other" as a search over all nodes
     does, whatever the sizes of the batches added between the questions."""
-    from core.drape import _Builder
+    from flatweave.method.drape import _Builder
 
     s = load_example("octant")
     b = _Builder(s, DrapeSettings(0.02))
@@ -259,7 +261,7 @@ def test_the_near_node_test_is_the_brute_force_one():
 
 
 def test_a_drape_asks_the_near_node_test_as_brute_force_answers(monkeypatch):
-    import core.drape as D
+    import flatweave.method.drape as D
 
     tiered = D._Builder.far_from_mesh
     calls = []

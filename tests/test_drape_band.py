@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import core.drape as drape_now
-from core.darts import DartSet, PlaneDart
-from core.examples import example_names, load_example
-from core.mesh import MATERIALS
-from core.quadrature import region_area
+import flatweave.method.drape as drape_now
+from flatweave.method.darts import DartSet, PlaneDart
+from flatweave.reading.examples import example_names, load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.geometry.quadrature import region_area
 
 REFERENCE = "334c087"  # main before the bands: one front at a time
 ROOT = Path(__file__).resolve().parent.parent
@@ -39,6 +39,10 @@ def ref(tmp_path_factory):
         if os.environ.get("CI"):
             pytest.fail(f"the reference commit {REFERENCE} is not in this checkout (a shallow clone?)")
         pytest.skip(f"the reference commit {REFERENCE} is not in this checkout (no git history)")
+    # that commit's engine was the package "core"; its modules now live in flatweave's stages
+    for was, now in (("core.errors", "flatweave.errors"), ("core.geom", "flatweave.geometry.numerics"),
+                     ("core.mesh", "flatweave.method.lattice"), ("core.nurbs", "flatweave.geometry.nurbs")):
+        text = text.replace(f"from {was} import", f"from {now} import")
     path = tmp_path_factory.mktemp("ref") / "drape_reference.py"
     path.write_text(text)
     spec = importlib.util.spec_from_file_location("drape_reference", path)
@@ -84,6 +88,7 @@ def _built(mod, surface, ds, separated=None, inside=None):
     return b
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", example_names())
 @pytest.mark.parametrize("nodes", [700, 3000])
 def test_the_bands_lay_the_front_by_front_net(ref, name, nodes):
@@ -96,6 +101,7 @@ def test_the_bands_lay_the_front_by_front_net(ref, name, nodes):
         assert a.stats[k] == b.stats[k]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", example_names())
 @pytest.mark.parametrize("nodes", [700, 3000])
 def test_the_bands_lay_the_same_net_inside_a_region(ref, name, nodes):
@@ -114,6 +120,7 @@ def test_the_bands_lay_the_same_net_inside_a_region(ref, name, nodes):
     assert b.mesh.n_nodes < 0.9 * drape_now.drape(s, drape_now.DrapeSettings(sp), MATERIALS["woven"]).mesh.n_nodes
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", example_names())
 @pytest.mark.parametrize("nodes", [700, 3000])
 def test_the_bands_lay_the_same_net_beside_a_dart(ref, name, nodes):
@@ -127,6 +134,7 @@ def test_the_bands_lay_the_same_net_beside_a_dart(ref, name, nodes):
     assert len(plain.ij) != len(b.ij) or not np.array_equal(plain.ij, b.ij)  # the dart changed the net
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["octant", "garment", "saddle", "dome"])
 def test_a_refill_beside_a_dart_adds_the_same_nodes(ref, name):
     s = load_example(name)
@@ -149,6 +157,7 @@ def test_a_refill_beside_a_dart_adds_the_same_nodes(ref, name):
     assert np.all(np.abs(got["ref"][1] - got["now"][1]) <= 1e-10 * size)
 
 
+@pytest.mark.slow
 def test_a_refill_across_an_opened_dart_adds_the_same_nodes_and_skips_the_rootless(ref, monkeypatch):
     """The first refill of a warm re-solve after a curve dart (the window test's three clicks on the
     octant): the V's two sides are apart, so some positions have their A and B farther apart than
@@ -156,9 +165,10 @@ def test_a_refill_across_an_opened_dart_adds_the_same_nodes_and_skips_the_rootle
     iterations on them. The same nodes either way, in far fewer surface evaluations."""
     import dataclasses
 
-    import core.solver as solver
-    from core.darts import curve_dart_through
-    from core.pipeline import FlattenSettings, flatten, make_problem
+    import flatweave.method.solver as solver
+    from flatweave.method.darts import curve_dart_through
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.method.pipeline import flatten, make_problem
 
     s = load_example("octant")
     settings = FlattenSettings(0.025)
@@ -170,13 +180,13 @@ def test_a_refill_across_an_opened_dart_adds_the_same_nodes_and_skips_the_rootle
     handles = np.array([grid[np.argmin(np.linalg.norm(pts - t, axis=1))] for t in targets])
     curve = dataclasses.replace(settings, darts=(curve_dart_through(s, handles, -targets.mean(0)),))
     first = []
-    try_refill = solver._Run.try_refill
+    try_refill = solver.Run.try_refill
 
     def record(self, at=None):
         if not first:
             first.append((self.mesh.ij.copy(), self.uv.copy(), self.pop.dead()))
         return try_refill(self, at)
-    monkeypatch.setattr(solver._Run, "try_refill", record)
+    monkeypatch.setattr(solver.Run, "try_refill", record)
     flatten(s, curve, initial=base.state())
     ij, uv, dead = first[0]
     separated = make_problem(s, curve).cut  # the solver's dart test

@@ -1,15 +1,15 @@
-"""The edge's churn (issue 20): a refill every one of whose nodes would land within a tenth of a
+"""The edge's churn: a refill every one of whose nodes would land within a tenth of a
 spacing of the region's edge, while the region is covered, is not made
-(:func:`core.pipeline.edge_churn`); and the distance to the edge it is judged by
-(:meth:`core.region.Cover.edge_chord`).
+(:func:`flatweave.method.pipeline.edge_churn`); and the distance to the edge it is judged by
+(:meth:`flatweave.geometry.region.Cover.edge_chord`).
 
 The rule changes which refills a solve makes, so its results are checked against the
 paper's refill (``EDGE_REFILL_SPACINGS = 0``) on every bundled surface: within issue
 20's tolerances (EN within 0.1 % or lower, boundary and area errors within 0.02
 points), or, where the two land on different minima, no worse than the worst result
 the paper's refill itself gives from starts that should not matter (its fast path, its
-reference path, a warm start nudged by 1e-9 of the domain). docs/decisions.md "Edge
-churn" lists the cases that take the second branch and why.
+reference path, a warm start nudged by 1e-9 of the domain).
+docs/decisions/0045-no-refill-of-edge-nodes-only.md lists the cases that take the second branch and why.
 """
 
 from __future__ import annotations
@@ -19,16 +19,17 @@ import dataclasses
 import numpy as np
 import pytest
 
-import core.pipeline as pipeline
-import core.solver as solver
-from core.coverage import cell_diagonal, uncovered_share
-from core.darts import CurveDart, PlaneDart
-from core.examples import example_names, load_example
-from core.mesh import MATERIALS
-from core.nurbs import NurbsSurface
-from core.pipeline import FlattenSettings, edge_churn, flatten
-from core.quadrature import region_area
-from core.region import Region, circle_loop, cover_for
+import flatweave.method.pipeline as pipeline
+import flatweave.method.solver as solver
+from flatweave.geometry.coverage import cell_diagonal, uncovered_share
+from flatweave.method.darts import CurveDart, PlaneDart
+from flatweave.reading.examples import example_names, load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import edge_churn, flatten
+from flatweave.geometry.quadrature import region_area
+from flatweave.geometry.region import Region, circle_loop, cover_for
 from tests.test_solver_speed import CASES, _case
 
 PLANE = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
@@ -43,7 +44,7 @@ def _plane() -> NurbsSurface:
 
 
 def within(a: dict, b: dict) -> bool:
-    """``b`` within issue 20's tolerances of ``a`` (EN within 0.1 % or lower, errors within 0.02 points)."""
+    """``b`` within the population tests' tolerances of ``a`` (EN within 0.1 % or lower, errors within 0.02 points)."""
     return (b["energy"] <= a["energy"] * (1 + 1e-3)
             and abs(b["boundary_error_pct"] - a["boundary_error_pct"]) <= 0.02
             and abs(b["area_error_pct"] - a["area_error_pct"]) <= 0.02)
@@ -59,7 +60,7 @@ def _flatten(surface, settings, rule: bool, monkeypatch, initial=None, reuse: bo
     """(result, refills made, factorisations) with the rule on or off."""
     made = FlattenSettings.solver_options
     count = {"refills": 0, "factorisations": 0}
-    try_refill, factorise = solver._Run.try_refill, solver._Round.factorise
+    try_refill, factorise = solver.Run.try_refill, solver._Round.factorise
 
     def refilled(self, at=None):
         ok = try_refill(self, at)
@@ -73,7 +74,7 @@ def _flatten(surface, settings, rule: bool, monkeypatch, initial=None, reuse: bo
     with monkeypatch.context() as m:
         if not rule:
             m.setattr(pipeline, "EDGE_REFILL_SPACINGS", 0.0)
-        m.setattr(solver._Run, "try_refill", refilled)
+        m.setattr(solver.Run, "try_refill", refilled)
         m.setattr(solver._Round, "factorise", factorised)
         m.setattr(FlattenSettings, "solver_options", lambda self: dataclasses.replace(made(self), reuse=reuse))
         r = flatten(surface, settings, initial=initial)
@@ -137,8 +138,9 @@ def test_the_rule_off_makes_every_refill(solved_octant, monkeypatch):
 
 
 # ---------------------------------------------------------------------- the rule's results
+@pytest.mark.slow
 def test_the_suites_plane_dart_re_solve_makes_fewer_rounds_to_the_same_result(monkeypatch):
-    """The re-solve issue 20's 0.3 s is measured on: the paper's refill makes 5 refills (the
+    """The re-solve the 0.3 s target is measured on: the paper's refill makes 5 refills (the
     dart's, then the slid net's edge), the rule 2, and the results agree."""
     s = load_example("octant")
     settings = FlattenSettings(float(np.sqrt(region_area(s) / 2500)))
@@ -168,6 +170,7 @@ def _agree_or_no_worse(surface, settings, monkeypatch, initial=None) -> None:
     assert no_worse(others, rule), (rule, others)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, material", [(n, m) for n in example_names() for m in ("woven", "isotropic")])
 def test_a_warm_dart_re_solve_agrees_with_the_papers_refill(name, material, monkeypatch):
     s = load_example(name)
@@ -179,15 +182,17 @@ def test_a_warm_dart_re_solve_agrees_with_the_papers_refill(name, material, monk
         _agree_or_no_worse(s, dataclasses.replace(settings, darts=(dart,)), monkeypatch, initial=base.state())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, material, dart, yarn, angle", [c if len(c) == 5 else c + (0.0,) for c in CASES])
 def test_a_solve_from_the_drape_agrees_with_the_papers_refill(name, material, dart, yarn, angle, monkeypatch):
     s, settings = _case(name, material, dart, yarn, angle)
     _agree_or_no_worse(s, settings, monkeypatch)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("material", ["woven", "isotropic"])
 def test_a_coarse_start_agrees_with_the_papers_refill(material, monkeypatch):
-    """At 2,500 nodes a solve starts from a coarser level (core.multilevel), where the rule skips
+    """At 2,500 nodes a solve starts from a coarser level (flatweave.method.multilevel), where the rule skips
     refills too."""
     s = load_example("octant")
     settings = FlattenSettings(float(np.sqrt(region_area(s) / 2500)), material=MATERIALS[material])

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from core.drape import DrapeSettings, drape
-from core.energy import Energy, YarnConstraint, parse_yarn
-from core.errors import SettingsError
-from core.examples import load_example
-from core.mesh import MATERIALS
+from flatweave.method.drape import DrapeSettings, drape
+from flatweave.method.energy import Energy, YarnConstraint, parse_yarn
+from flatweave.errors import SettingsError
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
 
 
 @pytest.mark.parametrize("material", ["woven", "isotropic"])

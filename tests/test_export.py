@@ -11,17 +11,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.errors import FlatweaveError, SettingsError
-from core.examples import load_example
-from core.export import FORMATS, ExportOptions, build_sheet, check_target, export, export_all
-from core.export.pdf import OVERLAP_MM, PAGE_MARGIN_MM, SHEET_MARGIN_MM
-from core.export.svg import MARGIN_MM as SVG_MARGIN
-from core.fileio import atomic_write_bytes
+from flatweave.errors import FlatweaveError, SettingsError
+from flatweave.reading.examples import load_example
+from flatweave.export.registry import FORMATS, ExportOptions, check_target, export, export_all
+from flatweave.export.sheet import build_sheet
+from flatweave.export.pdf import OVERLAP_MM, PAGE_MARGIN_MM, SHEET_MARGIN_MM
+from flatweave.export.svg import MARGIN_MM as SVG_MARGIN
+from flatweave.files import atomic_write_bytes
 from tests.helpers import NO_SPACE, FullDisk
-from core.mesh import WARP
-from core.metrics import cell_shear_deg, spring_strain
-from core.pattern import polygon_area, polygon_perimeter
-from core.pipeline import FlattenSettings, flatten
+from flatweave.method.lattice import WARP
+from flatweave.method.metrics import cell_shear_deg, spring_strain
+from flatweave.geometry.numerics import polygon_area
+from flatweave.method.pattern import polygon_perimeter
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
 
 MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 POINTS_PER_MM = 72 / 25.4
@@ -174,6 +177,7 @@ def test_dxf_grain_line_follows_the_warp(tmp_path, fixture, request):
 # ---------------------------------------------------------------- seam allowance
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sa", [5.0, 10.0, 15.875])
 def test_seam_allowance_lies_outside_at_the_set_distance(octant_dart, sa):
     sheet = build_sheet(octant_dart, "m", sa)
@@ -258,6 +262,7 @@ def page_rects(page):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("paper", ["a4", "letter"])
 def test_pdf_pages_tiles_and_test_square(tmp_path, cylinder, paper):
     """The half cylinder's 1.5 m x 1.57 m rectangle covers every tile of the grid."""
@@ -275,9 +280,9 @@ def test_pdf_pages_tiles_and_test_square(tmp_path, cylinder, paper):
     assert rows * cols > 1
     assert len(reader.pages) == 2 + rows * cols  # overview, assembly map, tiles
     # Every page has a test square: 100 mm on the overview and the map; on a tile the
-    # largest of 100, 50, 20 mm that finds a place clear of the pattern's lines (issue 24:
+    # largest of 100, 50, 20 mm that finds a place clear of the pattern's lines (
     # a 100 mm square in a fixed corner used to cover pattern lines).
-    from core.export.pdf import TILE_SQUARES_MM
+    from flatweave.export.pdf import TILE_SQUARES_MM
     from tests.pdf_paths import lines_over, page_drawing, find_squares
 
     for k, page in enumerate(reader.pages):
@@ -300,11 +305,12 @@ def test_pdf_pages_tiles_and_test_square(tmp_path, cylinder, paper):
     assert f"{last}   row {chr(64 + rows)}, column {cols}" in texts[-1]
 
 
+@pytest.mark.slow
 def test_pdf_leaves_out_blank_tiles(tmp_path, octant_dart):
     """The octant is a curved triangle: corner tiles of its grid are blank and not printed."""
     from pypdf import PdfReader
 
-    from core.export.pdf import tile_grid, tiles
+    from flatweave.export.pdf import tile_grid, tiles
 
     sheet = build_sheet(octant_dart, "m", 10.0)
     rows, cols, _, _ = tile_grid(sheet.size, "a4")
@@ -339,9 +345,9 @@ def parse_ranges(text: str) -> np.ndarray:
 
 
 def test_obj_texture_coordinates_are_the_pattern(tmp_path, octant_dart):
-    """Vertices are the nodes some quad uses (issue 24: readers drop the others and shift
+    """Vertices are the nodes some quad uses ( readers drop the others and shift
     the rest), listed in the header; vt is the node's nodes.xy, v its xyz."""
-    from core.pipeline import result_to_dict
+    from flatweave.method.result import result_to_dict
 
     path = export(octant_dart, tmp_path / "p.obj")
     v, vt, vn, faces, nodes = [], [], [], [], None
@@ -373,7 +379,7 @@ def test_obj_texture_coordinates_are_the_pattern(tmp_path, octant_dart):
 
 def test_vtp_reads_back_with_strain_and_shear(tmp_path, octant_dart):
     """Surface and springs are two files (and a multiblock naming both), each with only the
-    fields defined on its cells (issue 24: NaN-filled quads coloured ParaView's default view)."""
+    fields defined on its cells ( NaN-filled quads coloured ParaView's default view)."""
     import pyvista as pv
 
     path = export(octant_dart, tmp_path / "p.vtp")
@@ -437,6 +443,7 @@ def test_export_all_writes_every_format(tmp_path, octant_dart):
 
 
 # ---------------------------------------------------------------- full disk, refused folders, several targets
+@pytest.mark.slow
 @pytest.mark.parametrize("how", ["write", "fsync"])
 @pytest.mark.parametrize("suffix", list(FORMATS))
 def test_a_full_disk_leaves_every_target_as_it_was(tmp_path, octant_dart, monkeypatch, suffix, how):
@@ -493,6 +500,7 @@ def test_an_unwritable_folder_leaves_nothing_behind(tmp_path, octant_dart, monke
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt", "locked"]  # fine.svg was not written either
 
 
+@pytest.mark.slow
 def test_export_all_is_all_or_nothing(tmp_path, octant_dart, monkeypatch):
     """Every target is checked and built, and written to a temporary file, before
     any is renamed into place: one failure leaves all of them as they were."""

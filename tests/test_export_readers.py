@@ -1,4 +1,4 @@
-"""The exports read back by readers nobody here wrote (issue 24): the DXF's tags
+"""The exports read back by readers nobody here wrote: the DXF's tags
 parsed by hand and by ezdxf (audit) and GDAL (ogr2ogr, where installed), areas
 by shapely; the SVG by xml.etree; the PDF by pypdf; the OBJ by trimesh; the VTP
 and VTM by VTK's own XML readers."""
@@ -12,11 +12,15 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from core.examples import load_example
-from core.export import ExportOptions, build_sheet, export
-from core.export.sheet import LINE_PITCH, TEXT_EM
-from core.pattern import polygon_area, polygon_perimeter
-from core.pipeline import FlattenSettings, flatten, result_to_dict
+from flatweave.reading.examples import load_example
+from flatweave.export.registry import ExportOptions, export
+from flatweave.export.sheet import build_sheet
+from flatweave.export.sheet import LINE_PITCH, TEXT_EM
+from flatweave.geometry.numerics import polygon_area
+from flatweave.method.pattern import polygon_perimeter
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.method.result import result_to_dict
 
 ASTM_LAYERS = {"1", "4", "7", "8", "11", "13", "14", "15"}
 PIECE_KEYS = ("Piece Name", "Size", "Quantity", "Material", "Category")
@@ -116,6 +120,7 @@ def test_astm_dxf_structure_by_hand(tmp_path, octant_cut):
     assert lo[1] < lowest < 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", ["astm", "layered"])
 def test_dxf_records_where_each_piece_sits(tmp_path, octant_cut, variant):
     """A piece's block holds it in the result's own frame (nodes.xy in mm); its INSERT's
@@ -175,10 +180,11 @@ def dxf_label_boxes(doc, block):
     return boxes, texts
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fixture", ["octant_dart", "octant_cut", "garment"])
 def test_labels_lie_in_free_space_inside_the_piece(tmp_path, fixture, request):
     """Every label line, measured at CAD's widest standard font, lies inside the sew line,
-    clear of the grain line, dart legs, drill holes and notches (issue 24: LibreCAD drew the
+    clear of the grain line, dart legs, drill holes and notches (LibreCAD drew the
     annotation across the grain line)."""
     import ezdxf
     from shapely.geometry import LineString, Point, Polygon
@@ -194,7 +200,7 @@ def test_labels_lie_in_free_space_inside_the_piece(tmp_path, fixture, request):
                   if e.dxftype() == "LINE" and e.dxf.layer in ("4", "7")]
         marks += [Point(tuple(e.dxf.location)[:2]).buffer(1.0) for e in doc.blocks[b] if e.dxftype() == "POINT"]
         boxes, texts = dxf_label_boxes(doc, b)
-        assert len(texts) == 11  # the material's shear angles and the share beyond lock: issue 23
+        assert len(texts) == 11  # the material's shear angles and the share beyond lock
         h = texts[0].dxf.height
         assert h >= 1.5
         ys = [t.dxf.insert[1] for t in texts]
@@ -212,7 +218,7 @@ def test_svg_metadata_maps_the_result_onto_the_drawing(tmp_path, octant_cut):
     """The SVG's metadata gives each piece's offset and the matrix from the result's
     nodes.xy (model units) to SVG user units: applied to the result's outline it gives the
     drawn sew line."""
-    from core.export.svg import NS
+    from flatweave.export.svg import NS
 
     path = export(octant_cut, tmp_path / "p.svg", ExportOptions(units="cm", seam_allowance_mm=0))
     root = ET.parse(path).getroot()
@@ -235,12 +241,13 @@ def test_svg_metadata_maps_the_result_onto_the_drawing(tmp_path, octant_cut):
 # ---------------------------------------------------------------- PDF
 
 
+@pytest.mark.slow
 def test_pdf_tiles_squares_clear_and_neighbours_printed(tmp_path, octant_dart):
     """On every tile the test square covers no line, and the neighbour labels name printed
-    tiles only (issue 24: A5 said "< A4", a blank tile that is not printed)."""
+    tiles only (A5 said "< A4", a blank tile that is not printed)."""
     from pypdf import PdfReader
 
-    from core.export.pdf import TILE_SQUARES_MM, tiles
+    from flatweave.export.pdf import TILE_SQUARES_MM, tiles
     from tests.pdf_paths import lines_over, page_drawing, find_squares
 
     mm = 72 / 25.4
@@ -322,7 +329,7 @@ def test_vtk_reads_surface_springs_and_multiblock(tmp_path, octant_dart):
     kind = vtk_to_numpy(springs.GetCellData().GetArray("spring_kind"))
     assert np.isfinite(strain).all() and set(np.unique(kind)) <= {0, 1, 2}
     assert surface.GetCellData().GetNumberOfArrays() == 5 and springs.GetCellData().GetNumberOfArrays() == 2
-    # the fibre angles (core.fibres) as VTK reads them: unit 3-vectors and degrees
+    # the fibre angles (flatweave.method.fibres) as VTK reads them: unit 3-vectors and degrees
     for name, comps in (("fibre_deviation_deg", 1), ("warp_deviation_deg", 1), ("weft_dir", 3), ("warp_dir", 3)):
         arr = surface.GetCellData().GetArray(name)
         assert arr.GetNumberOfComponents() == comps and arr.GetNumberOfTuples() == len(octant_dart.mesh.cells)
@@ -342,7 +349,7 @@ def test_vtk_reads_surface_springs_and_multiblock(tmp_path, octant_dart):
 
 def test_result_names_outline_perimeter_and_sew_length(tmp_path, octant_dart):
     """perimeter_outline is along the region's boundary (what boundary_error_pct compares);
-    sew_length is the exported sew line's length, dart legs included (issue 24)."""
+    sew_length is the exported sew line's length, dart legs included."""
     import ezdxf
     from tests.test_export import block_polylines, polyline_points
 

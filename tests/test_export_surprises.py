@@ -8,13 +8,15 @@ import time
 import numpy as np
 import pytest
 
-from core.cli import main
-from core.examples import load_example
-from core.export import MAX_QUIET_PAGES, ExportOptions, build_sheet, export, surprises
-from core.export.pdf import page_count
-from core.nurbs import NurbsSurface
-from core.pipeline import FlattenSettings, flatten
-from core.surface_io import save_surface
+from flatweave.cli import main
+from flatweave.reading.examples import load_example
+from flatweave.export.registry import MAX_QUIET_PAGES, ExportOptions, export, surprises
+from flatweave.export.sheet import build_sheet
+from flatweave.export.pdf import page_count
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.geometry.surface_json import save_surface
 
 POINTS_PER_MM = 72 / 25.4
 
@@ -43,6 +45,7 @@ def pages(path) -> int:
 
 
 # ---------------------------------------------------------------- page count and surprises
+@pytest.mark.slow
 @pytest.mark.parametrize("units, paper", [("m", "a4"), ("m", "letter"), ("cm", "a4"), ("in", "letter")])
 def test_the_page_count_is_the_written_pdfs(tmp_path, octant, octant_cut, units, paper):
     for result in (octant, octant_cut):
@@ -51,6 +54,7 @@ def test_the_page_count_is_the_written_pdfs(tmp_path, octant, octant_cut, units,
         assert page_count(build_sheet(result, units, options.seam_allowance_mm), paper) == written
 
 
+@pytest.mark.slow
 def test_a_pdf_of_many_pages_is_a_surprise_naming_the_pages_and_units(tmp_path, octant):
     path = export(octant, tmp_path / "octant.pdf")
     n = pages(path)
@@ -95,6 +99,7 @@ def test_the_page_count_of_a_huge_pdf_is_cheap():
     assert n > 10_000 and seconds < 5.0
 
 
+@pytest.mark.slow
 def test_the_cli_warns_before_writing_and_still_writes(tmp_path, capsys):
     pdf = tmp_path / "octant.pdf"
     assert main(["flatten", "octant", "--spacing", "0.1", "--export", str(pdf)]) == 0
@@ -161,6 +166,7 @@ def drawn_faces(page):
     return unary_union(list(polygonize(unary_union(lines))))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fixture", ["octant", "octant_cut"])
 @pytest.mark.parametrize("units", ["m", "cm", "mm"])
 def test_overview_names_lie_whole_inside_their_pieces_on_the_page(tmp_path, fixture, units, request):
@@ -187,6 +193,7 @@ def test_overview_names_lie_whole_inside_their_pieces_on_the_page(tmp_path, fixt
         assert all(name in page.extract_text().splitlines() for name in names)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("units", ["m", "cm", "mm"])
 def test_the_overview_states_its_scale_once_and_truly(tmp_path, octant, units):
     from pypdf import PdfReader

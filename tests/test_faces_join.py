@@ -1,4 +1,4 @@
-"""Several faces of a CAD file joined into one surface (``--faces``, core.cad.join_faces).
+"""Several faces of a CAD file joined into one surface (``--faces``, flatweave.reading.cad.join_faces).
 
 The files are made here with Open CASCADE, and Open CASCADE in this process
 is the oracle: ``BRepGProp`` areas of the faces and lengths of the piece's
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.errors import SettingsError
+from flatweave.errors import SettingsError
 from tests.helpers import needs_ocp
 
 pytestmark = needs_ocp  # Open CASCADE makes and reads the STEP files (a dev dependency)
@@ -30,7 +30,7 @@ BOX, ROUND = (40.0, 30.0, 20.0), 5.0  # the box and the radius of its rounded ed
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "core", *map(str, args)], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "flatweave", *map(str, args)], capture_output=True, text=True,
                           cwd=ROOT, env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}, timeout=600)
 
 
@@ -112,7 +112,7 @@ def fillet_file(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fillet_piece(fillet_file):
-    from core.cad import join_faces, read_cad_faces
+    from flatweave.reading.cad import join_faces, read_cad_faces
     cad = read_cad_faces(fillet_file)
     return cad, join_faces(cad, (0, 1, 2))
 
@@ -125,7 +125,7 @@ def box_file(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def box_cad(box_file):
-    from core.cad import read_cad_faces
+    from flatweave.reading.cad import read_cad_faces
     return read_cad_faces(box_file)
 
 
@@ -136,6 +136,7 @@ def lid_faces(cad):
 
 
 # ---------------------------------------------------------------------- a developable piece across a fillet
+@pytest.mark.slow
 def test_the_oracle_is_what_the_shape_says(fillet_piece):
     cad, _ = fillet_piece
     assert [f.kind for f in cad.faces] == ["plane", "cylinder", "plane"]
@@ -145,9 +146,10 @@ def test_the_oracle_is_what_the_shape_says(fillet_piece):
                                                                          rel=1e-9)
 
 
+@pytest.mark.slow
 def test_joined_fillet_is_one_piece_with_a_close_fit(fillet_piece):
-    from core.meshsurf import FittedSurface
-    from core.region import cover_for
+    from flatweave.geometry.meshfit import FittedSurface
+    from flatweave.geometry.region import cover_for
     cad, piece = fillet_piece
     fit = piece.fit
     assert isinstance(piece.surface, FittedSurface) and fit.faces == (0, 1, 2)
@@ -168,8 +170,9 @@ def test_joined_fillet_is_one_piece_with_a_close_fit(fillet_piece):
 def test_developable_join_flattens_to_its_development(fillet_piece):
     from shapely.geometry import Polygon
 
-    from core.pipeline import FlattenSettings, flatten
-    from core.region import cover_for
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.method.pipeline import flatten
+    from flatweave.geometry.region import cover_for
     cad, piece = fillet_piece
     cover = cover_for(piece.surface, piece.region)
     res = flatten(piece.surface, FlattenSettings(spacing=2.0, region=piece.region, seed=cover.default_seed),
@@ -184,6 +187,7 @@ def test_developable_join_flattens_to_its_development(fillet_piece):
     assert res.metrics["fit_max_deviation"] == piece.fit.max_deviation < 1e-3 * piece.fit.size
 
 
+@pytest.mark.slow
 def test_cli_flatten_with_faces(fillet_file, tmp_path):
     out = tmp_path / "r.json"
     r = _cli("flatten", fillet_file, "--faces", "0,1,2", "--spacing", "2.5", "--out", out, "--quiet")
@@ -203,10 +207,12 @@ def test_cli_flatten_with_faces(fillet_file, tmp_path):
 
 
 # ---------------------------------------------------------------------- a doubly curved piece
+@pytest.mark.slow
 def test_lid_of_a_rounded_box_joins_planes_cylinders_and_spheres(box_cad):
-    from core.cad import join_faces
-    from core.pipeline import FlattenSettings, flatten
-    from core.region import cover_for
+    from flatweave.reading.cad import join_faces
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.method.pipeline import flatten
+    from flatweave.geometry.region import cover_for
     lid = lid_faces(box_cad)
     kinds = sorted(box_cad.faces[i].kind for i in lid)
     assert len(lid) == 9 and kinds.count("plane") == 1, kinds
@@ -223,8 +229,9 @@ def test_lid_of_a_rounded_box_joins_planes_cylinders_and_spheres(box_cad):
 
 
 # ---------------------------------------------------------------------- refusals
+@pytest.mark.slow
 def test_faces_that_do_not_make_one_piece_are_refused(box_cad):
-    from core.cad import join_faces
+    from flatweave.reading.cad import join_faces
     top = next(f.index for f in box_cad.faces if f.kind == "plane" and f.bbox[2] > BOX[2] - 1e-6)
     bottom = next(f.index for f in box_cad.faces if f.kind == "plane" and f.bbox[5] < 1e-6)
     with pytest.raises(SettingsError, match="do not make one piece"):
@@ -235,14 +242,15 @@ def test_faces_that_do_not_make_one_piece_are_refused(box_cad):
         join_faces(box_cad, (top, top))
 
 
+@pytest.mark.slow
 def test_a_closed_choice_is_refused(box_cad):
-    from core.cad import join_faces
+    from flatweave.reading.cad import join_faces
     with pytest.raises(SettingsError, match="closed surface"):
         join_faces(box_cad, tuple(range(len(box_cad.faces))))
 
 
 def test_a_crash_while_tessellating_is_one_line(fillet_piece, monkeypatch):
-    from core.cad import CadFileError, join_faces
+    from flatweave.reading.cad import CadFileError, join_faces
     cad, _ = fillet_piece
     monkeypatch.setenv("FLATWEAVE_CAD_FAULT", "abort")  # the child dies by SIGABRT, as OCCT can
     with pytest.raises(CadFileError, match="crashed") as info:
@@ -250,9 +258,10 @@ def test_a_crash_while_tessellating_is_one_line(fillet_piece, monkeypatch):
     assert "\n" not in str(info.value)
 
 
+@pytest.mark.slow
 def test_an_iges_file_joins_too(tmp_path):
-    from core.cad import join_faces, read_cad_faces
-    from core.region import cover_for
+    from flatweave.reading.cad import join_faces, read_cad_faces
+    from flatweave.geometry.region import cover_for
     from tests import cadfiles as cf
     cad = read_cad_faces(cf.write_iges(fillet_shell(), tmp_path / "fillet.igs"))
     piece = join_faces(cad, (0, 1, 2))
@@ -260,6 +269,7 @@ def test_an_iges_file_joins_too(tmp_path):
     assert piece.fit.max_deviation < 1e-3 * piece.fit.size
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("faces, words", [("0,2", "do not make one piece"), ("0,7", "out of range"),
                                           ("1,1", "given twice"), ("0,x", "separated by commas"),
                                           ("-1,0", "negative")])
@@ -269,6 +279,7 @@ def test_cli_refusals_in_one_line(fillet_file, tmp_path, faces, words):
     assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
 
 
+@pytest.mark.slow
 def test_cli_refuses_faces_with_face_region_or_a_non_cad_file(fillet_file, tmp_path):
     out = tmp_path / "r.json"
     r = _cli("flatten", fillet_file, "--faces", "0,1", "--face", "0", "--spacing", "2", "--out", out)
@@ -283,8 +294,8 @@ def test_cli_refuses_faces_with_face_region_or_a_non_cad_file(fillet_file, tmp_p
 
 # ---------------------------------------------------------------------- projects
 def test_project_of_joined_faces_reopens_without_the_file(fillet_piece, tmp_path):
-    from core.meshsurf import FittedSurface
-    from core.project import load_project, new_project, project_to_dict, save_project
+    from flatweave.geometry.meshfit import FittedSurface
+    from flatweave.document.project import load_project, new_project, project_to_dict, save_project
     cad, piece = fillet_piece
     project = new_project(piece.surface, "part faces 0,1,2", f"{cad.path}#faces=0,1,2", units="mm",
                           region=piece.region)
@@ -301,7 +312,7 @@ def test_densify_keeps_the_shape_and_bounds_the_edges():
     """Two triangles of a 40 x 1 rectangle and a fan: after densify no edge is
     longer than h, the area and the boundary are the same, the mesh is one
     manifold piece wound as before."""
-    from core.meshsurf import _edge_table, boundary_loops, clean_mesh, densify
+    from flatweave.geometry.meshfit import _edge_table, boundary_loops, clean_mesh, densify
     V = np.array([[0, 0, 0], [40, 0, 0], [40, 1, 0], [0, 1, 0], [20, 30, 0]], float)
     F = np.array([[0, 1, 2], [0, 2, 3], [3, 2, 4]])
     V2, F2, _ = densify(V, F, 0.7)
@@ -323,7 +334,7 @@ def test_densify_lifts_new_points_onto_a_cylinder_by_the_normals():
     """A strip of a cylinder of radius 8 in triangles 0.1 rad wide and 25 long: split
     on the chords the new points sink by the sagitta (8 (1 - cos 0.05) = 0.01); lifted
     by the exact normals they stay on the cylinder to the fourth order (< 1e-5)."""
-    from core.meshsurf import densify
+    from flatweave.geometry.meshfit import densify
     a = np.linspace(0, 0.5, 6)
     ring = np.stack([8 * np.cos(a), 8 * np.sin(a)], axis=1)
     V = np.vstack([np.c_[ring, np.zeros(6)], np.c_[ring, np.full(6, 25.0)]])

@@ -1,6 +1,6 @@
-"""Issue 23, items 3 and 4 and the lock metric: materials that carry their
+"""Fibre angles and the lock metric: materials that carry their
 shear angles, the isotropic lattice, ``area_beyond_lock_pct``, fibre angles
-per cell (core.fibres) and their CSV and VTP exports."""
+per cell (flatweave.method.fibres) and their CSV and VTP exports."""
 
 import csv
 import json
@@ -9,15 +9,17 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from core.cli import main
-from core.errors import SettingsError
-from core.examples import load_example
-from core.export import ExportOptions, export, export_all
-from core.fibres import CSV_COLUMNS, cell_fibres, reference_direction, result_fibres
-from core.mesh import MATERIALS, Material, build_mesh
-from core.metrics import area_beyond_lock_pct, cell_areas, cell_shear_deg, metric_limits
-from core.pipeline import FlattenSettings, flatten, judge_result
-from core.project import load_project, new_project, project_to_dict, save_project
+from flatweave.cli import main
+from flatweave.errors import SettingsError
+from flatweave.reading.examples import load_example
+from flatweave.export.registry import ExportOptions, export, export_all
+from flatweave.method.fibres import CSV_COLUMNS, cell_fibres, reference_direction, result_fibres
+from flatweave.method.lattice import MATERIALS, Material, build_mesh
+from flatweave.method.metrics import area_beyond_lock_pct, cell_areas, cell_shear_deg, metric_limits
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.method.result import judge_result
+from flatweave.document.project import load_project, new_project, project_to_dict, save_project
 from tests.helpers import diameter, hausdorff, rigid_align
 
 
@@ -191,6 +193,7 @@ def test_the_isotropic_preset_is_isotropic():
     assert MATERIALS["isotropic"].ratio == "100:100:50"
 
 
+@pytest.mark.slow
 def test_isotropic_pattern_depends_less_on_the_weft_angle_than_the_papers():
     """Example II: at 0 and 45 degrees the isotropic octant's outlines differ
     (Hausdorff after a rigid motion) less than with the paper's ratio."""
@@ -204,7 +207,7 @@ def test_isotropic_pattern_depends_less_on_the_weft_angle_than_the_papers():
 
 
 def test_an_old_isotropic_project_opens_as_what_it_was(tmp_path):
-    """Before issue 23 'isotropic' was 100:100:100, with no angles in the file."""
+    """Before project version 3 'isotropic' was 100:100:100, with no angles in the file."""
     s = load_example("octant")
     p = new_project(s, "octant")
     p = p.with_settings(material=MATERIALS["paper-isotropic"])
@@ -227,12 +230,13 @@ def test_bad_material_angles_are_refused():
 
 
 # ---------------------------------------------------------------- the window's map
+@pytest.mark.slow
 def test_the_windows_fibre_map_is_the_csvs_deviation(make_window, qtbot, tmp_path):
-    from app.colours import ramp
-    from app.viewbase import SCALE_TITLES, fibre_stops
+    from flatweave.app.colours import ramp
+    from flatweave.app.viewbase import SCALE_TITLES, fibre_stops
     from tests.test_app_run import run_to_end, small_project
 
-    from app.panels import metric_colour
+    from flatweave.app.panels import metric_colour
 
     tight = replace(MATERIALS["woven"], warn_deg=2.0, lock_deg=5.0)  # so that some cloth passes the lock
     win = make_window(small_project(0.1, angle_deg=30.0, material=tight))

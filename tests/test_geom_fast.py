@@ -1,7 +1,7 @@
 """The accelerated geometric predicates give the brute force's answers.
 
-``core.darts.segments_cross`` (a grid over the dart's segments) against
-``segments_cross_brute`` (every pair), and ``core.geom.nearest_segments`` (a
+``flatweave.method.darts.segments_cross`` (a grid over the dart's segments) against
+``segments_cross_brute`` (every pair), and ``flatweave.geometry.numerics.nearest_segments`` (a
 k-d tree of segment midpoints) against the argmin of
 ``polyline_sq_distances``: on random segments, and on coordinates that are
 multiples of 1/8 (exact arithmetic: touching ends, colinear overlaps, nodes on
@@ -11,8 +11,8 @@ the dart, zero-length segments).
 import numpy as np
 import pytest
 
-from core.darts import CurveDart, SegmentGrid, _cross_pairs, segments_cross, segments_cross_brute
-from core.geom import nearest_segment, nearest_segments, polyline_distance, polyline_sq_distances
+from flatweave.method.darts import CurveDart, SegmentGrid, _cross_pairs, segments_cross, segments_cross_brute
+from flatweave.geometry.numerics import nearest_segment, nearest_segments, polyline_distance, polyline_sq_distances
 
 
 def _cases(seed, n, dyadic):
@@ -32,6 +32,7 @@ def _cases(seed, n, dyadic):
         yield q, p0, p1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dyadic", [False, True])
 def test_segments_cross_is_the_brute_force(dyadic):
     hits = 0
@@ -60,6 +61,7 @@ def test_segments_cross_edge_cases():
     assert not nan.any()
 
 
+@pytest.mark.slow
 def test_segments_cross_keeps_pairs_whose_boxes_touch():
     """Where the brute force and the grid may differ: rounding in colinear,
     disjoint segments (coordinates like 0.05); the grid answers as exact
@@ -86,6 +88,7 @@ def test_curve_dart_keeps_its_grid_and_answers_the_same():
     assert 50 < first.sum() < 5000
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_nearest_segments_is_the_argmin(dim):
     rng = np.random.default_rng(10 + dim)

@@ -1,4 +1,4 @@
-"""Hard surfaces and settings (issue 9, part 2): each gives a valid result or
+"""Hard surfaces and settings: each gives a valid result or
 a clear one-line message, and no solve runs without a budget.
 
 A valid result: finite numbers everywhere, every node inside the domain, a
@@ -18,16 +18,18 @@ from math import comb
 import numpy as np
 import pytest
 
-import core.drape
-from core.drape import BYTES_PER_NODE, DrapeSettings, available_memory, drape, estimate_node_count, node_limit
-from core.errors import FlatweaveError, SettingsError, SurfaceError
-from core.examples import example_path, load_example
-from core.mesh import MATERIALS
-from core.nurbs import MAX_SIZE, MIN_SIZE, NurbsSurface
-from core.pipeline import FlattenSettings, flatten, make_problem
-from core.quadrature import region_area
-from core.solver import SolverOptions, State, minimize
-from core.surface_io import save_surface
+import flatweave.method.drape
+from flatweave.method.drape import (BYTES_PER_NODE, DrapeSettings, available_memory, drape, estimate_node_count,
+                                    node_limit)
+from flatweave.errors import FlatweaveError, SettingsError, SurfaceError
+from flatweave.reading.examples import example_path, load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.geometry.nurbs import MAX_SIZE, MIN_SIZE, NurbsSurface
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten, make_problem
+from flatweave.geometry.quadrature import region_area
+from flatweave.method.solver import SolverOptions, State, minimize
+from flatweave.geometry.surface_json import save_surface
 
 
 # ---------------------------------------------------------------------- surfaces
@@ -124,6 +126,7 @@ def test_seed_at_or_beside_the_pole_is_refused_clearly(seed):
             "no complete cell", f"seed ({seed[0]:g}, {seed[1]:g})", "move the seed inward")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, seed", [
     ("garment", (0.01, 0.01)), ("garment", (0.0, 0.0)), ("garment", (1.0, 1.0)),
     ("octant", (1.0, 1.0)), ("octant", (0.05, 0.05))])
@@ -158,6 +161,7 @@ def test_pinch_is_refused_from_either_side_or_at_the_point():
     refused(lambda: flatten(s, FlattenSettings(0.1, seed=(0.5, 0.5))), "no complete cell", "seed")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spacing, seed, tol", [
     (0.1, (0.5, 0.5), 0.5), (0.1, (0.0, 0.3), 0.5), (0.05, (0.9, 0.5), 0.1), (0.4, (0.5, 0.5), 25.0)])
 def test_closed_tube_edges_touching_in_3d(spacing, seed, tol):
@@ -180,6 +184,7 @@ def test_tube_whose_edges_almost_touch():
 
 
 # ---------------------------------------------------------------------- long and thin
+@pytest.mark.slow
 def test_long_thin_strip_100_to_1():
     s = strip(sag=0.05)
     r = flatten(s, FlattenSettings(0.02))
@@ -197,6 +202,7 @@ def test_strip_narrower_than_the_spacing_says_which_spacing_works():
 
 
 # ---------------------------------------------------------------------- spacing vs size
+@pytest.mark.slow
 @pytest.mark.parametrize("spacing", [1.0, 5.0, 1e6])
 def test_spacing_larger_than_the_surface(spacing):
     s = load_example("octant")
@@ -206,7 +212,7 @@ def test_spacing_larger_than_the_surface(spacing):
 
 
 def test_too_fine_is_refused_up_front_by_node_count(monkeypatch):
-    monkeypatch.setattr(core.drape, "available_memory", lambda: 10 ** 12)  # 1 TB: max_nodes binds
+    monkeypatch.setattr(flatweave.method.drape, "available_memory", lambda: 10 ** 12)  # 1 TB: max_nodes binds
     s = load_example("octant")
     msg = refused(lambda: flatten(s, FlattenSettings(1e-4, max_nodes=100_000)),
                   "157,079,633 nodes", "limit of 100,000 nodes", "smallest spacing that fits is about 0.00396")
@@ -216,7 +222,7 @@ def test_too_fine_is_refused_up_front_by_node_count(monkeypatch):
 def test_too_fine_for_the_memory_is_refused_up_front(monkeypatch):
     s = load_example("octant")
     area = region_area(s)
-    monkeypatch.setattr(core.drape, "available_memory", lambda: 2_000_000_000)
+    monkeypatch.setattr(flatweave.method.drape, "available_memory", lambda: 2_000_000_000)
     limit, memory = node_limit(2_000_000)
     assert limit == 2_000_000_000 // BYTES_PER_NODE < 2_000_000 and memory == 2e9
     spacing = 0.9 * math.sqrt(area / limit)  # fewer nodes than max_nodes, more than the memory holds
@@ -231,9 +237,9 @@ def test_too_fine_for_the_memory_is_refused_up_front(monkeypatch):
 
 
 def test_memory_limit_falls_back_to_max_nodes(monkeypatch):
-    monkeypatch.setattr(core.drape, "available_memory", lambda: None)
+    monkeypatch.setattr(flatweave.method.drape, "available_memory", lambda: None)
     assert node_limit(123) == (123, None)
-    monkeypatch.setattr(core.drape, "available_memory", lambda: 10 ** 15)
+    monkeypatch.setattr(flatweave.method.drape, "available_memory", lambda: 10 ** 15)
     assert node_limit(2_000_000)[0] == 2_000_000
 
 
@@ -299,6 +305,7 @@ def test_size_limits_at_construction():
     refused(lambda: scaled(g, 1.0, offset=1e13), "too little for double precision", kind=SurfaceError)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k, offset", [(1e-30, 0.0), (1e30, 0.0), (1.0, 1e6), (1e3, -1e8)])
 def test_far_scales_and_positions_give_the_same_pattern(k, offset):
     g = load_example("garment")
@@ -347,10 +354,11 @@ def test_extreme_weights_are_refused():
 
 # ---------------------------------------------------------------------- through the CLI
 def run_cli(*args):
-    p = subprocess.run([sys.executable, "-m", "core", *args], capture_output=True, text=True, timeout=300)
+    p = subprocess.run([sys.executable, "-m", "flatweave", *args], capture_output=True, text=True, timeout=300)
     return p.returncode, p.stdout, p.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("make, args, word", [
     ("cusp", ["--spacing", "0.05"], "covers only"),
     ("line", ["--spacing", "0.1"], "no usable area"),

@@ -1,4 +1,4 @@
-"""The fast solver's exact Hessian (core.solver._hessian_blocks, assembled by
+"""The fast solver's exact Hessian (flatweave.method.solver._hessian_blocks, assembled by
 _Normal) against central finite differences of the analytic gradient, and the
 pinned node's Lagrangian term against the energy's second derivative along
 the pin's plane.
@@ -7,19 +7,20 @@ Steps: the gradient is differenced with h = 1e-6 in (u, v) (domains are
 [0, 1]^2): truncation ~ h^2 |g'''| ~ 1e-12 and round-off ~ eps |g| / h ~ 1e-10
 of the Hessian's size, both far below the 1e-6 tolerance; a 1 % change of the
 surface-curvature term alone moves the error to about 1e-5 (see
-docs/decisions.md, "Core solver and numerics", for the perturbations that
+docs/decisions/0003-levenberg-marquardt-with-the-exact-hessian.md, for the perturbations that
 were checked to fail these tests).
 """
 
 import numpy as np
 import pytest
 
-from core.drape import drape
-from core.energy import Energy, YarnConstraint
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.pipeline import FlattenSettings, make_problem
-from core.solver import (SolverOptions, _anchors, _hessian_blocks, _node_at, _Normal, _pin_block,
+from flatweave.method.drape import drape
+from flatweave.method.energy import Energy, YarnConstraint
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import make_problem
+from flatweave.method.solver import (SolverOptions, _anchors, _hessian_blocks, _node_at, _Normal, _pin_block,
                          _residuals)
 
 H_GRAD = 1e-6  # central-difference step of the gradient, (u, v) units

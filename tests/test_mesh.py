@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from core.errors import SettingsError
-from core.mesh import DIAG, MATERIALS, WARP, WEFT, build_mesh, parse_material
+from flatweave.errors import SettingsError
+from flatweave.method.lattice import DIAG, MATERIALS, WARP, WEFT, build_mesh, parse_material
 
 
 def rect(R, C):

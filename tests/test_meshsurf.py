@@ -1,4 +1,4 @@
-"""Triangle meshes made a surface and a region (core.meshsurf, the STL/OBJ/PLY/OFF readers).
+"""Triangle meshes made a surface and a region (flatweave.geometry.meshfit, the STL/OBJ/PLY/OFF readers).
 
 Truth from outside the code: the meshes are made here from closed-form
 shapes (their vertices lie on the exact shape), the developable ones have a
@@ -20,18 +20,20 @@ import pytest
 
 trimesh = pytest.importorskip("trimesh")
 
-from core.errors import FlatweaveError, SurfaceError  # noqa: E402
-from core.examples import example_info, example_names  # noqa: E402
-from core.meshsurf import FittedSurface, clean_mesh, load_mesh_piece, mesh_surface  # noqa: E402
-from core.pipeline import FlattenSettings, flatten  # noqa: E402
-from core.readers import open_path  # noqa: E402
-from core.region import cover_for  # noqa: E402
+from flatweave.errors import FlatweaveError, SurfaceError  # noqa: E402
+from flatweave.reading.examples import example_info, example_names  # noqa: E402
+from flatweave.geometry.meshfit import FittedSurface, clean_mesh, mesh_surface  # noqa: E402
+from flatweave.reading.meshes import load_mesh_piece  # noqa: E402
+from flatweave.method.settings import FlattenSettings  # noqa: E402
+from flatweave.method.pipeline import flatten  # noqa: E402
+from flatweave.reading.registry import open_path  # noqa: E402
+from flatweave.geometry.region import cover_for  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def _cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "core", *map(str, args)], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "flatweave", *map(str, args)], capture_output=True, text=True,
                           cwd=cwd or ROOT, env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}, timeout=600)
 
 
@@ -103,6 +105,7 @@ def pieces():
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(SHAPES))
 @pytest.mark.parametrize("n", RESOLUTIONS)
 def test_fit_deviation_is_small_and_honest(pieces, name, n):
@@ -141,6 +144,7 @@ def test_surface_is_c2_bicubic_and_keeps_the_mesh_orientation(pieces, name):
     assert np.all(np.einsum("ij,ij->i", tri_n, sn) > 0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(SHAPES))
 def test_region_is_the_meshs_boundary(pieces, name):
     piece = pieces[name, RESOLUTIONS[1]]
@@ -164,6 +168,7 @@ def test_developable_area_and_boundary_exact(pieces):
             assert cover.boundary_length == pytest.approx(length, rel=1e-3), (name, n)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["cylinder", "cone"])
 @pytest.mark.parametrize("n", RESOLUTIONS)
 def test_developable_meshes_flatten_to_their_development(pieces, name, n):
@@ -183,6 +188,7 @@ def test_developable_meshes_flatten_to_their_development(pieces, name, n):
 
 
 # ---------------------------------------------------------------------- the bundled surfaces, tessellated
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(example_names()))
 def test_bundled_surface_tessellated_matches_the_nurbs_path(name):
     opened = open_path(name)
@@ -318,6 +324,7 @@ def test_bad_meshes_refused_in_one_line(tmp_path, name):
         assert "needs a region" in msg
 
 
+@pytest.mark.slow
 def test_bad_meshes_through_the_cli(tmp_path):
     files = _bad_files(tmp_path)
     for name in ("nan.obj", "truncated.stl", "claims_2gb.stl", "closed.stl", "two_parts.obj"):
@@ -346,6 +353,7 @@ def test_a_part_is_chosen_with_face(tmp_path):
 
 
 # ---------------------------------------------------------------------- CLI and project
+@pytest.mark.slow
 def test_cli_info_and_result_metrics(tmp_path):
     V, F = grid_mesh(cylinder, 30, 30)
     path = _write(tmp_path / "cyl.stl", trimesh.Trimesh(V, F, process=False))
@@ -368,7 +376,7 @@ def test_cli_info_and_result_metrics(tmp_path):
 
 
 def test_project_from_a_mesh_reopens_without_the_mesh(tmp_path):
-    from core.project import load_project, project_to_dict, save_project
+    from flatweave.document.project import load_project, project_to_dict, save_project
 
     V, F = grid_mesh(panel, 30, 30, hole)
     path = _write(tmp_path / "panel.ply", trimesh.Trimesh(V, F, process=False))
@@ -390,6 +398,7 @@ def test_closed_mesh_refused_without_region():
         mesh_surface(*clean_mesh(sphere.vertices, sphere.faces)[:2])
 
 
+@pytest.mark.slow
 def test_developable_mesh_with_a_hole_flattens_exactly():
     """A half cylinder with a (stair-stepped, as cut from the grid) hole: the pattern is its
     development with the hole, area and boundary (outer loop and hole) within 0.1 %."""
@@ -409,6 +418,7 @@ def test_developable_mesh_with_a_hole_flattens_exactly():
     assert len(res.pattern.pieces) == 1 and len(res.pattern.pieces[0].holes) >= 1
 
 
+@pytest.mark.slow
 def test_closed_mesh_with_a_loop_drawn_on_it_flattens(tmp_path):
     """A sphere: refused without a region; with a loop drawn on it (--region {"loop3d": ...}) the
     smaller side of the loop (a cap) is cut out along mesh edges, made a surface and flattened."""
@@ -446,15 +456,16 @@ def _overlaps(res, spacing):
         else 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("source", ["mesh", "nurbs"])
 def test_a_hole_in_a_doubly_curved_panel_costs_what_the_hole_costs(pieces, source):
     """The garment panel with its arm hole, as a mesh and as a NURBS with a (u, v) hole: its errors are
     those of the same panel without the hole (within a point), and the cloth never lies on itself.
     A net laid round the hole met behind it out of step and left a slit from the hole to the edge:
     its sides overlapped and the pattern opened there (boundary error 19-35 %, area 9-11 %)."""
-    from core.meshsurf import _clamped_knots, fit_bspline
-    from core.nurbs import NurbsSurface
-    from core.region import Region
+    from flatweave.geometry.meshfit import _clamped_knots, fit_bspline
+    from flatweave.geometry.nurbs import NurbsSurface
+    from flatweave.geometry.region import Region
 
     spacing = 0.027
     if source == "mesh":

@@ -1,4 +1,4 @@
-"""The coarse-to-fine start (core.multilevel, issue 20).
+"""The coarse-to-fine start (flatweave.method.multilevel).
 
 A large piece is solved first at twice the spacing (and that one from a
 coarser level again), the solution refined onto the fine lattice, and the
@@ -6,7 +6,7 @@ fine solve started there. The truth it is held to: on a plane the refined
 coarse drape is the fine drape (both are the exact square lattice), a
 stretched lattice carried on past its edge keeps its stretch, and on the
 bundled surfaces the fine result is the one a solve from the drape reaches
-(issue 20's tolerances, as tests/test_solver_speed.py holds the quick path).
+(the population tests' tolerances, as tests/test_solver_speed.py holds the quick path).
 """
 
 from __future__ import annotations
@@ -16,16 +16,17 @@ import dataclasses
 import numpy as np
 import pytest
 
-import core.pipeline as pipeline
-from core import multilevel
-from core.drape import drape
-from core.examples import load_example
-from core.energy import YarnConstraint
-from core.mesh import MATERIALS
-from core.nurbs import NurbsSurface
-from core.pipeline import FlattenSettings, _coarser, flatten, flatten_iter
-from core.quadrature import region_area
-from core.region import Region, cover_for
+import flatweave.method.pipeline as pipeline
+from flatweave.method import multilevel
+from flatweave.method.drape import drape
+from flatweave.reading.examples import load_example
+from flatweave.method.energy import YarnConstraint
+from flatweave.method.lattice import MATERIALS
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import _coarser, flatten, flatten_iter
+from flatweave.geometry.quadrature import region_area
+from flatweave.geometry.region import Region, cover_for
 
 L = 2.0
 
@@ -52,7 +53,7 @@ def _drain(gen):
 
 
 def _assert_same_result(f: dict, r: dict) -> None:
-    """Issue 20's "same result" of metrics ``f`` against the reference's ``r``: energy within
+    """The "same result" of metrics ``f`` against the reference's ``r``: energy within
     0.1 % (or lower), boundary and area errors within 0.02 points, nodes within 1 %."""
     assert f["energy"] <= r["energy"] * (1 + 1e-3)
     assert abs(f["boundary_error_pct"] - r["boundary_error_pct"]) <= 0.02
@@ -141,6 +142,7 @@ def test_a_line_is_not_carried_across_a_dart_or_out_of_the_region():
     assert out_ij[:, 0].max() == 3  # nothing outside the region
 
 
+@pytest.mark.slow
 def test_a_large_piece_starts_from_coarser_levels_and_reaches_the_same_result():
     s, settings = _settings("octant", 8_000)
     auto = flatten(s, settings)
@@ -157,6 +159,7 @@ def test_a_large_piece_starts_from_coarser_levels_and_reaches_the_same_result():
     assert f["nodes_deleted"] < r["nodes_deleted"] / 4
 
 
+@pytest.mark.slow
 def test_the_coarse_levels_snapshots_come_first_each_with_its_own_mesh():
     s, settings = _settings("octant", 3_000)
     snaps, result = _drain(flatten_iter(s, settings, multilevel=2))
@@ -195,6 +198,7 @@ def test_a_yarn_held_by_index_holds_the_nearest_coarse_row():
     assert c.yarns[0].plane == y.plane
 
 
+@pytest.mark.slow
 def test_the_paper_solver_and_warm_starts_never_start_coarse():
     s, settings = _settings("octant", 8_000)
     paper = flatten(s, dataclasses.replace(settings, solver="paper", max_iter=1))
@@ -203,6 +207,7 @@ def test_the_paper_solver_and_warm_starts_never_start_coarse():
     assert warm.metrics["coarse_levels"] == 0
 
 
+@pytest.mark.slow
 def test_a_developable_piece_whose_coarse_drape_is_exact_is_draped_on_its_own_lattice():
     s, settings = _settings("half_cylinder", 8_000)
     auto = flatten(s, settings)
@@ -214,6 +219,7 @@ def test_a_developable_piece_whose_coarse_drape_is_exact_is_draped_on_its_own_la
     assert np.array_equal(auto.uv, plain.uv)
 
 
+@pytest.mark.slow
 def test_a_piece_whose_coarse_drape_keeps_its_population_is_draped_on_its_own_lattice():
     # the saddle's coarse solve converges from its drape in a few iterations, no node deleted or
     # refilled: the drape held, and the fine drape (not a carried net) is where the fine solve starts
@@ -236,6 +242,7 @@ def test_a_piece_whose_coarse_drape_keeps_its_population_is_draped_on_its_own_la
     assert list(auto.history) == [sn.energy for sn in snaps]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, material", [("octant", "woven"), ("octant", "isotropic"),
                                             ("garment", "woven")])
 def test_a_small_piece_whose_drape_does_not_hold_starts_coarse_and_reaches_the_same_result(name, material,
@@ -255,6 +262,7 @@ def test_a_small_piece_whose_drape_does_not_hold_starts_coarse_and_reaches_the_s
     _assert_same_result(f, r)
 
 
+@pytest.mark.slow
 def test_a_carried_level_that_keeps_its_population_carries_on(monkeypatch):
     # only a solve from its own drape shows that the drape holds: a level carried from a coarser one
     # that keeps every node is carried on again (its start was a refined net, not a drape). With the
@@ -272,6 +280,7 @@ def test_a_carried_level_that_keeps_its_population_carries_on(monkeypatch):
     _assert_same_result(f, r)
 
 
+@pytest.mark.slow
 def test_a_trimmed_piece_with_a_hole_starts_coarse_and_reaches_the_same_result():
     s = load_example("octant")
     square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
@@ -294,6 +303,7 @@ def test_a_trimmed_piece_with_a_hole_starts_coarse_and_reaches_the_same_result()
     assert abs(f["nodes"] - r["nodes"]) <= 0.01 * r["nodes"]
 
 
+@pytest.mark.slow
 def test_one_iteration_count_and_energy_trace_over_the_levels():
     s, settings = _settings("octant", 3_000)
     snaps, result = _drain(flatten_iter(s, settings, multilevel=2))
@@ -304,6 +314,7 @@ def test_one_iteration_count_and_energy_trace_over_the_levels():
     assert "history" not in result.drape_stats["levels"][0]  # the trace is the result's, once
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("budget", [3, 9])
 def test_the_iteration_budget_is_the_whole_runs(budget):
     """A budget of N iterations stops a coarse-to-fine run after N iterations in all, wherever
@@ -317,8 +328,8 @@ def test_the_iteration_budget_is_the_whole_runs(budget):
 
 
 def test_a_carried_start_never_refills_a_position_its_solve_emptied():
-    from core.solver import SolverOptions, _Population
-    from core.errors import SettingsError
+    from flatweave.method.solver import SolverOptions, _Population
+    from flatweave.errors import SettingsError
     once, twice = _Population(1), _Population(2)
     for pop in (once, twice):
         pop.record(np.array([[3, -4]]))
@@ -327,7 +338,7 @@ def test_a_carried_start_never_refills_a_position_its_solve_emptied():
     with pytest.raises(SettingsError, match="dead_after"):
         SolverOptions(dead_after=0)
     # the pipeline asks it of every level carried from a coarser one, and only of those
-    from core.pipeline import _carried
+    from flatweave.method.pipeline import _carried
     opts = SolverOptions()
     level = {"iterations": 0, "solve_seconds": 0.0, "refine_seconds": 0.0}
     assert _carried(opts, {"levels": [level]}).dead_after == 1 and _carried(opts, {}).dead_after == 2

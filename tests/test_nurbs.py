@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from geomdl import NURBS, exchange
 
-from core.errors import SurfaceError
-from core.examples import example_names, example_path, load_example
-from core.nurbs import NurbsSurface
+from flatweave.errors import SurfaceError
+from flatweave.reading.examples import example_names, example_path, load_example
+from flatweave.geometry.nurbs import NurbsSurface
 
 ORACLE_TOL = 1e-10
 DERIVS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
@@ -118,6 +118,7 @@ def test_example_matches_geomdl(name):
     assert_matches_geomdl(s, g, uv)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(40))
 def test_random_rational_surface_matches_geomdl(seed):
     s = random_surface(seed)
@@ -194,7 +195,7 @@ def test_power_form_basis_matches_the_recurrence_inside_and_beyond_the_domain(se
     Cox-de Boor recurrence; both must agree everywhere, including the
     polynomial extension beyond the domain that Newton iterates may visit and
     knot vectors with repeated knots and any scale."""
-    from core.nurbs import _Basis
+    from flatweave.geometry.nurbs import _Basis
 
     rng = np.random.default_rng(seed)
     for _ in range(40):

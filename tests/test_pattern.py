@@ -6,11 +6,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.energy import YarnConstraint
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.pattern import boundary_samples, make_pattern, polygon_area, polygon_perimeter
-from core.pipeline import FlattenSettings, flatten
+from flatweave.method.energy import YarnConstraint
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.geometry.quadrature import boundary_samples
+from flatweave.method.pattern import make_pattern, polygon_perimeter
+from flatweave.geometry.numerics import polygon_area
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
 from tests.helpers import diameter, fit_circle, hausdorff, rigid_align
 
 
@@ -76,6 +79,7 @@ def test_half_cylinder_flattens_to_a_rectangle():
         assert extent == pytest.approx(length, rel=0.005)
 
 
+@pytest.mark.slow
 def test_outline_perimeter_does_not_grow_with_sampling():
     s = load_example("octant")
     r = flatten(s, FlattenSettings(0.05, material=MATERIALS["isotropic"]))
@@ -84,6 +88,7 @@ def test_outline_perimeter_does_not_grow_with_sampling():
     assert max(per) - min(per) < 1e-4 * per[0]
 
 
+@pytest.mark.slow
 def test_example_2_isotropic_octant_is_orientation_free():
     """Example II: the isotropic octant at 0 and 45 degrees: the same outline up to a rigid motion."""
     s = load_example("octant")
@@ -95,6 +100,7 @@ def test_example_2_isotropic_octant_is_orientation_free():
         assert r.metrics["boundary_error_pct"] <= 5.35 and r.metrics["area_error_pct"] <= 0.5
 
 
+@pytest.mark.slow
 def test_example_3_yarn_direction_changes_the_woven_pattern():
     """Example III: a warp column held to two different planes gives two patterns."""
     s = load_example("octant")
@@ -119,11 +125,12 @@ def test_example_3_yarn_direction_changes_the_woven_pattern():
     assert hausdorff(A, B) > 0.01 * diameter(A)
 
 
+@pytest.mark.slow
 def test_a_mesh_shredded_by_crossing_darts_still_gives_a_finite_pattern(tmp_path):
     """Eleven crossing darts on a coarse octant (found by the soak test):
     legs with no node on their side used to put NaN into the outline, and the
     project could then not be saved. Now such points are left out and counted."""
-    from core.project import load_project, project_problems, save_project
+    from flatweave.document.project import load_project, project_problems, save_project
 
     p = load_project(Path(__file__).parent / "data" / "shredded-by-darts.flatweave")
     assert len(p.settings.darts) == 11
@@ -154,7 +161,7 @@ def test_the_sheet_veto_is_its_norm_formula_bitwise():
     on a closed tube (candidates from both sides of the seam are vetoed) and an open piece."""
     from scipy.spatial import cKDTree
 
-    from core.pattern import _same_sheet
+    from flatweave.method.pattern import _same_sheet
     from tests import test_hard_surfaces as hard_surfaces
 
     rng = np.random.default_rng(2)

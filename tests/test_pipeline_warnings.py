@@ -1,5 +1,5 @@
 """Coverage (metrics uncovered_pct, uncovered regions) and the result's warnings
-(core.metrics.metric_limits / judge, FlattenResult.warnings, the
+(flatweave.method.metrics.metric_limits / judge, FlattenResult.warnings, the
 result file, the CLI)."""
 
 import json
@@ -11,12 +11,14 @@ import pytest
 from scipy.spatial import cKDTree
 from shapely.geometry import Point, Polygon
 
-from core.cli import main
-from core.darts import PlaneDart
-from core.examples import load_example
-from core.mesh import MATERIALS, parse_material
-from core.metrics import LIMIT_KEYS, is_woven, judge, metric_limits
-from core.pipeline import FlattenSettings, flatten, judge_result, result_to_dict
+from flatweave.cli import main
+from flatweave.method.darts import PlaneDart
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS, parse_material
+from flatweave.method.metrics import LIMIT_KEYS, is_woven, judge, metric_limits
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.method.result import judge_result, result_to_dict
 
 SPACING = 0.05
 SADDLE_DART = PlaneDart((1.0, 0.0, 0.0, 0.0), (-2.0, 2.0, -2.0, 0.0, -2.0, 2.0), name="plane dart 1")
@@ -51,6 +53,7 @@ def saddle_whole(saddle):
     return flatten(saddle, FlattenSettings(spacing=SPACING))
 
 
+@pytest.mark.slow
 def test_the_cut_saddle_is_reported_uncovered_as_an_independent_measure_says(saddle_cut):
     m = saddle_cut.metrics
     want, _, _ = independent_uncovered_pct(saddle_cut.xyz, math.hypot(SPACING, SPACING))
@@ -64,6 +67,7 @@ def test_the_cut_saddle_is_reported_uncovered_as_an_independent_measure_says(sad
     assert m["max_gap_spacings"] > 5  # parts of the wedge are far from any node
 
 
+@pytest.mark.slow
 def test_a_covered_saddle_has_nothing_uncovered_and_no_warning(saddle_whole):
     m = saddle_whole.metrics
     want, _, _ = independent_uncovered_pct(saddle_whole.xyz, math.hypot(SPACING, SPACING))
@@ -73,6 +77,7 @@ def test_a_covered_saddle_has_nothing_uncovered_and_no_warning(saddle_whole):
     assert [w.split(",")[0] for w in saddle_whole.warnings] == [f"shear up to {m['max_shear_deg']:.1f} deg"]
 
 
+@pytest.mark.slow
 def test_the_uncovered_region_is_offered_with_its_outline(saddle, saddle_cut):
     doc = result_to_dict(saddle_cut)
     regions = doc["uncovered_regions"]
@@ -98,7 +103,7 @@ def test_every_result_reports_coverage_and_warnings(saddle_whole):
 
 
 def test_the_planar_method_reports_coverage(saddle):
-    from core.planar import PlanarSettings, flatten_planar, planar_result_to_dict
+    from flatweave.studies.planar import PlanarSettings, flatten_planar, planar_result_to_dict
 
     r = flatten_planar(saddle, PlanarSettings(spacing=0.1, solver="none"))
     assert r.metrics["uncovered_pct"] == pytest.approx(0.0, abs=0.05)  # a triangulation covers the region
@@ -165,7 +170,7 @@ def test_the_cli_prints_warnings_even_when_quiet(tmp_path, capsys):
 def test_warnings_survive_a_project_file_and_old_files_get_theirs(tmp_path):
     from pathlib import Path
 
-    from core.project import Project, load_project, save_project
+    from flatweave.document.project import Project, load_project, save_project
 
     octant = load_example("octant")
     s = FlattenSettings(spacing=0.1, max_iter=2)

@@ -1,4 +1,4 @@
-"""The planar energy method (core.planar), the paper's comparison method [7].
+"""The planar energy method (flatweave.studies.planar), the paper's comparison method [7].
 
 Truth comes from geometry, not from the code: developable surfaces unroll
 into known shapes (the half cone frustum into an annulus sector of radii 1
@@ -16,11 +16,11 @@ import sys
 import numpy as np
 import pytest
 
-from core.darts import PlaneDart
-from core.errors import SolverError
-from core.examples import load_example
-from core.nurbs import NurbsSurface
-from core.planar import (PlanarSettings, _uv_area, flatten_planar, relax, spring_energy, tessellate,
+from flatweave.method.darts import PlaneDart
+from flatweave.errors import SolverError
+from flatweave.reading.examples import load_example
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.studies.planar import (PlanarSettings, _uv_area, flatten_planar, relax, spring_energy, tessellate,
                          triangle_edges, unfold)
 from tests.helpers import SurfaceFault, fit_circle
 
@@ -28,7 +28,7 @@ COLLAR = PlaneDart((1, 0, 0, -0.02), (-1, 1, 0.42, 1, -1, 1), name="collar dart"
 
 
 def run_cli(*args):
-    p = subprocess.run([sys.executable, "-m", "core", *args], capture_output=True, text=True, timeout=300)
+    p = subprocess.run([sys.executable, "-m", "flatweave", *args], capture_output=True, text=True, timeout=300)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -188,6 +188,7 @@ def test_half_cylinder_unrolls_into_the_rectangle():
     assert np.linalg.norm(p[2] - p[0]) == pytest.approx(math.hypot(1.5, math.pi / 2), rel=5e-4)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, h, lo, hi", [("octant", 0.04, 4.0, 6.0), ("saddle", 0.1, -9.0, -6.5)])
 def test_non_developable_surfaces_show_the_known_boundary_error(name, h, lo, hi):
     """REFERENCE.md: flattening gains about 5 % of boundary on the octant and
@@ -199,6 +200,7 @@ def test_non_developable_surfaces_show_the_known_boundary_error(name, h, lo, hi)
     assert m["energy"] < 0.5 * m["energy_unfolded"]  # the relaxation spread the unfolding's error
 
 
+@pytest.mark.slow
 def test_both_minimisers_reach_the_same_minimum():
     s = load_example("octant")
     a = flatten_planar(s, PlanarSettings(0.08, solver="lm", tol=1e-13))
@@ -242,6 +244,7 @@ def test_non_finite_values_stop_the_planar_method_in_one_line(monkeypatch):
         flatten_planar(load_example("octant"), PlanarSettings(spacing=0.1))
 
 
+@pytest.mark.slow
 def test_plane_dart_cuts_the_triangulation_and_opens():
     s = load_example("garment")
     h = 0.02
@@ -288,6 +291,7 @@ def test_dart_through_the_whole_piece_makes_two_pieces():
 
 # ----------------------------------------------------------------------------- CLI
 
+@pytest.mark.slow
 def test_cli_method_planar_writes_a_result(tmp_path):
     out = tmp_path / "r.json"
     code, _, err = run_cli("flatten", "cone", "--method", "planar", "--spacing", "0.1", "--out", str(out))
@@ -311,6 +315,7 @@ def test_cli_method_planar_writes_a_result(tmp_path):
     assert r["metrics"]["iterations"] == 0 and len(r["darts"]) == 1 and r["darts"][0]["mouth_on_boundary"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, words", [
     (["--spacing", "-1"], ["spacing"]),
     (["--spacing", "0.1", "--yarn", "warp:0", "--yarn-plane", "1,0,0,0"], ["planar", "--yarn"]),

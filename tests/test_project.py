@@ -1,4 +1,4 @@
-"""Projects (core.project) and the open document with undo (core.document)."""
+"""Projects (flatweave.document.project) and the open document with undo (flatweave.document.history)."""
 
 from __future__ import annotations
 
@@ -11,14 +11,15 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
 
-from core.darts import CurveDart, PlaneDart
-from core.document import Document
-from core.energy import YarnConstraint
-from core.errors import FlatweaveError, SettingsError
-from core.examples import example_path, load_example
-from core.mesh import MATERIALS, Material
-from core.pipeline import FlattenSettings, flatten
-from core.project import (PROJECT_VERSION, Project, ProjectError, load_project, needs_new_drape,
+from flatweave.method.darts import CurveDart, PlaneDart
+from flatweave.document.history import Document
+from flatweave.method.energy import YarnConstraint
+from flatweave.errors import FlatweaveError, SettingsError
+from flatweave.reading.examples import example_path, load_example
+from flatweave.method.lattice import MATERIALS, Material
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.document.project import (PROJECT_VERSION, Project, ProjectError, load_project, needs_new_drape,
                           project_from_dict, project_problems, project_to_dict, save_project,
                           settings_equal, warm_start, drops_a_dart)
 from tests.helpers import NO_SPACE, FullDisk
@@ -249,6 +250,7 @@ def test_the_corruption_list_is_complete(octant, solved):
     assert sorted(_corruptions(octant, solved)) == sorted(CORRUPTIONS)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", CORRUPTIONS)
 def test_a_damaged_project_is_a_one_line_error(octant, solved, tmp_path, case):
     content = _corruptions(octant, solved)[case]
@@ -406,7 +408,7 @@ def test_history_is_bounded(octant):
 
 
 def test_the_view_choices_travel_with_the_file_but_are_no_edit(octant, tmp_path):
-    from core.document import changed_aspects
+    from flatweave.document.history import changed_aspects
 
     p = Project(octant, FlattenSettings(spacing=0.1), name="octant")
     viewed = replace(p, view=(("mode", "shear"), ("show_weft", False)))
@@ -453,7 +455,7 @@ def test_settings_keys_are_remembered_only_while_the_settings_live():
     ones many times an edit) and answers as before: a changed dart or value is another solve."""
     import gc
 
-    from core.project import _KEYS, settings_equal
+    from flatweave.document.project import _KEYS, settings_equal
 
     dart = CurveDart(np.array([[1.0, 0.5], [0.75, 0.52], [0.45, 0.5]]), name="a")
     a = FlattenSettings(0.05, darts=(dart,))

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 from scipy import integrate, interpolate
 
-from core.errors import SettingsError
-from core.examples import example_info, example_names, example_path, list_examples, load_example, resources_dir
-from core.nurbs import NurbsSurface
-from core.quadrature import (boundary_length, boundary_polyline, composite_gauss, domain_gauss_rule,
+from flatweave.errors import SettingsError
+from flatweave.reading.examples import (example_info, example_names, example_path, list_examples, load_example,
+                                        resources_dir)
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.geometry.quadrature import (boundary_length, boundary_polyline, composite_gauss, domain_gauss_rule,
                              edge_lengths, gauss_legendre_01, region_area)
 
 REL = 1e-9
@@ -223,7 +224,7 @@ def _load_maker():
 
 def test_make_surfaces_reproduces_the_files():
     maker = _load_maker()
-    from core.surface_io import dumps_surface
+    from flatweave.geometry.surface_json import dumps_surface
 
     for name, make in maker.EXAMPLES.items():
         surface, _ = make()

@@ -1,6 +1,6 @@
 """Nothing a designer did is lost: older project files open, saves keep
 backups and survive a killed writer, and autosaves outlive a crash
-(core.project versions, core.recovery). The app's side: tests/test_app_recovery.py."""
+(flatweave.document.project versions, flatweave.document.recovery). The app's side: tests/test_app_recovery.py."""
 
 from __future__ import annotations
 
@@ -17,13 +17,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.document import Document
-from core.errors import FlatweaveError
-from core.examples import load_example
-from core.pipeline import FlattenSettings, flatten
-from core.project import (PROJECT_VERSION, UPGRADES, Project, load_project, project_problems, project_to_dict,
-                          save_project)
-from core.recovery import Session, backup_paths, find_orphans, recovery_dir, save_with_backups
+from flatweave.document.history import Document
+from flatweave.errors import FlatweaveError
+from flatweave.reading.examples import load_example
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.document.project import (PROJECT_VERSION, UPGRADES, Project, load_project, project_problems,
+                                        project_to_dict, save_project)
+from flatweave.document.recovery import Session, backup_paths, find_orphans, recovery_dir, save_with_backups
 from tests.helpers import FullDisk
 
 REPO = Path(__file__).resolve().parents[1]
@@ -144,15 +145,15 @@ def test_a_failed_save_leaves_the_old_file_and_says_so(octant, tmp_path, monkeyp
 
 WRITER = textwrap.dedent("""
     import os, sys, time
-    import core.fileio
+    import flatweave.files
     from dataclasses import replace
-    from core.project import load_project
-    from core.recovery import save_with_backups
+    from flatweave.document.project import load_project
+    from flatweave.document.recovery import save_with_backups
     real_fsync = os.fsync
     def slow_fsync(fd):  # a slow disk: the kill is likely to land between write and rename
         time.sleep(0.15)
         real_fsync(fd)
-    core.fileio.os.fsync = slow_fsync
+    flatweave.files.os.fsync = slow_fsync
     base = load_project(sys.argv[1])
     a, b = replace(base, name="A"), replace(base, name="B")
     target = sys.argv[2]
@@ -164,6 +165,7 @@ WRITER = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_killing_the_writer_mid_save_never_damages_the_file(solved, tmp_path):
     """A writer saving in a loop is killed (SIGKILL) at random moments: the file
     at the path is always a whole project, the old one or the new one."""
@@ -233,8 +235,8 @@ def _killed_session(folder: Path, project_file: Path, document_path: str | None)
     """Run a session in another process that autosaves ``project_file`` and is killed."""
     code = textwrap.dedent(f"""
         import sys, time
-        from core.project import load_project
-        from core.recovery import Session
+        from flatweave.document.project import load_project
+        from flatweave.document.recovery import Session
         s = Session({str(folder)!r})
         s.write(load_project({str(project_file)!r}), {document_path!r})
         print("written", flush=True)
@@ -249,6 +251,7 @@ def _killed_session(folder: Path, project_file: Path, document_path: str | None)
         proc.wait(timeout=30)
 
 
+@pytest.mark.slow
 def test_a_killed_session_is_offered_back(solved, tmp_path):
     folder = tmp_path / "recovery"
     src = save_project(solved, tmp_path / "src.flatweave")
@@ -269,6 +272,7 @@ def test_a_killed_session_is_offered_back(solved, tmp_path):
     assert find_orphans(folder) == [] and list(folder.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_several_orphans_newest_first_and_a_damaged_one_is_skipped(solved, octant, tmp_path):
     folder = tmp_path / "recovery"
     first = save_project(Project(octant, FlattenSettings(spacing=0.1), name="first"), tmp_path / "a.flatweave")
@@ -285,10 +289,11 @@ def test_several_orphans_newest_first_and_a_damaged_one_is_skipped(solved, octan
     assert (folder / "session-junk.flatweave").exists()  # not ours to delete
 
 
+@pytest.mark.slow
 def test_stale_locks_of_sessions_that_never_autosaved_are_removed(tmp_path):
     code = textwrap.dedent(f"""
         import time
-        from core.recovery import Session
+        from flatweave.document.recovery import Session
         Session({str(tmp_path)!r})
         print("up", flush=True)
         time.sleep(60)
@@ -333,7 +338,7 @@ def test_unsaved_work(octant, solved, tmp_path):
 
 
 def test_a_non_finite_number_is_refused_before_anything_is_written(tmp_path):
-    from core.fileio import write_json
+    from flatweave.files import write_json
 
     target = tmp_path / "x.json"
     target.write_text("old")

@@ -1,4 +1,4 @@
-"""The piece to cover: a surface and a region of its (u, v) domain (core.region).
+"""The piece to cover: a surface and a region of its (u, v) domain (flatweave.geometry.region).
 
 Trimmed pieces are draped, minimised and flattened inside their region only;
 the pattern's outline follows the outer loop and each hole of the region is a
@@ -20,12 +20,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.errors import SettingsError
-from core.pipeline import FlattenSettings, flatten, result_to_dict
-from core.quadrature import boundary_length, region_area as domain_area
-from core.readers import open_path
-from core.region import Cover, Region, circle_loop, cover_for
-from core.uvregion import region_area
+from flatweave.errors import SettingsError
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.method.result import result_to_dict
+from flatweave.geometry.quadrature import boundary_length, region_area as domain_area
+from flatweave.reading.registry import open_path
+from flatweave.geometry.region import Cover, Region, circle_loop, cover_for
+from flatweave.geometry.uvregion import region_area
 
 ROOT = Path(__file__).resolve().parent.parent
 try:
@@ -39,7 +41,7 @@ HOLE_C, HOLE_R = (0.45, 0.5), 0.15
 
 
 def _cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "core", *map(str, args)], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "flatweave", *map(str, args)], capture_output=True, text=True,
                           cwd=cwd or ROOT, env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}, timeout=600)
 
 
@@ -81,7 +83,7 @@ def test_the_whole_domain_is_todays_values(octant):
     assert not whole.trimmed
     assert whole.area == domain_area(s) and whole.boundary_length == boundary_length(s)
     assert whole.default_seed == (0.5, 0.5)
-    from core.pattern import boundary_samples
+    from flatweave.geometry.quadrature import boundary_samples
     (uv, xyz), holes = whole.boundary_samples(0.04)
     ref = boundary_samples(s, 0.04)
     assert holes == [] and np.array_equal(uv, ref[0]) and np.array_equal(xyz, ref[1])
@@ -122,6 +124,7 @@ def test_a_region_outside_the_domain_is_refused(octant):
 
 
 # ====================================================================== the octant with a hole
+@pytest.mark.slow
 def test_the_octant_with_a_hole(octant, holed, holed_result, tmp_path):
     r, s = holed_result, octant.surface
     cover = cover_for(s, holed)
@@ -144,7 +147,7 @@ def test_the_octant_with_a_hole(octant, holed, holed_result, tmp_path):
     d = result_to_dict(r, "octant")
     assert d["settings"]["region"]["loops"][1] and d["pattern"]["pieces"][0]["region_holes"] == 1
     # the DXF: the hole on layer 11 (internal cut-outs)
-    from core.export import ExportOptions, export_all
+    from flatweave.export.registry import ExportOptions, export_all
     import ezdxf
     path = tmp_path / "octant.dxf"
     export_all(r, [path], ExportOptions(seam_allowance_mm=10, units="m"))
@@ -159,7 +162,7 @@ def test_a_seed_outside_the_region_is_one_line(octant, holed):
 
 
 def test_the_project_keeps_the_region(octant, holed, holed_result, tmp_path):
-    from core.project import PROJECT_VERSION, load_project, new_project, save_project, settings_equal
+    from flatweave.document.project import PROJECT_VERSION, load_project, new_project, save_project, settings_equal
     p = new_project(octant.surface, "holed", units="m", region=holed).with_result(holed_result)
     assert p.settings.region == holed and p.settings.seed == cover_for(octant.surface, holed).default_seed
     path = save_project(p.with_settings(seed=holed_result.settings.seed, spacing=holed_result.settings.spacing),
@@ -175,6 +178,7 @@ def test_the_project_keeps_the_region(octant, holed, holed_result, tmp_path):
     assert plain["settings"]["region"] is None
 
 
+@pytest.mark.slow
 def test_region_json_through_the_cli(tmp_path):
     region = tmp_path / "hole.json"
     region.write_text(json.dumps({"outer": SQUARE, "holes": [circle_loop(HOLE_C, HOLE_R, 200).tolist()]}))
@@ -228,6 +232,7 @@ def _kabsch_distance(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm((a - ca) @ r - (b - cb), axis=1).max())
 
 
+@pytest.mark.slow
 @needs_ocp
 def test_a_planar_face_flattens_to_its_own_shape(cad_dir, tmp_path):
     opened = open_path(cad_dir / "plane.step")
@@ -268,6 +273,7 @@ def test_a_planar_face_flattens_to_its_own_shape(cad_dir, tmp_path):
     assert np.ptp(xs, axis=0).max() == pytest.approx(30.0, rel=2e-3)  # in the file's mm: no --units
 
 
+@pytest.mark.slow
 @needs_ocp
 def test_a_trimmed_piece_of_a_cylinder_flattens_exactly(cad_dir, tmp_path):
     opened = open_path(cad_dir / "cyl.step")
@@ -282,6 +288,7 @@ def test_a_trimmed_piece_of_a_cylinder_flattens_exactly(cad_dir, tmp_path):
     assert cover_for(opened.surface, opened.region).contains(r.uv).all()
 
 
+@pytest.mark.slow
 @needs_ocp
 def test_the_cli_lists_and_picks_faces(cad_dir, tmp_path):
     p = _cli("info", cad_dir / "two.step", "--json")
@@ -309,7 +316,7 @@ def test_the_cli_lists_and_picks_faces(cad_dir, tmp_path):
 
 
 def test_a_version_3_project_opens_with_the_whole_domain():
-    from core.project import load_project, project_problems
+    from flatweave.document.project import load_project, project_problems
     path = ROOT / "tests" / "data" / "projects" / "v3-octant-dart-solved.flatweave"
     raw = json.loads(path.read_text())
     assert raw["version"] == 3 and "region" not in raw["settings"]
@@ -322,7 +329,7 @@ def test_a_version_3_project_opens_with_the_whole_domain():
 
 
 def test_a_dart_opens_from_a_trimmed_edge(octant):
-    from core.darts import PlaneDart
+    from flatweave.method.darts import PlaneDart
     s = octant.surface
     disc = Region.from_loops(circle_loop((0.5, 0.5), 0.45, 400, hole=False))
     cover = cover_for(s, disc)
@@ -348,6 +355,7 @@ def _rational_circle(centre, r):
                                "weights": [1, s, 1, s, 1, s, 1, s, 1]}}
 
 
+@pytest.mark.slow
 def test_a_geomdl_file_with_trims_is_a_trimmed_piece(octant, tmp_path):
     doc = json.loads(Path(octant.path).read_text())
     hole = dict(_rational_circle(HOLE_C, HOLE_R), reversed=1)  # clockwise: a hole
@@ -380,6 +388,7 @@ def test_a_geomdl_file_with_trims_is_a_trimmed_piece(octant, tmp_path):
         [True, False]
 
 
+@pytest.mark.slow
 @needs_ocp
 @pytest.mark.parametrize("name", ["empty.step", "binary_garbage.step", "truncated.step", "garbage_body.step",
                                   "not_step.stp", "curve_only.igs", "not_iges.igs"])

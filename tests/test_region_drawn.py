@@ -1,4 +1,4 @@
-"""Regions drawn on the surface (core.region.region_from_spec) and offsets along it.
+"""Regions drawn on the surface (flatweave.geometry.region.region_from_spec) and offsets along it.
 
 Oracles from outside the code: the half cylinder (radius 1/2 round the y axis)
 and the half cone (slope sqrt 3, so any piece of it seen from above has twice
@@ -22,10 +22,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from core.errors import SettingsError
-from core.pipeline import FlattenSettings, flatten
-from core.readers import open_path
-from core.region import (Region, RegionDrawing, check_region_size, cover_for, offset_region,
+from flatweave.errors import SettingsError
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.reading.registry import open_path
+from flatweave.geometry.region import (Region, RegionDrawing, check_region_size, cover_for, offset_region,
                          region_from_spec)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -34,7 +35,7 @@ R_CYL = 0.5
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "core", *map(str, args)], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "flatweave", *map(str, args)], capture_output=True, text=True,
                           cwd=ROOT, env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}, timeout=600)
 
 
@@ -126,6 +127,7 @@ def test_the_uv_form_is_fractions_of_the_domain(cone):
     assert back == a and back.drawn.to_dict() == {"uv": uv, "holes": [[[0.4, 0.4], [0.5, 0.4], [0.45, 0.5]]]}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("d", [0.08, 0.03, -0.03, -0.1])
 def test_an_offset_on_the_half_cylinder_is_the_unrolled_offset(cyl, d):
     x0, x1, y0, y1 = -0.3, 0.35, 0.3, 1.1  # a rectangle of the unrolled cylinder, seen from above
@@ -141,7 +143,7 @@ def test_an_offset_on_the_half_cylinder_is_the_unrolled_offset(cyl, d):
 
 
 def test_an_offset_on_the_sphere_is_a_geodesic_distance(octant):
-    from core.region import circle_loop
+    from flatweave.geometry.region import circle_loop
     base = Region.from_loops(circle_loop((0.5, 0.5), 0.2, 200, hole=False))
     for d in (0.1, -0.1):
         grown = offset_region(octant, base, d)
@@ -152,6 +154,7 @@ def test_an_offset_on_the_sphere_is_a_geodesic_distance(octant):
         assert (cover_for(octant, grown).area > cover_for(octant, base).area) == (d > 0)
 
 
+@pytest.mark.slow
 def test_an_offset_clips_to_the_surface_and_refuses_to_vanish(cyl):
     whole_in = offset_region(cyl, None, -0.05)  # the whole domain's edge moved inwards
     w = math.pi * R_CYL
@@ -227,6 +230,7 @@ def holed_octant(octant, tmp_path_factory):
     return spec, json.loads(out.read_text()), dxf, svg
 
 
+@pytest.mark.slow
 def test_a_drawn_hole_on_the_octant_is_in_the_pattern_and_exports(octant, holed_octant):
     spec, doc, dxf, svg = holed_octant
     rec = doc["region"]
@@ -251,7 +255,7 @@ def test_a_drawn_hole_on_the_octant_is_in_the_pattern_and_exports(octant, holed_
 
 
 def test_the_project_keeps_the_drawn_form(cyl, tmp_path):
-    from core.project import load_project, new_project, save_project
+    from flatweave.document.project import load_project, new_project, save_project
     region = region_from_spec(cyl, {"points": _above(CYL_PLAN), "view_direction": DOWN}, offset=0.02)
     path = save_project(new_project(cyl, "ply", units="m", region=region), tmp_path / "ply.flatweave")
     back = load_project(path)
@@ -259,6 +263,7 @@ def test_the_project_keeps_the_drawn_form(cyl, tmp_path):
     assert back.settings.region.drawn.to_dict()["view_direction"] == DOWN
 
 
+@pytest.mark.slow
 def test_the_cli_refuses_bad_regions_in_one_line(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"uv": [[0.1, 0.1], [0.9, 0.9], [0.9, 0.4], [0.1, 0.9]]}))
@@ -283,10 +288,10 @@ def test_the_cli_refuses_bad_regions_in_one_line(tmp_path):
 
 
 def test_with_offset_replaces_the_drawn_offset_and_keeps_an_inside_seed():
-    """core.region.with_offset (the settings panel's Region offset): the offset is the
+    """flatweave.geometry.region.with_offset (the settings panel's Region offset): the offset is the
     drawing's, not added to it; 0 gives the region as drawn; the seed stays while inside."""
-    from core.examples import load_example
-    from core.region import with_offset
+    from flatweave.reading.examples import load_example
+    from flatweave.geometry.region import with_offset
 
     s = load_example("octant")
     spec = {"uv": [[0.2, 0.2], [0.8, 0.2], [0.8, 0.8], [0.2, 0.8]]}

@@ -4,6 +4,7 @@ end (the CLI's help, choices and errors; the dialogs' filters) reads the registr
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -12,15 +13,16 @@ from pathlib import Path
 
 import pytest
 
-from core import readers
-from core.cli import main
-from core.errors import FlatweaveError, SettingsError
-from core.examples import example_info, example_names, example_path, load_example
-from core.export import (FORMATS, ExportOptions, dialog_filter, export_bytes, exporter_for, register_exporter,
-                         unregister_exporter)
-from core.nurbs import NurbsSurface
-from core.project import PROJECT_SUFFIX, Project, new_project, save_project
-from core.readers import Opened, open_path, reader_for, register_reader, unregister_reader
+from flatweave.reading import registry as readers
+from flatweave.cli import main
+from flatweave.errors import FlatweaveError, SettingsError
+from flatweave.reading.examples import example_info, example_names, example_path, load_example
+from flatweave.export.registry import (FORMATS, ExportOptions, dialog_filter, export_bytes, exporter_for,
+                                       register_exporter, unregister_exporter)
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.document.project import PROJECT_SUFFIX, Project, new_project, save_project
+from flatweave.reading.opened import Opened
+from flatweave.reading.registry import open_path, reader_for, register_reader, unregister_reader
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -195,9 +197,12 @@ def test_formats_is_a_read_only_view_of_the_registry():
 
 
 # ---------------------------------------------------------------------- packaging
-def test_wheel_ships_the_examples(tmp_path):
-    """A built wheel holds every example surface as package data, and core finds
-    them with importlib.resources when it runs from the installed files."""
+@pytest.mark.slow
+def test_wheel_installs_one_package_with_its_examples(tmp_path):
+    """A built wheel installs one top-level package, flatweave (the folders core/
+    and app/ as flatweave and flatweave.app, nothing named core or app), holds
+    every example surface as package data, and runs from the installed files:
+    the examples found with importlib.resources, ``python -m flatweave`` flattens."""
     src = tmp_path / "src"
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
     for name in ("core", "app", "resources"):
@@ -212,14 +217,23 @@ def test_wheel_ships_the_examples(tmp_path):
     index = json.loads((REPO / "resources" / "surfaces" / "index.json").read_text(encoding="utf-8"))
     with zipfile.ZipFile(wheel) as zf:
         names = set(zf.namelist())
-        want = {"core/examples_data/index.json"} | {f"core/examples_data/{e['file']}" for e in index["examples"]}
+        want = {"flatweave/examples_data/index.json"} | {f"flatweave/examples_data/{e['file']}"
+                                                         for e in index["examples"]}
+        want |= {"flatweave/__init__.py", "flatweave/app/main.py", "flatweave/method/pipeline.py"}
         assert want <= names, sorted(want - names)
-        assert not any(n.startswith("resources/") for n in names)  # no generic top-level name
+        tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")}
+        assert tops == {"flatweave"}, tops  # no generic top-level name: core, app, resources
         zf.extractall(tmp_path / "site")
-    script = ("import sys; sys.path.insert(0, sys.argv[1]); import core.examples as e; "
+    script = ("import sys; sys.path.insert(0, sys.argv[1]); import flatweave.reading.examples as e; "
               "print(e.surfaces_dir()); print(e.load_example('garment').shape)")
     run = subprocess.run([sys.executable, "-c", script, str(tmp_path / "site")], cwd=tmp_path,
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     where, shape = run.stdout.splitlines()
-    assert Path(where) == tmp_path / "site" / "core" / "examples_data" and shape == "(7, 8)"
+    assert Path(where) == tmp_path / "site" / "flatweave" / "examples_data" and shape == "(7, 8)"
+    env = {**os.environ, "PYTHONPATH": str(tmp_path / "site")}
+    cli = subprocess.run([sys.executable, "-m", "flatweave", "flatten", "octant", "--spacing", "0.1",
+                          "--out", "r.json"], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=300)
+    assert cli.returncode == 0, cli.stderr
+    assert "converged" in cli.stderr + cli.stdout and (tmp_path / "r.json").is_file()

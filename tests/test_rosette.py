@@ -1,5 +1,5 @@
-"""core.rosette: the weft angle picked by a drag from the seed comes back as the
-drape's rosette (core.fibres.reference_direction), and its frame is the
+"""flatweave.method.rosette: the weft angle picked by a drag from the seed comes back as the
+drape's rosette (flatweave.method.fibres.reference_direction), and its frame is the
 surface's tangent plane (finite differences of the surface's points)."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from core.examples import load_example
-from core.rosette import angle_towards, rosette, rosette_arrows, seed_fraction
+from flatweave.reading.examples import load_example
+from flatweave.method.rosette import angle_towards, rosette, rosette_arrows, seed_fraction
 
 
 @pytest.mark.parametrize("example", ["octant", "saddle"])

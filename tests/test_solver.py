@@ -8,13 +8,15 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from core.drape import drape
-from core.energy import Energy, YarnConstraint
-from core.errors import FlatweaveError, SettingsError, SolverError
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.pipeline import FlattenSettings, check_result_finite, flatten, make_problem, result_to_dict
-from core.solver import SolverOptions, State, _Normal, _residuals, iterate, minimize
+from flatweave.method.drape import drape
+from flatweave.method.energy import Energy, YarnConstraint
+from flatweave.errors import FlatweaveError, SettingsError, SolverError
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import check_result_finite, flatten, make_problem
+from flatweave.method.result import result_to_dict
+from flatweave.method.solver import SolverOptions, State, _Normal, _residuals, iterate, minimize
 from tests.helpers import SurfaceFault
 from tests.test_drape import dense_points
 
@@ -40,6 +42,7 @@ def test_lm_gradient_equals_energy_gradient():
     assert np.allclose(g, g_ref, rtol=1e-9, atol=1e-12 * np.abs(g_ref).max())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, spacing, material", [
     ("octant", 0.1, "woven"), ("octant", 0.1, "isotropic"), ("garment", 0.05, "woven"),
     ("saddle", 0.2, "isotropic"), ("cone", 0.1, "woven"), ("dome", 0.15, "woven")])
@@ -57,6 +60,7 @@ def test_fast_reaches_no_higher_energy_than_paper(name, spacing, material):
     assert fast.nit * 5 < paper.nit
 
 
+@pytest.mark.slow
 def test_both_solvers_agree_with_population_control():
     s, settings, st = drape_state("octant", 0.1, "isotropic")
     problem = make_problem(s, settings)

@@ -1,4 +1,4 @@
-"""Population churn on the quick path (issue 20): a round that reaches its loose
+"""Population churn on the quick path: a round that reaches its loose
 convergence and then drops springs that swung round a dart's end refills at
 once, without a factorisation to confirm its convergence first; and a refill
 given the surface at the nodes (the solver's evaluation) adds what one that
@@ -9,13 +9,15 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
-import core.solver as solver
-from core.darts import DartSet, PlaneDart
-from core.drape import refill
-from core.examples import load_example
-from core.pipeline import FlattenSettings, flatten
-from core.quadrature import region_area
+import flatweave.method.solver as solver
+from flatweave.method.darts import DartSet, PlaneDart
+from flatweave.method.drape import refill
+from flatweave.reading.examples import load_example
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.geometry.quadrature import region_area
 
 DART = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
 
@@ -25,11 +27,12 @@ def _octant(nodes: int):
     return s, FlattenSettings(float(np.sqrt(region_area(s) / nodes)))
 
 
+@pytest.mark.slow
 def test_springs_dropped_round_a_darts_end_refill_at_once(monkeypatch):
     s, settings = _octant(2500)
     base = flatten(s, settings)
     events = []
-    crossing, factorise, try_refill = solver._Round.crossing, solver._Round.factorise, solver._Run.try_refill
+    crossing, factorise, try_refill = solver._Round.crossing, solver._Round.factorise, solver.Run.try_refill
 
     def crossed(self, xyz):
         out = crossing(self, xyz)
@@ -47,7 +50,7 @@ def test_springs_dropped_round_a_darts_end_refill_at_once(monkeypatch):
 
     monkeypatch.setattr(solver._Round, "crossing", crossed)
     monkeypatch.setattr(solver._Round, "factorise", factorised)
-    monkeypatch.setattr(solver._Run, "try_refill", refilled)
+    monkeypatch.setattr(solver.Run, "try_refill", refilled)
     r = flatten(s, dataclasses.replace(settings, darts=(DART,)), initial=base.state())
     assert r.metrics["solver_status"] == "converged"
     early = [i for i, e in enumerate(events) if e[0] == "crossing" and e[1] and not e[2]]

@@ -1,4 +1,5 @@
-"""Population control's invariants in a whole solve (issue 20, benchmarks/population.py).
+"""Population control's invariants in a whole solve (the refill rules of
+docs/decisions/0039-refill-rules-against-churn.md).
 
 An isotropic piece loses and regains nodes at its edge round after round. The
 per-iteration cost does not grow with that churn as long as the live population
@@ -16,14 +17,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import core.pipeline as pipeline
-import core.solver as solver
-from core.drape import drape
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.pipeline import FlattenSettings, flatten, make_problem
-from core.quadrature import region_area
-from core.solver import SolverOptions, State, iterate
+import flatweave.method.pipeline as pipeline
+import flatweave.method.solver as solver
+from flatweave.method.drape import drape
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten, make_problem
+from flatweave.geometry.quadrature import region_area
+from flatweave.method.solver import SolverOptions, State, iterate
 from tests.test_solver_speed import _agree
 
 
@@ -61,6 +63,7 @@ def test_the_population_stays_in_lattice_order_and_a_twice_deleted_position_stay
     assert res.deleted >= len(deletions) and res.added == refilled
 
 
+@pytest.mark.slow
 def test_a_repeated_refill_is_not_made_and_the_result_is_the_same(monkeypatch):
     # the paper's refill: the edge-churn rule already skips this piece's repeated edge refills (both runs
     # then take 9 iterations), so the check against repeats is tested on the churn it was made for
@@ -68,13 +71,13 @@ def test_a_repeated_refill_is_not_made_and_the_result_is_the_same(monkeypatch):
     s = load_example("octant")
     st = FlattenSettings(float(np.sqrt(region_area(s) / 10_000)), material=MATERIALS["isotropic"])
     new = flatten(s, st, multilevel=0)  # from the drape: the churn this rule ends (a coarse start has little)
-    refill = solver._Run.try_refill
+    refill = solver.Run.try_refill
 
     def every_refill(run, *a):  # before the check: no refill is known to repeat
         run.refills.clear()
         return refill(run, *a)
 
-    monkeypatch.setattr(solver._Run, "try_refill", every_refill)
+    monkeypatch.setattr(solver.Run, "try_refill", every_refill)
     old = flatten(s, st, multilevel=0)
     _agree(new, old)
     assert new.metrics["nodes"] == old.metrics["nodes"]

@@ -1,4 +1,4 @@
-"""A refill skipped after switch-offs at positions never refilled (issue 20).
+"""A refill skipped after switch-offs at positions never refilled.
 
 The quick path (``SolverOptions.reuse``) skips a refill while nothing changed
 since one found nothing; a node switched off at a lattice position deleted
@@ -14,11 +14,12 @@ import dataclasses
 
 import numpy as np
 
-import core.solver as solver
-from core.darts import curve_dart_through
-from core.examples import load_example
-from core.pipeline import FlattenSettings, flatten
-from core.project import new_project
+import flatweave.method.solver as solver
+from flatweave.method.darts import curve_dart_through
+from flatweave.reading.examples import load_example
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.document.project import new_project
 from tests.test_solver_speed import _agree
 
 TARGETS = np.array([[0.93, 0.3, 0.2], [0.62, 0.58, 0.53], [0.3, 0.85, 0.45]])  # tests/test_app_tools.py
@@ -48,7 +49,7 @@ def _window_dart():
 def _solve(s, settings, initial, monkeypatch, reuse=True, all_dead=None):
     made = FlattenSettings.solver_options
     calls = [0]
-    refill = solver._Run.try_refill
+    refill = solver.Run.try_refill
 
     def counted(self, *a):
         calls[0] += 1
@@ -56,7 +57,7 @@ def _solve(s, settings, initial, monkeypatch, reuse=True, all_dead=None):
 
     with monkeypatch.context() as m:
         m.setattr(FlattenSettings, "solver_options", lambda self: dataclasses.replace(made(self), reuse=reuse))
-        m.setattr(solver._Run, "try_refill", counted)
+        m.setattr(solver.Run, "try_refill", counted)
         if all_dead is not None:
             m.setattr(solver._Population, "all_dead", all_dead)
         r = flatten(s, settings, initial=initial)

@@ -1,4 +1,4 @@
-"""The fast solver's quicker path (issue 20) gives the reference path's results.
+"""The fast solver's quicker path gives the reference path's results.
 
 ``SolverOptions(reuse=True)`` (the default) takes chord steps on the last
 factorisation while no node is switched off, raises lambda to at least 1e-7 on
@@ -19,16 +19,17 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import core.pipeline as pipeline
-import core.solver as solver
-from core.darts import CurveDart, PlaneDart
-from core.drape import drape
-from core.energy import Energy, YarnConstraint, yarn_plane
-from core.examples import example_names, load_example
-from core.mesh import MATERIALS
-from core.metrics import spring_strain
-from core.pipeline import FlattenSettings, flatten, make_problem
-from core.quadrature import region_area
+import flatweave.method.pipeline as pipeline
+import flatweave.method.solver as solver
+from flatweave.method.darts import CurveDart, PlaneDart
+from flatweave.method.drape import drape
+from flatweave.method.energy import Energy, YarnConstraint, yarn_plane
+from flatweave.reading.examples import example_names, load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.metrics import spring_strain
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten, make_problem
+from flatweave.geometry.quadrature import region_area
 
 DART = PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart")
 # a dart from the middle of the edge u = 1 to near the centre: it lies on every bundled surface
@@ -89,7 +90,7 @@ CASES += [(name, material, "curve", yarn) for name in example_names()
           for material, yarn in (("woven", False), ("woven", True), ("isotropic", False))]
 
 
-# off-axis weft angles (issue 23's sweep): on the octant they pass the pole at a slant
+# off-axis weft angles (the orientation sweep's): on the octant they pass the pole at a slant
 CASES += [(name, "woven", False, False, angle) for name in ("octant", "saddle") for angle in (30.0, 60.0)]
 
 
@@ -104,6 +105,7 @@ def _case(name, material, dart, yarn, angle):
     return s, settings
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, material, dart, yarn, angle", [c if len(c) == 5 else c + (0.0,) for c in CASES])
 def test_the_quick_path_matches_the_reference_path(name, material, dart, yarn, angle, monkeypatch):
     s, settings = _case(name, material, dart, yarn, angle)
@@ -113,6 +115,7 @@ def test_the_quick_path_matches_the_reference_path(name, material, dart, yarn, a
     assert nf_fast <= nf_ref
 
 
+@pytest.mark.slow
 def test_a_warm_dart_re_solve_agrees_and_factorises_less(monkeypatch):
     s, settings = _settings("octant", 2500)
     base = flatten(s, settings)
@@ -123,6 +126,7 @@ def test_a_warm_dart_re_solve_agrees_and_factorises_less(monkeypatch):
     assert nf_fast <= nf_ref
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", [n for n in example_names() if n != "octant"])
 def test_a_warm_curve_dart_re_solve_agrees_on_every_surface(name, monkeypatch):
     s, settings = _settings(name, 700)
@@ -221,6 +225,7 @@ def test_reuse_is_an_option_with_a_default():
     assert solver.SolverOptions(reuse=False).reuse is False
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, material, dart, yarn, angle", [c if len(c) == 5 else c + (0.0,) for c in CASES])
 def test_newton_on_the_surface_matches_newton_in_the_chart(name, material, dart, yarn, angle, monkeypatch):
     """The default solver (on the surface, quick path) against the solver before it (the chart's
@@ -235,7 +240,7 @@ def test_newton_on_the_surface_matches_newton_in_the_chart(name, material, dart,
     if (name, material, dart, yarn) in POPULATION_SPLITS:
         # A cold solve with the curve dart deletes 150-250 of these 700 nodes and refills most; the two
         # Newton models take other steps, so other nodes leave, and each ends at the minimum of another
-        # population (docs/decisions.md, 2026-12-02: at 2,500 nodes the woven dome agrees within 0.02
+        # population (docs/decisions/0029-newton-on-the-surface.md: at 2,500 nodes the woven dome agrees within 0.02
         # points). Each must still be a converged, covering piece of about the same quality.
         for r in (new, old):
             assert r.metrics["solver_status"] == "converged"
@@ -277,6 +282,7 @@ def _round_meshes():
         yield name, flatten(s, dataclasses.replace(settings, darts=(dart,))).mesh
 
 
+@pytest.mark.slow
 def test_the_newton_pattern_is_scipys_block_conversion():
     """``_Normal``'s CSC pattern and its gathers (``src_take`` from assemble_exact's node and spring
     blocks, ``csc_take`` from the block data, the upper triangle) are bitwise what scipy's bsr -> csc
@@ -308,10 +314,11 @@ def test_the_newton_pattern_is_scipys_block_conversion():
             assert np.array_equal(U.data, up.data)
 
 
+@pytest.mark.slow
 def test_round_topology_finds_each_cells_edges_and_each_diagonals_corners():
     """``_round_topology`` (lattice lookups) against a search of the springs by their sorted ends, on
     meshes with cut springs, and with every spring's ends swapped."""
-    from core.mesh import DIAG, lattice_index
+    from flatweave.method.lattice import DIAG, lattice_index
 
     for _, mesh in _round_meshes():
         for m in (mesh, dataclasses.replace(mesh, ends=mesh.ends[:, ::-1].copy())):
@@ -331,12 +338,13 @@ def test_round_topology_finds_each_cells_edges_and_each_diagonals_corners():
             assert (corners[~diag] == -1).all() and (corners[diag] >= -1).all() and diag.any()
 
 
+@pytest.mark.slow
 def test_a_refill_tests_the_darts_on_the_points_it_has():
     """The drape's refill hands the dart test the points it already has (the nodes', the Newton's)
     instead of evaluating the surface again: every refill of a warm plane-dart and curve-dart
     re-solve (nodes added, and none) gives bitwise the nodes the evaluating test gives."""
-    import core.pipeline as pipeline
-    from core.darts import DartSet
+    import flatweave.method.pipeline as pipeline
+    from flatweave.method.darts import DartSet
 
     s, settings = _settings("octant", 700)
     base = flatten(s, settings)
@@ -376,7 +384,7 @@ def test_a_refill_tests_the_darts_on_the_points_it_has():
 
 def test_gathered_rows_are_the_fancy_indexed_ones():
     """``_Gathered`` takes the springs' rows with np.take: the same arrays, bit for bit, as indexing."""
-    from core.geom import rowdot
+    from flatweave.geometry.numerics import rowdot
 
     s, settings = _settings("saddle", 500)
     d = drape(s, settings.drape_settings(), settings.material)

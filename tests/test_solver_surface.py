@@ -13,13 +13,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from core.drape import drape
-from core.energy import Energy
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.pipeline import FlattenSettings, make_problem
-from core.quadrature import region_area
-from core.solver import (SolverOptions, State, _geodesic_correction, _hessian_blocks, _Normal, _residuals,
+from flatweave.method.drape import drape
+from flatweave.method.energy import Energy
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import make_problem
+from flatweave.geometry.quadrature import region_area
+from flatweave.method.solver import (SolverOptions, State, _geodesic_correction, _hessian_blocks, _Normal, _residuals,
                          minimize)
 
 
@@ -103,6 +104,7 @@ def _fixed_population_solve(name, angle, nodes, surface_newton, material="woven"
     return minimize(make_problem(surface, settings), State(d.mesh, d.uv), opts)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, angle", [("octant", 30.0), ("octant", 60.0), ("saddle", 30.0), ("garment", 30.0)])
 def test_both_newton_models_reach_the_same_minimum(name, angle):
     new = _fixed_population_solve(name, angle, 700, True)
@@ -114,6 +116,7 @@ def test_both_newton_models_reach_the_same_minimum(name, angle):
     assert np.abs(new.xyz - old.xyz).max() < 1e-3 * spacing
 
 
+@pytest.mark.slow
 def test_off_axis_weft_converges_like_the_on_axis_one_on_the_octant():
     on_axis = _fixed_population_solve("octant", 0.0, 700, True).nit
     for angle in (30.0, 60.0):

@@ -12,15 +12,17 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-import core.autodarts as autodarts
-from core.autodarts import suggest_darts
-from core.cli import main
-from core.darts import CurveDart
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.metrics import metric_limits
-from core.pipeline import FlattenSettings, flatten, judge_result, judged
-from core.sweep import rank_rows, sweep
+import flatweave.studies.autodarts as autodarts
+from flatweave.studies.autodarts import suggest_darts
+from flatweave.cli import main
+from flatweave.method.darts import CurveDart
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.metrics import metric_limits
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.method.result import judge_result, judged
+from flatweave.studies.sweep import rank_rows, sweep
 
 WITHIN = "every metric is within its warning limits"
 
@@ -68,6 +70,7 @@ def test_sweep_rows_carry_their_verdict():
     assert res.to_dict()["rank_by"][0] == "unusable"
 
 
+@pytest.mark.slow
 def test_on_a_real_sweep_the_least_sheared_angle_opens_a_gap_and_does_not_win():
     """The saddle with a dart from its edge: at 45 degrees the largest shear is the lowest of
     the sweep (by more than the tie) but the dart's sides pull apart, leaving 2.3 % of the
@@ -166,6 +169,7 @@ def test_a_usable_dart_ranks_before_one_that_lowers_the_energy_more(monkeypatch)
 
 
 # ---------------------------------------------------------------------- darts: real solves
+@pytest.mark.slow
 def test_on_the_saddle_no_suggested_dart_opens_a_gap():
     """The saddle's strongest candidates (energy -85 %) open gaps of over 3 % of its area:
     the pattern is not usable; the darts offered keep every metric within its limits."""
@@ -183,6 +187,7 @@ def test_on_the_saddle_no_suggested_dart_opens_a_gap():
         before = p.metrics
 
 
+@pytest.mark.slow
 def test_when_every_dart_opens_a_gap_none_is_offered_and_the_reason_names_it():
     """On negative curvature a dart's sides pull apart: at 0.1 every candidate on the
     saddle leaves 1-6 % of it uncovered (past the 0.5 % warning limit it was within)."""
@@ -194,6 +199,7 @@ def test_when_every_dart_opens_a_gap_none_is_offered_and_the_reason_names_it():
                                  "within (uncovered area 12")
 
 
+@pytest.mark.slow
 def test_an_unusable_dome_is_made_usable_and_nothing_gets_worse():
     base = flatten(load_example("dome"), FlattenSettings(0.15))
     assert not base.usable

@@ -17,10 +17,10 @@ from geomdl import BSpline, NURBS, exchange
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from core.errors import SurfaceError
-from core.examples import example_names, example_path
-from core.nurbs import NurbsSurface
-from core.surface_io import (dumps_surface, load_surface, parse_surface_json, save_surface,
+from flatweave.errors import SurfaceError
+from flatweave.reading.examples import example_names, example_path
+from flatweave.geometry.nurbs import NurbsSurface
+from flatweave.geometry.surface_json import (dumps_surface, load_surface, parse_surface_json, save_surface,
                              surface_from_json_dict, surface_to_json_dict)
 
 BAD = Path(__file__).parent / "data" / "bad"
@@ -109,11 +109,12 @@ def test_bad_file_gives_one_line_surface_error(name):
     assert BAD_FILES[name] in msg.lower()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["truncated.json", "binary_garbage.json", "nan_literal.json", "huge_surface.json",
                                   "tiny_coordinates.json", "multi_surface.json"])
 def test_bad_file_through_the_cli_is_one_line_and_status_2(tmp_path, name):
     out = tmp_path / "r.json"
-    p = subprocess.run([sys.executable, "-m", "core", "flatten", str(BAD / name), "--spacing", "0.1",
+    p = subprocess.run([sys.executable, "-m", "flatweave", "flatten", str(BAD / name), "--spacing", "0.1",
                         "--out", str(out)], capture_output=True, text=True, timeout=120)
     lines = [line for line in p.stderr.splitlines() if line.strip()]
     assert p.returncode == 2 and len(lines) == 1, p.stderr
@@ -369,6 +370,7 @@ def _load_or_surface_error(fn, *args) -> None:
         assert_same_surface(s, back)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(data=st.data(), which=st.integers(0, len(BASE_DOCS) - 1), n=st.integers(1, 3))
 def test_fuzz_mutated_documents(data, which, n):
@@ -382,6 +384,7 @@ def test_fuzz_mutated_documents(data, which, n):
 BASE_BYTES = [dumps_surface(surface_from_json_dict(d)).encode() for d in BASE_DOCS]
 
 
+@pytest.mark.slow
 @FUZZ
 @given(data=st.data(), which=st.integers(0, len(BASE_BYTES) - 1))
 def test_fuzz_damaged_bytes(data, which):
@@ -403,6 +406,7 @@ def test_fuzz_damaged_bytes(data, which):
     _load_or_surface_error(parse_surface_json, bytes(raw), "fuzz")
 
 
+@pytest.mark.slow
 @FUZZ
 @given(data=st.data())
 def test_fuzz_json_values_anywhere(data):

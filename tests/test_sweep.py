@@ -1,16 +1,17 @@
-"""The orientation sweep (issue 23, item 2): ranking, seeds, --angle auto, the CLI."""
+"""The orientation sweep: ranking, seeds, --angle auto, the CLI."""
 
 import json
 
 import numpy as np
 import pytest
 
-from core.cli import main
-from core.examples import load_example
-from core.mesh import MATERIALS, parse_material
-from core.pipeline import FlattenSettings, flatten
-from core.region import Region, cover_for
-from core.sweep import angle_period, rank_rows, sweep, sweep_seeds
+from flatweave.cli import main
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS, parse_material
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.geometry.region import Region, cover_for
+from flatweave.studies.sweep import angle_period, rank_rows, sweep, sweep_seeds
 
 
 def _surface(name):
@@ -32,6 +33,7 @@ def test_woven_lattice_repeats_every_90_degrees():
         assert a.metrics[k] == pytest.approx(b.metrics[k], rel=1e-6, abs=1e-9), k
 
 
+@pytest.mark.slow
 def test_rows_are_ranked_and_each_is_the_solve_it_names():
     surface = _surface("saddle")
     s = FlattenSettings(spacing=0.2)
@@ -76,6 +78,7 @@ def test_seeds_lie_well_inside_and_apart():
     assert cover.contains(cover.seed_uv(np.array(s))).all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,spacing", [("saddle", 0.15), ("garment", 0.05)])
 def test_angle_auto_is_within_a_degree_of_a_fine_sweep(name, spacing):
     """The refined sweep against every whole degree over the period, by the same ranking.
@@ -98,6 +101,7 @@ def test_angle_auto_is_within_a_degree_of_a_fine_sweep(name, spacing):
     assert len(auto.rows) < 30  # a coarse sweep and a few halvings, not a fine sweep
 
 
+@pytest.mark.slow
 def test_cli_sweep_table_and_json(tmp_path, capsys):
     out = tmp_path / "sweep.json"
     assert main(["sweep", "saddle", "--spacing", "0.2", "--angles", "3", "--seeds", "2", "--out", str(out)]) == 0
@@ -111,6 +115,7 @@ def test_cli_sweep_table_and_json(tmp_path, capsys):
     assert rank_rows(d["rows"][::-1]) == d["rows"]
 
 
+@pytest.mark.slow
 def test_cli_flatten_angle_auto_records_the_sweep(tmp_path, capsys):
     out = tmp_path / "r.json"
     assert main(["flatten", "saddle", "--spacing", "0.2", "--angle", "auto", "--out", str(out), "--quiet"]) == 0
@@ -137,8 +142,9 @@ def test_cli_angle_neither_number_nor_auto(capsys):
     assert "neither a number of degrees nor 'auto'" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_second_sweep_reuses_the_warm_pool_and_gives_the_same_rows():
-    from core.sweep import warm_pool
+    from flatweave.studies.sweep import warm_pool
 
     surface = load_example("saddle")
     s = FlattenSettings(spacing=0.2, material=MATERIALS["woven"])

@@ -4,7 +4,7 @@ The face is made with Open CASCADE (tests/cadfiles.py, ``face_straight_trims``):
 surface trimmed by a quadrilateral with a triangular hole, every trim edge a line in (u, v), so that
 each edge's 3D curve bends with the surface while the loops in (u, v) are its corners alone.
 It is written to IGES (as B-rep faces and as trimmed surfaces) and STEP and read back by
-core.cad. The oracle is Open CASCADE in this process: the face's own surface, evaluated at the
+flatweave.reading.cad. The oracle is Open CASCADE in this process: the face's own surface, evaluated at the
 record's (u, v), and its edges' 3D curves (``BRepAdaptor_Curve``), sampled finely.
 """
 
@@ -16,7 +16,7 @@ import json
 import numpy as np
 import pytest
 
-from core.region import LOOP_CHORD_TOL, loops_on_surface, region_from_cad_face, region_record
+from flatweave.geometry.region import LOOP_CHORD_TOL, loops_on_surface, region_from_cad_face, region_record
 
 try:
     HAVE_OCP = importlib.util.find_spec("OCP") is not None
@@ -92,7 +92,7 @@ def chord_gap(loops, curves) -> tuple[float, float]:
 @pytest.fixture(scope="module")
 def made(tmp_path_factory):
     """(the OCC face, its edges' 3D curves, {format: the CadFace read back})."""
-    from core.cad import read_cad_faces
+    from flatweave.reading.cad import read_cad_faces
     from tests import cadfiles as cf
 
     tmp = tmp_path_factory.mktemp("straight")
@@ -107,6 +107,7 @@ def made(tmp_path_factory):
     return face, occ_edge_curves(face), read
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["iges", "iges144", "step"])
 def test_the_trims_are_their_corners_in_uv(made, fmt):
     """What the reader gives is the file's: each loop is its corners alone (the edges are lines in
@@ -122,6 +123,7 @@ def test_the_trims_are_their_corners_in_uv(made, fmt):
     assert chord_off > 100 * LOOP_CHORD_TOL * diag  # the oracle tells corners from curves
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["iges", "iges144", "step"])
 def test_result_region_loops_follow_the_edges(made, fmt):
     """The result file's ``region.loops_xyz`` lies on the surface at ``loops_uv`` and along OCC's
@@ -151,6 +153,7 @@ def test_result_region_loops_follow_the_edges(made, fmt):
     assert point_off <= f.trim_deviation + 1e-6 * diag, (point_off, f.trim_deviation)
 
 
+@pytest.mark.slow
 def test_loops_sampled_to_the_tolerance_asked(made):
     """A finer tolerance gives more points and chords closer to OCC's curves, still within it."""
     face, curves, read = made
@@ -170,12 +173,14 @@ def test_loops_sampled_to_the_tolerance_asked(made):
 
 def test_result_file_of_a_flattened_face(made, tmp_path):
     """Through the pipeline: the result file's region of a flattened IGES face is the sampled one."""
-    from core.pipeline import FlattenSettings, flatten, result_to_dict
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.method.pipeline import flatten
+    from flatweave.method.result import result_to_dict
 
     face, curves, read = made
     f = read["iges"]
     region = region_from_cad_face(f)
-    from core.region import cover_for
+    from flatweave.geometry.region import cover_for
     cover = cover_for(f.surface, region)
     result = flatten(f.surface, FlattenSettings(spacing=2.5, region=region, seed=cover.default_seed))
     rec = result_to_dict(result)["region"]

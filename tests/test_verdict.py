@@ -1,5 +1,5 @@
-"""A result is judged by everything it shows (core.metrics.judge, Verdict,
-metric_limits; core.region.Cover.total_curvature; FlattenResult.status): every
+"""A result is judged by everything it shows (flatweave.method.metrics.judge, Verdict,
+metric_limits; flatweave.geometry.region.Cover.total_curvature; FlattenResult.status): every
 metric past its warning limit warns, past its bad limit the status says the
 pattern is not usable, the boundary and area error limits scale with the
 piece's own curvature, and the paper's examples give no warning."""
@@ -12,14 +12,16 @@ import math
 import numpy as np
 import pytest
 
-from core.cli import main
-from core.darts import CurveDart, PlaneDart
-from core.examples import load_example
-from core.mesh import MATERIALS
-from core.metrics import (AREA_ERROR_PCT, BOUNDARY_ERROR_PCT, ERROR_CEILING_PCT, LIMIT_KEYS, curvature_error_pct,
-                          judge, metric_limits)
-from core.pipeline import FlattenSettings, flatten, judge_result, result_to_dict
-from core.region import Region, cover_for
+from flatweave.cli import main
+from flatweave.method.darts import CurveDart, PlaneDart
+from flatweave.reading.examples import load_example
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.metrics import (AREA_ERROR_PCT, BOUNDARY_ERROR_PCT, ERROR_CEILING_PCT, LIMIT_KEYS,
+                                      curvature_error_pct, judge, metric_limits)
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.method.result import judge_result, result_to_dict
+from flatweave.geometry.region import Region, cover_for
 
 trimesh = pytest.importorskip("trimesh")
 
@@ -138,6 +140,7 @@ def _octant_curve_dart(octant) -> CurveDart:
     return CurveDart(plane.curve_uv(octant), name="curve dart")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("material", ["woven", "isotropic"])
 @pytest.mark.parametrize("dart", [None, "plane", "curve"])
 def test_the_papers_octant_gives_no_pattern_warning(material, dart):
@@ -169,6 +172,7 @@ def closed_ish_mesh(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_a_closed_ish_mesh_is_reported_not_usable_everywhere(closed_ish_mesh, tmp_path, capsys):
     out = tmp_path / "r.json"
     assert main(["flatten", str(closed_ish_mesh), "--spacing", "0.01", "--out", str(out)]) == 0
@@ -188,6 +192,7 @@ def test_a_closed_ish_mesh_is_reported_not_usable_everywhere(closed_ish_mesh, tm
     assert any(w.startswith("area error") for w in doc["warnings"])
 
 
+@pytest.mark.slow
 def test_a_mesh_the_fit_cannot_follow_warns_about_the_fit(tmp_path):
     # a sheet of bumps 4 mm high every 10 mm: finer than the fitted net can follow
     n = 120
@@ -198,7 +203,7 @@ def test_a_mesh_the_fit_cannot_follow_warns_about_the_fit(tmp_path):
     faces = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
     path = tmp_path / "bumps.stl"
     trimesh.Trimesh(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces).export(path)
-    from core.readers import open_path
+    from flatweave.reading.registry import open_path
 
     opened = open_path(str(path))
     r = flatten(opened.surface, FlattenSettings(spacing=0.01, region=opened.region,
@@ -211,7 +216,7 @@ def test_a_mesh_the_fit_cannot_follow_warns_about_the_fit(tmp_path):
 
 def test_a_saved_result_is_judged_by_todays_limits(tmp_path):
     """A project file whose result was saved with fewer warnings tells today's truth when opened."""
-    from core.project import Project, load_project, save_project
+    from flatweave.document.project import Project, load_project, save_project
 
     dome = load_example("dome")
     s = FlattenSettings(spacing=0.1)

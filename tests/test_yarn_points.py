@@ -1,17 +1,19 @@
 """A yarn stored by the point the designer picked follows that thread across
-spacings (issue 18, part 2); an index-only yarn keeps its index."""
+spacings; an index-only yarn keeps its index."""
 
 import json
 
 import numpy as np
 import pytest
 
-from core.cli import main
-from core.energy import YarnConstraint, parse_yarn, resolve_yarns, yarn_nodes
-from core.errors import SettingsError
-from core.examples import load_example
-from core.pipeline import FlattenSettings, flatten, result_to_dict
-from core.project import Project, load_project, save_project, settings_equal
+from flatweave.cli import main
+from flatweave.method.energy import YarnConstraint, parse_yarn, resolve_yarns, yarn_nodes
+from flatweave.errors import SettingsError
+from flatweave.reading.examples import load_example
+from flatweave.method.settings import FlattenSettings
+from flatweave.method.pipeline import flatten
+from flatweave.method.result import result_to_dict
+from flatweave.document.project import Project, load_project, save_project, settings_equal
 
 COARSE, FINE = 0.08, 0.04
 ROW = -3  # the picked node is M[-3, 0] of the coarse lattice
@@ -61,6 +63,7 @@ def test_a_picked_yarn_follows_its_point_across_two_spacings(octant, picked):
     assert indices == [ROW, 2 * ROW]  # the same thread is another row of the finer lattice
 
 
+@pytest.mark.slow
 def test_an_index_only_yarn_at_the_finer_spacing_is_another_thread(octant, picked):
     """The issue's failure: the index names another thread at half the spacing, held
     to the old plane. It is what an explicit index asks for; the result now warns."""

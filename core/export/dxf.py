@@ -38,8 +38,8 @@ import re
 
 import numpy as np
 
-import core
-from core.export.sheet import LINE_PITCH, Sheet
+from flatweave.version import __version__
+from flatweave.export.sheet import LINE_PITCH, Sheet
 
 __all__ = ["LAYERS", "VARIANTS", "dxf_bytes", "style_text"]
 
@@ -73,7 +73,7 @@ def _block_name(name: str, k: int, taken: set) -> str:
 def style_text(sheet: Sheet) -> tuple:
     """ASTM D6673's style system text: (key, value) pairs, once per file."""
     return (("Style Name", sheet.name), ("Creation Date", _dt.date.today().strftime("%m-%d-%Y")),
-            ("Author", f"flatweave {core.__version__}"), ("Sample Size", "base"),
+            ("Author", f"flatweave {__version__}"), ("Sample Size", "base"),
             ("Grading Rule Table", "none"), ("Units", "METRIC"))
 
 

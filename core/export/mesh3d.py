@@ -40,8 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from core.fibres import result_fibres
-from core.metrics import spring_strain
+from flatweave.method.fibres import result_fibres
+from flatweave.method.metrics import spring_strain
 
 __all__ = ["OBJ_TEXTURES", "vtp_surface_text", "vtp_springs_text", "vtm_text", "vtp_files", "obj_files",
            "obj_text", "used_nodes", "checker_frame"]

@@ -27,8 +27,9 @@ import math
 
 import numpy as np
 
-from core.errors import SettingsError
-from core.export.sheet import Sheet
+from flatweave.errors import SettingsError
+from flatweave.export.sheet import Sheet
+from flatweave.export.sheet import label_box
 
 __all__ = ["PAPERS", "MM", "TEST_SQUARE_MM", "TILE_SQUARES_MM", "OVERLAP_MM", "PAGE_MARGIN_MM", "FRONT_PAGES",
            "tile_grid", "tiles", "page_count", "name_place", "scale_text", "sheet_marks", "pdf_bytes"]
@@ -265,8 +266,6 @@ def sheet_marks(sheet: Sheet):
     shapely geometry: where a tile's test square must not go."""
     from shapely.geometry import LineString, Point, box
     from shapely.ops import unary_union
-
-    from core.export.sheet import label_box
 
     parts = []
     for p in sheet.pieces:

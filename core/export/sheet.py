@@ -36,9 +36,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from core.errors import SettingsError
-from core.mesh import WARP
-from core.pattern import polygon_area
+from flatweave.errors import SettingsError
+from flatweave.method.lattice import WARP
+from flatweave.geometry.numerics import polygon_area
 
 __all__ = ["UNITS", "Sheet", "SheetPiece", "build_sheet", "mm_per_unit", "warp_direction", "label_box",
            "TEXT_EM", "LINE_PITCH", "SIZE", "QUANTITY"]
@@ -323,7 +323,7 @@ def _label_text(name: str, style: str, result, units: str, seam_mm: float, metri
 
 
 def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name: str = "piece") -> Sheet:
-    """The pieces of a :class:`core.pipeline.FlattenResult` in mm, with all their lines."""
+    """The pieces of a :class:`flatweave.method.pipeline.FlattenResult` in mm, with all their lines."""
     if not np.isfinite(seam_allowance_mm) or seam_allowance_mm < 0:
         raise SettingsError(f"seam allowance {seam_allowance_mm!r} mm must be zero or a positive number")
     scale = mm_per_unit(units)

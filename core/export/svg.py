@@ -17,7 +17,7 @@ from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
 
-from core.export.sheet import Sheet
+from flatweave.export.sheet import Sheet
 
 __all__ = ["MARGIN_MM", "NS", "svg_text", "SVG_LAYERS"]
 

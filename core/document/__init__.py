@@ -1,0 +1,1 @@
+"""The document: the project file, its undo history, recovery files and candidate regions."""

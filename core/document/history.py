@@ -1,0 +1,330 @@
+"""The open document: the current :class:`~flatweave.document.project.Project`, its undo
+history and the listeners that show it. No Qt: the GUI subscribes, the tests
+and a soak test drive it directly.
+
+Every change goes through :meth:`Document.apply` (an edit: one undo step),
+:meth:`Document.undo` / :meth:`Document.redo`, :meth:`Document.attach_result`
+(a finished solve) or :meth:`Document.reset` (a new or opened document).
+Projects are immutable, so an :class:`Edit` is just the project before and
+after; undo and redo swap them back and never re-solve.
+
+A finished solve belongs to the edit it answers: when the run started from
+the project an edit produced, and that edit is still the latest, the result is
+folded into it (undo goes back to the previous result, redo brings this one
+back). A solve with no edit to answer (the Run button) is an edit of its own.
+
+The edits a designer makes to darts and yarn constraints have methods of their
+own (:meth:`Document.add_dart`, :meth:`~Document.replace_dart`,
+:meth:`~Document.remove_dart`, :meth:`~Document.rename_dart`,
+:meth:`~Document.set_dart_visible`, :meth:`~Document.add_yarn`, ...), so the
+GUI's tools, the tests and a soak test make them the same way. Renaming and
+hiding a dart change only labels: the result stays current and no solve
+answers them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable
+
+from flatweave.errors import SettingsError
+from flatweave.method.result import FlattenResult, with_shear_angles
+from flatweave.document.project import Project, labels_equal, settings_equal
+
+__all__ = ["Document", "Edit", "Change", "ASPECTS", "unique_name"]
+
+ASPECTS = ("surface", "settings", "labels", "display", "result", "name")
+"""What a change can touch: listeners get the set of aspects that differ.
+"labels" are what never changes a solve: the darts' names and visibility and
+a curve dart's drawn points (see :func:`flatweave.document.project.labels_equal`)."""
+
+
+@dataclass(frozen=True)
+class Edit:
+    """One undo step: the project before and after, and what the user called it."""
+
+    label: str
+    before: Project
+    after: Project
+    answers_solve: bool = False  # a solve of ``after`` may still be folded in
+
+
+@dataclass(frozen=True)
+class Change:
+    """What a listener is told: why (cause), which aspects differ, the edit's label.
+
+    cause : "edit", "undo", "redo", "result", "reset", "saved"
+    """
+
+    cause: str
+    aspects: frozenset
+    label: str = ""
+
+
+def changed_aspects(old: Project | None, new: Project) -> frozenset:
+    """The aspects (see :data:`ASPECTS`) in which ``new`` differs from ``old``."""
+    if old is None:
+        return frozenset(ASPECTS)
+    out = set()
+    if old.surface is not new.surface:
+        out.add("surface")
+    if not settings_equal(old.settings, new.settings):
+        out.add("settings")
+    if not labels_equal(old.settings, new.settings) or (old.region_name, old.candidates) != (
+            new.region_name, new.candidates):  # kept candidate regions are labels too (flatweave.document.candidates)
+        out.add("labels")
+    if (old.units, old.shear_warning_deg, old.shear_limit_deg) != (
+            new.units, new.shear_warning_deg, new.shear_limit_deg):
+        out.add("display")
+    if old.result is not new.result:
+        out.add("result")
+    if (old.name, old.source) != (new.name, new.source):
+        out.add("name")
+    return frozenset(out)
+
+
+class Document:
+    """The current project with undo and redo.
+
+    path : where it was last saved or opened from (None: never saved)
+    dirty : it differs from the saved (or opened) project
+    """
+
+    def __init__(self, project: Project, path: str | Path | None = None, limit: int = 100):
+        self._project = project
+        self._undo: list[Edit] = []
+        self._redo: list[Edit] = []
+        self._listeners: list[Callable[[Project, Change], None]] = []
+        self.limit = int(limit)
+        self.path = None if path is None else Path(path)
+        self._saved: Project | None = project if path is not None else None
+        self._pristine = path is None  # a new document nobody has touched yet
+        self.revision = 0
+
+    # ------------------------------------------------------------------ state
+    @property
+    def project(self) -> Project:
+        return self._project
+
+    @property
+    def dirty(self) -> bool:
+        return self._saved is not self._project
+
+    @property
+    def unsaved_work(self) -> bool:
+        """Something here would be lost if the program ended now: the document
+        differs from its file, or, never saved, has any edit or a result."""
+        return self.dirty and not self._pristine
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    @property
+    def undo_label(self) -> str | None:
+        return self._undo[-1].label if self._undo else None
+
+    @property
+    def redo_label(self) -> str | None:
+        return self._redo[-1].label if self._redo else None
+
+    @property
+    def history(self) -> tuple[Edit, ...]:
+        """The undo stack, oldest first."""
+        return tuple(self._undo)
+
+    # ------------------------------------------------------------------ listeners
+    def subscribe(self, listener: Callable[[Project, Change], None]) -> Callable[[], None]:
+        """Call ``listener(project, change)`` after every change; returns an unsubscribe function."""
+        self._listeners.append(listener)
+
+        def unsubscribe():
+            if listener in self._listeners:
+                self._listeners.remove(listener)
+        return unsubscribe
+
+    def _set(self, project: Project, cause: str, label: str = "") -> Change:
+        old, self._project = self._project, project
+        self.revision += 1
+        if cause in ("edit", "undo", "redo", "result"):
+            self._pristine = False
+        change = Change(cause, changed_aspects(old, project), label)
+        for listener in list(self._listeners):
+            listener(project, change)
+        return change
+
+    # ------------------------------------------------------------------ edits
+    def apply(self, label: str, project: Project, answers_solve: bool = True) -> Edit | None:
+        """Make ``project`` current as one undoable edit called ``label``.
+
+        Nothing happens (None) when ``project`` does not differ from the current
+        one. ``answers_solve``: a solve started from ``project`` is folded into
+        this edit when it finishes (see the module docstring).
+        """
+        if not changed_aspects(self._project, project):
+            return None
+        edit = Edit(label, self._project, project, answers_solve)
+        self._undo.append(edit)
+        del self._undo[:-self.limit]
+        self._redo.clear()
+        self._set(project, "edit", label)
+        return edit
+
+    def edit_settings(self, label: str, **changes) -> Edit | None:
+        """An edit of FlattenSettings fields (validated; a SettingsError leaves the document as it was).
+
+        A new material whose shear angles differ from the old one's brings them
+        to the display too, in the same edit: the colours and the verdicts then
+        judge the shear by the cloth's own warning and lock angles."""
+        project = self._project.with_settings(**changes)
+        old, new = self._project.settings.material, project.settings.material
+        if (old.warn_deg, old.lock_deg) != (new.warn_deg, new.lock_deg):
+            project = project.with_display(shear_warning_deg=float(new.warn_deg), shear_limit_deg=float(new.lock_deg))
+        return self.apply(label, project)
+
+    def edit_display(self, label: str, **changes) -> Edit | None:
+        """An edit of units or shear angles (no solve answers it). The shear
+        angles are the material's: they change with it, and a current result
+        stays current, judged by the new angles (:func:`flatweave.method.pipeline.with_shear_angles`)."""
+        project = self._project.with_display(**changes)
+        if {"shear_warning_deg", "shear_limit_deg"} & set(changes):
+            w, lock = project.shear_warning_deg, project.shear_limit_deg
+            current = self._project.result_is_current
+            project = project.with_settings(material=replace(project.settings.material, warn_deg=w, lock_deg=lock))
+            if current:
+                project = project.with_result(with_shear_angles(self._project.result, w, lock))
+        return self.apply(label, project, answers_solve=False)
+
+    # ------------------------------------------------------------------ darts and yarns
+    def _dart_index(self, index: int) -> int:
+        n = len(self._project.settings.darts)
+        if not (isinstance(index, int) and 0 <= index < n):
+            raise SettingsError(f"there is no dart {index!r} (the project has {n})")
+        return index
+
+    def _yarn_index(self, index: int) -> int:
+        n = len(self._project.settings.yarns)
+        if not (isinstance(index, int) and 0 <= index < n):
+            raise SettingsError(f"there is no yarn constraint {index!r} (the project has {n})")
+        return index
+
+    def add_dart(self, dart, label: str | None = None) -> Edit | None:
+        """Add a dart (a PlaneDart or CurveDart) after the others."""
+        darts = self._project.settings.darts + (dart,)
+        return self.apply(label or f"Add {dart.name}", self._project.with_settings(darts=darts))
+
+    def replace_dart(self, index: int, dart, label: str = "Edit dart") -> Edit | None:
+        """Put ``dart`` in the place of dart ``index`` (a moved or re-fitted dart)."""
+        darts = list(self._project.settings.darts)
+        darts[self._dart_index(index)] = dart
+        return self.apply(label, self._project.with_settings(darts=tuple(darts)))
+
+    def remove_dart(self, index: int) -> Edit | None:
+        darts = list(self._project.settings.darts)
+        gone = darts.pop(self._dart_index(index))
+        return self.apply(f"Delete {gone.name}", self._project.with_settings(darts=tuple(darts)))
+
+    def rename_dart(self, index: int, name: str) -> Edit | None:
+        """A new name (labels only: the result stays current, no solve answers it)."""
+        name = " ".join(str(name).split())
+        if not name:
+            raise SettingsError("a dart needs a name")
+        darts = list(self._project.settings.darts)
+        darts[self._dart_index(index)] = replace(darts[index], name=name)
+        return self.apply("Rename dart", self._project.with_settings(darts=tuple(darts)), answers_solve=False)
+
+    def set_dart_visible(self, index: int, visible: bool) -> Edit | None:
+        """Show or hide a dart's curve (labels only, like a rename)."""
+        darts = list(self._project.settings.darts)
+        darts[self._dart_index(index)] = replace(darts[index], visible=bool(visible))
+        return self.apply("Show dart" if visible else "Hide dart",
+                          self._project.with_settings(darts=tuple(darts)), answers_solve=False)
+
+    def add_yarn(self, yarn) -> Edit | None:
+        """Add a yarn constraint (:class:`flatweave.method.energy.YarnConstraint`)."""
+        yarns = self._project.settings.yarns + (yarn,)
+        return self.apply(f"Constrain {yarn.label()}", self._project.with_settings(yarns=yarns))
+
+    def replace_yarn(self, index: int, yarn, label: str = "Edit yarn constraint") -> Edit | None:
+        yarns = list(self._project.settings.yarns)
+        yarns[self._yarn_index(index)] = yarn
+        return self.apply(label, self._project.with_settings(yarns=tuple(yarns)))
+
+    def remove_yarn(self, index: int) -> Edit | None:
+        yarns = list(self._project.settings.yarns)
+        gone = yarns.pop(self._yarn_index(index))
+        return self.apply(f"Remove {gone.label()} constraint",
+                          self._project.with_settings(yarns=tuple(yarns)))
+
+    def undo(self) -> bool:
+        if not self._undo:
+            return False
+        edit = self._undo.pop()
+        self._redo.append(edit)
+        self._set(edit.before, "undo", edit.label)
+        return True
+
+    def redo(self) -> bool:
+        if not self._redo:
+            return False
+        edit = self._redo.pop()
+        self._undo.append(edit)
+        self._set(edit.after, "redo", edit.label)
+        return True
+
+    def attach_result(self, result: FlattenResult, source: Project, label: str = "Solve") -> bool:
+        """Record a finished solve that started from project ``source``.
+
+        Refused (False) when the document has since moved to another surface or
+        other settings: the result answers a question nobody asks any more.
+        Otherwise the result is folded into the latest edit if that edit made
+        ``source`` and is waiting for its solve, or becomes an edit ``label``.
+        """
+        cur = self._project
+        if cur.surface is not source.surface or not settings_equal(cur.settings, source.settings):
+            return False
+        new = cur.with_result(result)
+        top = self._undo[-1] if self._undo else None
+        if top is not None and top.answers_solve and top.after is cur:
+            self._undo[-1] = Edit(top.label, top.before, new, answers_solve=False)
+            self._set(new, "result", top.label)
+        else:
+            self._undo.append(Edit(label, cur, new, answers_solve=False))
+            del self._undo[:-self.limit]
+            self._redo.clear()
+            self._set(new, "result", label)
+        return True
+
+    # ------------------------------------------------------------------ documents
+    def reset(self, project: Project, path: str | Path | None = None, saved: bool = True) -> None:
+        """Start over with ``project`` (opened from ``path``, if given): history cleared.
+
+        ``saved=False``: ``project`` is not what the file at ``path`` holds (a
+        recovered autosave): the document is dirty and Save writes to ``path``.
+        """
+        self._undo.clear()
+        self._redo.clear()
+        self.path = None if path is None else Path(path)
+        self._saved = project if (path is not None and saved) else None
+        self._pristine = path is None and saved
+        self._set(project, "reset")
+
+    def mark_saved(self, path: str | Path) -> None:
+        """The current project is now on disk at ``path``."""
+        self.path = Path(path)
+        self._saved = self._project
+        self._set(self._project, "saved")
+
+
+def unique_name(base: str, taken) -> str:
+    """``base N`` with the smallest N >= 1 not among the names ``taken``."""
+    taken = set(taken)
+    n = 1
+    while f"{base} {n}" in taken:
+        n += 1
+    return f"{base} {n}"

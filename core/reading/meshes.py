@@ -1,0 +1,233 @@
+"""Mesh files (STL, OBJ, PLY, OFF): checked, read, and made into pieces.
+
+:func:`check_mesh_file` compares what a file's header claims with its size
+(a truncated binary STL or a header claiming gigabytes is refused at once,
+before anything is allocated); :func:`read_mesh` parses it with trimesh;
+:func:`open_mesh` makes it a surface and region by the steps of
+:mod:`flatweave.geometry.meshfit` (clean, map, fit), or, for a file of several
+parts, a :class:`MeshFile` to choose one from. :func:`fit_mesh` reads a fitted
+surface's mesh back for the deviation view.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from flatweave.errors import SurfaceError
+from flatweave.geometry.meshfit import FitMesh
+from flatweave.geometry.meshfit import FittedSurface
+from flatweave.geometry.meshfit import MAX_TRIANGLES
+from flatweave.geometry.meshfit import MeshPiece
+from flatweave.geometry.meshfit import NeedsRegion
+from flatweave.geometry.meshfit import SeveralParts
+from flatweave.geometry.meshfit import clean_mesh
+from flatweave.geometry.meshfit import cut_mesh
+from flatweave.geometry.meshfit import mesh_surface
+from flatweave.reading.opened import Opened
+
+
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off")
+
+
+# --------------------------------------------------------------------------- reading
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _claim(name: str, n_tri: int, n_bytes: int, size: int) -> None:
+    """Refuse a header whose counts the file cannot hold, before any allocation."""
+    if n_tri > MAX_TRIANGLES:
+        raise SurfaceError(f"{name}: the header claims {n_tri:,} triangles ({n_bytes / 2**30:.3g} GB); "
+                           f"at most {MAX_TRIANGLES:,} are read")
+    if n_bytes > size:
+        raise SurfaceError(f"{name} is truncated: its header claims {n_tri:,} triangles ({n_bytes:,} bytes) "
+                           f"but the file has {size:,} bytes")
+
+
+def check_mesh_file(path) -> str:
+    """Check what a mesh file's header claims against its size; returns the
+    trimesh file type. One-line SurfaceError on a file that cannot be right."""
+    p = Path(path)
+    name = p.name
+    try:
+        size = p.stat().st_size
+        with open(p, "rb") as fh:
+            head = fh.read(65536)
+    except OSError as exc:
+        raise SurfaceError(f"cannot read {p}: {exc.strerror or exc}") from None
+    if size == 0:
+        raise SurfaceError(f"{name} is empty")
+    suffix = p.suffix.lower()
+    if suffix == ".stl":
+        if size >= 84:
+            n = int(np.frombuffer(head[80:84], "<u4")[0])
+            if size == 84 + 50 * n:
+                if n == 0:
+                    raise SurfaceError(f"{name} has no triangles")
+                _claim(name, n, 84 + 50 * n, size)
+                return "stl"
+        text = head.lstrip().lower()
+        if text.startswith(b"solid") and (b"facet" in text or size < 1024 or b"endsolid" in text):
+            # ASCII: a facet takes at least ~100 bytes; no header to check beyond that
+            if size / 100 > MAX_TRIANGLES * 3:
+                raise SurfaceError(f"{name} is too large ({size:,} bytes) to be a mesh of at most "
+                                   f"{MAX_TRIANGLES:,} triangles")
+            return "stl"
+        if size < 84:
+            raise SurfaceError(f"{name} is truncated: {size} bytes, less than a binary STL header (84)")
+        n = int(np.frombuffer(head[80:84], "<u4")[0])
+        _claim(name, n, 84 + 50 * n, size)
+        raise SurfaceError(f"{name} is not a binary STL: its header claims {n:,} triangles "
+                           f"({84 + 50 * n:,} bytes) but the file has {size:,} bytes")
+    if suffix == ".ply":
+        end = head.find(b"end_header")
+        if not head.startswith(b"ply") or end < 0:
+            raise SurfaceError(f"{name} is not a PLY file (no 'ply ... end_header' header)")
+        lines = head[:end].decode("ascii", "replace").splitlines()
+        fmt = next((ln.split()[1] for ln in lines if ln.startswith("format ") and len(ln.split()) > 1), "ascii")
+        counts, record, current = {}, {}, None
+        for ln in lines:
+            w = ln.split()
+            if len(w) >= 3 and w[0] == "element":
+                current = w[1]
+                try:
+                    counts[current] = int(w[2])
+                except ValueError:
+                    raise SurfaceError(f"{name}: bad PLY element line {ln!r}") from None
+                record[current] = 0
+            elif len(w) >= 3 and w[0] == "property" and current is not None:
+                if w[1] == "list" and len(w) >= 5:  # at least the count and three indices
+                    record[current] += _PLY_SIZES.get(w[2], 1) + 3 * _PLY_SIZES.get(w[3], 1)
+                else:
+                    record[current] += _PLY_SIZES.get(w[1], 1)
+        nv, nf = counts.get("vertex", 0), counts.get("face", 0)
+        if nf == 0:
+            raise SurfaceError(f"{name} has no triangles (no faces in its header)")
+        body = size - end - len(b"end_header")
+        if fmt == "ascii":  # "x y z\n" and "3 a b c\n" take at least 6 and 8 bytes
+            need = 6 * nv + 8 * nf
+        else:
+            need = sum(counts[k] * record[k] for k in counts)
+        _claim(name, nf, need, body)
+        return "ply"
+    if suffix == ".off":
+        words = re.sub(rb"#[^\n]*", b"", head).split()
+        if not words or not words[0].upper().endswith(b"OFF"):
+            raise SurfaceError(f"{name} is not an OFF file (it does not start with 'OFF')")
+        try:
+            nv, nf = int(words[1]), int(words[2])
+        except (IndexError, ValueError):
+            raise SurfaceError(f"{name}: the OFF header has no vertex and face counts") from None
+        if nf == 0:
+            raise SurfaceError(f"{name} has no triangles")
+        _claim(name, nf, 6 * nv + 8 * nf, size)
+        return "off"
+    if suffix == ".obj":
+        if size / 8 > MAX_TRIANGLES * 3:  # "f 1 2 3\n" is 8 bytes
+            raise SurfaceError(f"{name} is too large ({size:,} bytes) for at most {MAX_TRIANGLES:,} triangles")
+        return "obj"
+    raise SurfaceError(f"{name}: not a mesh file ({', '.join(MESH_SUFFIXES)})")
+
+
+def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (n, 3) float, triangles (m, 3) int) of a mesh file, as
+    written (polygons split into triangles by trimesh); nothing repaired."""
+    file_type = check_mesh_file(path)
+    name = Path(path).name
+    try:
+        import trimesh
+    except ImportError:
+        raise SurfaceError(f"{name}: reading meshes needs trimesh (pip install 'flatweave[mesh]')") from None
+    import logging
+    logging.getLogger("trimesh").setLevel(logging.ERROR)  # it logs what it skips; we say what matters
+    try:
+        with open(path, "rb") as fh:
+            loaded = trimesh.load(fh, file_type=file_type, process=False, force="mesh")
+    except Exception as exc:  # the parser's own complaint, in one line
+        text = " ".join(str(exc).split())[:200] or type(exc).__name__
+        raise SurfaceError(f"{name} cannot be read as {file_type.upper()}: {text}") from None
+    V = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
+    F = np.asarray(getattr(loaded, "faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
+    if len(F) == 0:
+        raise SurfaceError(f"{name} has no triangles")
+    if F.min() < 0 or F.max() >= len(V):
+        raise SurfaceError(f"{name}: a triangle refers to a vertex that is not in the file")
+    return V, F
+
+
+def load_mesh_piece(path, component: int | None = None) -> MeshPiece:
+    """Read, repair and fit the mesh file ``path`` (``component``: which part
+    of a mesh of several, 0 = the largest)."""
+    p = Path(path)
+    V, F = read_mesh(p)
+    V, F, repairs = clean_mesh(V, F, p.name, component)
+    return mesh_surface(V, F, source=os.fspath(p), name=p.name, repairs=repairs)
+
+
+@dataclass(frozen=True, eq=False)
+class MeshFile:
+    """A mesh file of several parts, read and waiting for a part to be chosen."""
+
+    path: Path
+    vertices: np.ndarray
+    triangles: np.ndarray
+    n_parts: int
+    needs_region: str = ""  # why the mesh cannot be covered whole (closed, handles); "" when it can
+
+    def piece(self, component: int) -> MeshPiece:
+        V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
+        return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name, repairs=repairs)
+
+    def cut(self, loop3d, component: int | None = None) -> MeshPiece:
+        """The piece inside a closed loop of 3D points drawn on the mesh (:func:`cut_mesh`)."""
+        V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
+        V, F = cut_mesh(V, F, loop3d, self.path.name)
+        return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name,
+                            repairs=repairs + ("cut along a drawn loop",))
+
+
+def open_mesh(path):
+    """The reader of :mod:`flatweave.reading.registry`: an ``Opened`` with the surface and
+    region of a one-part mesh, or, for several parts, the :class:`MeshFile`
+    (``Opened.mesh``) to choose one from (``Opened.choose_face``)."""
+
+    p = Path(path)
+    V, F = read_mesh(p)
+    try:
+        V2, F2, repairs = clean_mesh(V, F, p.name)
+    except SeveralParts as exc:
+        return Opened(mesh=MeshFile(p, V, F, exc.n_parts))
+    try:
+        piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
+    except NeedsRegion as exc:  # closed, or handles: a loop drawn on it (--region) says which piece
+        return Opened(mesh=MeshFile(p, V, F, 1, str(exc)))
+    return Opened(surface=piece.surface, region=piece.region)
+
+
+def fit_mesh(surface: FittedSurface) -> FitMesh:
+    """The mesh ``surface`` was fitted to: the one it was made from, or, for a
+    reopened project (which keeps the surface, not the mesh), its source file
+    read and mapped again (the same steps give the same map). A one-line
+    SurfaceError when that file is gone, changed, or was cut along a loop."""
+    mesh = getattr(surface, "mesh", None)
+    if mesh is not None:
+        return mesh
+    fit = getattr(surface, "fit", None)
+    if fit is None:
+        raise SurfaceError("the surface was not fitted to a mesh")
+    path = Path(fit.source)
+    if any(r.startswith("cut along") for r in fit.repairs):
+        raise SurfaceError(f"{path.name} was cut along a drawn loop: open the mesh again to see it")
+    if not path.is_file():
+        raise SurfaceError(f"the mesh {fit.source} the surface was fitted to is not there any more")
+    piece = load_mesh_piece(path)
+    if (piece.fit.vertices, piece.fit.triangles) != (fit.vertices, fit.triangles):
+        raise SurfaceError(f"{path.name} has changed since the surface was fitted to it "
+                           f"({piece.fit.vertices} vertices, was {fit.vertices})")
+    surface.mesh = piece.surface.mesh
+    return surface.mesh
