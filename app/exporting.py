@@ -1,4 +1,4 @@
-"""File > Export: the dialog (file, format, seam allowance, units, paper),
+"""File > Export: the dialog (file, format, and a row for each option the formats declare),
 the thread that writes the files with :mod:`flatweave.export.registry`, and the window's
 export commands (:class:`Exports`).
 
@@ -22,11 +22,8 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, 
                                QWidget)
 
 from flatweave.errors import FlatweaveError
-from flatweave.export.dxf import VARIANTS as DXF_VARIANTS
-from flatweave.export.registry import FORMATS, ExportOptions, dialog_filter, export_all, surprises
-from flatweave.export.sheet import UNITS
-from flatweave.export.mesh3d import OBJ_TEXTURES
-from flatweave.export.pdf import PAPERS
+from flatweave.export.registry import (FORMATS, ExportOption, ExportOptions, dialog_filter, export_all,
+                                       export_options, option_formats, surprises)
 from flatweave.method.result import FlattenResult
 
 from flatweave.app.worker import one_line
@@ -77,9 +74,9 @@ class ExportDialog(QDialog):
     (:class:`flatweave.export.registry.Surprise`); Export asks about them and accepts only on Yes.
     """
 
-    def __init__(self, path: Path, units: str, name: str, seam_allowance_mm: float = 10.0, paper: str = "a4",
-                 every_format: bool = False, stale: bool = False, parent=None, dxf_variant: str = "astm",
-                 obj_texture: str = "none", check=None):
+    def __init__(self, path: Path, units: str, name: str, options: ExportOptions | None = None,
+                 every_format: bool = False, stale: bool = False, parent=None, check=None):
+        options = options if options is not None else ExportOptions()
         super().__init__(parent)
         self.check = check
         self.setWindowTitle("Export pattern")
@@ -102,38 +99,14 @@ class ExportDialog(QDialog):
         self.every_format = QCheckBox("every format (" + ", ".join(s[1:] for s in FORMATS) + ")")
         self.every_format.setChecked(every_format)
         form.addRow("", self.every_format)
-        self.seam = QDoubleSpinBox()
-        self.seam.setRange(0.0, 200.0)
-        self.seam.setDecimals(1)
-        self.seam.setSuffix(" mm")
-        self.seam.setValue(float(seam_allowance_mm))
-        form.addRow("Seam allowance", self.seam)
-        self.units = QComboBox()
-        for u in UNITS:
-            self.units.addItem(u, u)
-        self.units.setCurrentIndex(max(0, self.units.findData(units)))
-        self.units.setToolTip("The model's units (what one coordinate unit of the surface is); "
-                              "2D files are written in mm")
-        form.addRow("Model units", self.units)
-        self.paper = QComboBox()
-        for p in PAPERS:
-            self.paper.addItem(p.upper() if p == "a4" else p, p)
-        self.paper.setCurrentIndex(max(0, self.paper.findData(paper)))
-        form.addRow("Paper (PDF)", self.paper)
-        self.dxf_variant = QComboBox()
-        for key, text in DXF_VARIANTS.items():
-            self.dxf_variant.addItem(text, key)
-        self.dxf_variant.setCurrentIndex(max(0, self.dxf_variant.findData(dxf_variant)))
-        form.addRow("DXF variant", self.dxf_variant)
-        self.obj_texture = QComboBox()
-        for key in OBJ_TEXTURES:
-            self.obj_texture.addItem({"none": "none (the pattern as texture coordinates)",
-                                      "checker": "checker (.mtl and image: the pattern shows on the surface)"
-                                      }.get(key, key), key)
-        self.obj_texture.setCurrentIndex(max(0, self.obj_texture.findData(obj_texture)))
-        form.addRow("OBJ texture", self.obj_texture)
-        self.name = QLineEdit(name)
-        form.addRow("Piece name", self.name)
+        # one row per option the registered formats declare (flatweave.export.registry.export_options)
+        values = {**{o.name: options.get(o.name) for o in export_options()}, "units": units, "name": name}
+        self.fields = {o.name: self._field(o, values[o.name]) for o in export_options()}
+        for o in export_options():
+            formats = option_formats(o.name)
+            only = formats[0][1:].upper() if len(formats) == 1 else ""
+            label = f"{o.label} ({only})" if only and only not in o.label.upper() else o.label
+            form.addRow(label, self.fields[o.name])
         layout.addLayout(form)
         if stale:
             note = QLabel("The pattern was made with earlier settings; Run to update it first.")
@@ -151,6 +124,35 @@ class ExportDialog(QDialog):
         self.format.activated.connect(self._format_chosen)
         self._path_edited(self.path.text())
         self.resize(560, self.sizeHint().height())
+
+    @staticmethod
+    def _field(option: ExportOption, value):
+        """The widget of one declared option, showing ``value``."""
+        if option.kind == "number":
+            w = QDoubleSpinBox()
+            w.setRange(option.minimum, min(option.maximum, 1e6))
+            w.setDecimals(1)
+            if option.unit:
+                w.setSuffix(f" {option.unit}")
+            w.setValue(float(value))
+        elif option.kind == "choice":
+            w = QComboBox()
+            for key, text in option.choices.items():
+                w.addItem(text, key)
+            w.setCurrentIndex(max(0, w.findData(value)))
+        else:
+            w = QLineEdit(str(value))
+        w.setToolTip(option.help)
+        return w
+
+    def value(self, name: str):
+        """The value option ``name``'s row shows."""
+        w = self.fields[name]
+        if isinstance(w, QDoubleSpinBox):
+            return float(w.value())
+        if isinstance(w, QComboBox):
+            return w.currentData()
+        return w.text().strip()
 
     # ------------------------------------------------------------------ format <-> suffix
     def _path_edited(self, text: str) -> None:
@@ -177,9 +179,10 @@ class ExportDialog(QDialog):
         return export_paths(p, self.every_format.isChecked())
 
     def options(self) -> ExportOptions:
-        return ExportOptions(seam_allowance_mm=float(self.seam.value()), units=self.units.currentData(),
-                             paper=self.paper.currentData(), name=self.name.text().strip() or "piece",
-                             dxf_variant=self.dxf_variant.currentData(), obj_texture=self.obj_texture.currentData())
+        values = {name: self.value(name) for name in self.fields}
+        if "name" in values:
+            values["name"] = values["name"] or "piece"
+        return ExportOptions.from_values(values)
 
     def _accept(self) -> None:
         if not self.path.text().strip():
@@ -236,10 +239,8 @@ class Exports:
         project = self.window.project
         if project is None or project.result is None:
             return
-        o = self.export_options
-        dialog = ExportDialog(self._start_path(), project.units, project.name, o.seam_allowance_mm, o.paper,
+        dialog = ExportDialog(self._start_path(), project.units, project.name, self.export_options,
                               self._every_format, stale=not project.result_is_current, parent=self.window,
-                              dxf_variant=o.dxf_variant, obj_texture=o.obj_texture,
                               check=lambda paths, options: surprises(project.result, paths, options))
         dialog.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
         self.export_box = dialog

@@ -36,7 +36,9 @@ from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten, state_from_dict
 from flatweave.method.result import result_to_dict
 from flatweave.geometry.quadrature import region_area
-from flatweave.export.registry import ExportOptions, check_target, export_all, surprises
+from flatweave.export.registry import (ExportOption, ExportOptions, check_target, export_all, export_options,
+                                       option_formats, surprises)
+from flatweave.export.sheet import UNITS
 from flatweave.geometry.region import cover_for
 from flatweave.method.lattice import parse_material
 from flatweave.studies.planar import PlanarSettings, flatten_planar, planar_result_to_dict
@@ -156,6 +158,37 @@ def _surface_help() -> str:
     return _help(f"surface file ({files}) or bundled example name")
 
 
+# Export options whose default the command takes from the file, not from the declaration.
+_FILE_DEFAULTS = {"units": "a STEP or IGES file's own, else m", "name": "the surface's name"}
+
+
+def _add_export_option(parser, option: ExportOption) -> None:
+    """The flag of one declared export option (its value is None when not given)."""
+    default = _FILE_DEFAULTS.get(option.name, f"{option.default:g}" if option.kind == "number" else option.default)
+    kw = dict(dest=option.name, default=None,
+              help=f"{option.help} ({' '.join(option_formats(option.name))}; default {default})")
+    if option.kind == "number":
+        kw.update(type=float, metavar=option.unit.upper() or "X")
+    elif option.kind == "choice":
+        kw.update(choices=list(option.choices))
+    else:
+        kw.update(metavar="TEXT")
+    parser.add_argument(option.cli_flag, **kw)
+
+
+def _export_values(args, opened) -> dict:
+    """The export options given on the command line, with the file's units and name where not given."""
+    values = {o.name: getattr(args, o.name) for o in export_options() if getattr(args, o.name, None) is not None}
+    if "units" not in values:
+        units = opened.units if opened.cad is not None else "m"
+        if units not in UNITS:
+            raise SettingsError(f"{Path(args.surface).name} is in {units}; exports take {', '.join(UNITS)}: "
+                                f"give --units")
+        values["units"] = units
+    values.setdefault("name", Path(args.surface).stem)
+    return values
+
+
 def _export_help() -> str:
     formats = "; ".join(f"{e.suffix} ({e.description})" for e in exporters())
     return _help(f"write the pattern to PATH, the suffix picks the format: {formats}; repeatable")
@@ -232,18 +265,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default 2,000,000)")
     f.add_argument("--out", metavar="RESULT.json", help="result file to write")
     f.add_argument("--export", action="append", default=[], metavar="PATH", help=_export_help())
-    f.add_argument("--seam-allowance", type=float, default=10.0, metavar="MM",
-                   help="seam allowance of exported patterns in mm (default 10; 0 for none)")
-    f.add_argument("--dxf-variant", choices=("astm", "layered"), default="astm",
-                   help="DXF for pattern CAD and cutting rooms (astm: ASTM D6673 / AAMA, R12) or for CAD, "
-                        "GDAL and laser cutters (layered: R2000 with $INSUNITS) (default astm)")
-    f.add_argument("--obj-texture", choices=("none", "checker"), default="none",
-                   help="checker: an OBJ export also writes a .mtl and a checker texture (default none)")
-    f.add_argument("--units", choices=("mm", "cm", "m", "in"), default=None,
-                   help="units of the surface model, for exports (default: a STEP or IGES file's own, else m)")
-    f.add_argument("--paper", choices=("a4", "letter"), default="a4", help="paper of the tiled PDF (default a4)")
-    f.add_argument("--name", default=None, metavar="TEXT",
-                   help="piece name in exported labels (default: the surface's name)")
+    for option in export_options():  # every option a registered format declares
+        _add_export_option(f, option)
 
     w = sub.add_parser("sweep", help="solve at several weft angles (and seeds) and rank them: a usable pattern "
                                      "(no metric past its bad limit) first, then area beyond the lock angle, "
@@ -332,15 +355,8 @@ def _cmd_flatten(args) -> int:
     # refuse bad export targets and options before the solve, not after it
     targets = [check_target(p) for p in args.export]
     opened = resolve_piece(args)
-    units = args.units
-    if units is None:
-        units = opened.units if opened.cad is not None else "m"
-        if units not in ("mm", "cm", "m", "in"):
-            raise SettingsError(f"{Path(args.surface).name} is in {units}; exports take mm, cm, m or in: "
-                                f"give --units")
-    options = ExportOptions(seam_allowance_mm=args.seam_allowance, units=units, paper=args.paper,
-                            name=args.name or Path(args.surface).stem, dxf_variant=args.dxf_variant,
-                            obj_texture=args.obj_texture)
+    options = ExportOptions.from_values(_export_values(args, opened))
+    units = options.units
     surface, source, region = opened.surface, opened.source, opened.region
 
     cover = cover_for(surface, region)

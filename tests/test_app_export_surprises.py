@@ -27,8 +27,8 @@ def open_export(win, qtbot, path, units):
     qtbot.waitUntil(dialog.isVisible)
     dialog.path.setText(str(path))
     dialog.path.textEdited.emit(dialog.path.text())
-    dialog.units.setCurrentIndex(dialog.units.findData(units))
-    dialog.paper.setCurrentIndex(dialog.paper.findData("a4"))
+    dialog.fields["units"].setCurrentIndex(dialog.fields["units"].findData(units))
+    dialog.fields["paper"].setCurrentIndex(dialog.fields["paper"].findData("a4"))
     return dialog
 
 

@@ -9,14 +9,15 @@ import pytest
 from PySide6.QtWidgets import QFileDialog
 
 from flatweave.reading.examples import load_example
-from flatweave.export.registry import register_exporter, unregister_exporter
+from flatweave.export.registry import ExportOption, register_exporter, unregister_exporter
 from flatweave.reading.opened import Opened
 from flatweave.reading.registry import register_reader, unregister_reader
 
 
 @pytest.fixture
 def toy_formats():
-    register_exporter(".txt", lambda result, options, sheet: b"toy\n", "toy outline", needs_sheet=True)
+    register_exporter(".txt", lambda result, options, sheet: options.get("tag").encode() + b"\n", "toy outline",
+                      needs_sheet=True, options=(ExportOption("tag", "text", "toy", "the toy's one word", "Tag"),))
     register_reader("toy", ".toy", lambda path: Opened(surface=load_example("dome"), units="cm"), "toy surface")
     yield
     unregister_exporter(".txt")
@@ -58,3 +59,7 @@ def test_the_export_dialog_offers_a_registered_exporter(toy_formats, qtbot, monk
     assert dialog.format.currentData() == ".txt"
     assert [p.suffix for p in dialog.paths()] == [".txt"]
     assert Path(dialog.path.text()).name == "piece.txt"
+    # its declared option is a row of the dialog, and what is typed there reaches the writer's options
+    assert dialog.fields["tag"].text() == "toy" and dialog.fields["tag"].toolTip() == "the toy's one word"
+    dialog.fields["tag"].setText("hello")
+    assert dialog.options().get("tag") == "hello"

@@ -833,7 +833,7 @@ def test_export_dialog_writes_every_format(make_window, qtbot, tmp_path):
     win.actions["export"].trigger()
     dialog = win.export_box
     qtbot.waitUntil(dialog.isVisible)
-    assert dialog.units.currentData() == "cm"  # the model's units by default
+    assert dialog.fields["units"].currentData() == "cm"  # the model's units by default
     # the format follows the suffix, and choosing a format changes the suffix
     dialog.path.setText(str(tmp_path / "piece.svg"))
     dialog.path.textEdited.emit(dialog.path.text())
@@ -842,11 +842,11 @@ def test_export_dialog_writes_every_format(make_window, qtbot, tmp_path):
     dialog.format.activated.emit(dialog.format.currentIndex())
     assert dialog.path.text() == str(tmp_path / "piece.pdf")
     dialog.every_format.setChecked(True)
-    dialog.seam.setValue(15.0)
-    dialog.paper.setCurrentIndex(dialog.paper.findData("letter"))
-    assert dialog.dxf_variant.currentData() == "astm" and dialog.obj_texture.currentData() == "none"
-    dialog.dxf_variant.setCurrentIndex(dialog.dxf_variant.findData("layered"))
-    dialog.obj_texture.setCurrentIndex(dialog.obj_texture.findData("checker"))
+    dialog.fields["seam_allowance_mm"].setValue(15.0)
+    dialog.fields["paper"].setCurrentIndex(dialog.fields["paper"].findData("letter"))
+    assert dialog.fields["dxf_variant"].currentData() == "astm" and dialog.fields["obj_texture"].currentData() == "none"
+    dialog.fields["dxf_variant"].setCurrentIndex(dialog.fields["dxf_variant"].findData("layered"))
+    dialog.fields["obj_texture"].setCurrentIndex(dialog.fields["obj_texture"].findData("checker"))
     with qtbot.waitSignal(win.export_finished, timeout=60000) as blocker:
         dialog.export_button.click()
     written = blocker.args[0]

@@ -17,8 +17,8 @@ from flatweave.reading import registry as readers
 from flatweave.cli import main
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.reading.examples import example_info, example_names, example_path, load_example
-from flatweave.export.registry import (FORMATS, ExportOptions, dialog_filter, export_bytes, exporter_for,
-                                       register_exporter, unregister_exporter)
+from flatweave.export.registry import (FORMATS, ExportOption, ExportOptions, dialog_filter, export_bytes,
+                                       export_options, exporter_for, register_exporter, unregister_exporter)
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.document.project import PROJECT_SUFFIX, Project, new_project, save_project
 from flatweave.reading.opened import Opened
@@ -28,9 +28,14 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 # ---------------------------------------------------------------------- a toy format of each kind
+SEPARATOR = ExportOption("separator", "choice", "space", "what separates the toy's counts", "Separator (TXT)",
+                         choices={"space": "a space", "comma": "a comma"})
+
+
 def _txt_writer(result, options, sheet) -> bytes:
-    """The toy exporter: the number of vertices of each piece's outline."""
-    return " ".join(str(len(piece.sew)) for piece in sheet.pieces).encode("ascii") + b"\n"
+    """The toy exporter: the number of vertices of each piece's sew and cut lines, separated as its option says."""
+    sep = {"space": " ", "comma": ","}[options.get("separator")]
+    return sep.join(f"{len(p.sew)}{sep}{len(p.cut)}" for p in sheet.pieces).encode("ascii") + b"\n"
 
 
 def _toy_reader(path: Path) -> Opened:
@@ -41,7 +46,7 @@ def _toy_reader(path: Path) -> Opened:
 @pytest.fixture
 def toy_formats():
     """A .txt exporter and a .toy reader, each one registry call; removed afterwards."""
-    register_exporter(".txt", _txt_writer, "outline vertex counts", needs_sheet=True)
+    register_exporter(".txt", _txt_writer, "outline vertex counts", needs_sheet=True, options=(SEPARATOR,))
     register_reader("toy", ".toy", _toy_reader, "toy surface")
     yield
     unregister_exporter(".txt")
@@ -59,12 +64,38 @@ def test_toy_exporter_through_the_cli(toy_formats, tmp_path, capsys):
     out = tmp_path / "X.txt"
     assert main(["flatten", "octant", "--spacing", "0.1", "--solver", "none", "--quiet", "--export", str(out)]) == 0
     counts = out.read_text().split()
-    assert len(counts) == 1 and int(counts[0]) > 20
+    assert len(counts) == 2 and all(int(c) > 20 for c in counts)  # sew and cut of one piece, space-separated
     assert ".txt (outline vertex counts)" in " ".join(_flatten_help(capsys).split())
     # an unknown suffix is refused before the solve, and the message lists the new format
     assert main(["flatten", "octant", "--spacing", "0.1", "--export", str(tmp_path / "p.xyz")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "'.xyz'" in err and ".txt" in err and ".dxf" in err
+
+
+def test_a_toy_exporters_option_is_a_flag_and_reaches_its_writer(toy_formats, tmp_path, capsys):
+    """An option declared with the exporter is a CLI flag (help from the declaration), reaches
+    the writer through ExportOptions, is checked in one line, and leaves with the exporter."""
+    out = tmp_path / "X.txt"
+    assert main(["flatten", "octant", "--spacing", "0.1", "--solver", "none", "--quiet", "--export", str(out),
+                 "--separator", "comma"]) == 0
+    counts = out.read_text().strip()
+    assert "," in counts and " " not in counts and all(int(c) > 3 for c in counts.split(","))
+    assert "--separator {space,comma}" in _flatten_help(capsys)
+    assert "what separates the toy's counts (.txt; default space)" in " ".join(_flatten_help(capsys).split())
+    assert ExportOptions.from_values({"separator": "comma"}).get("separator") == "comma"
+    assert ExportOptions().get("separator") == "space"
+    with pytest.raises(SettingsError, match="unknown separator 'tab': use one of space, comma"):
+        ExportOptions(extra={"separator": "tab"})
+
+
+def test_the_built_in_export_options_are_declared_once():
+    names = [o.name for o in export_options()]
+    assert names == ["seam_allowance_mm", "units", "name", "dxf_variant", "paper", "obj_texture"]
+    assert "separator" not in names
+    with pytest.raises(SettingsError, match="no export format has an option 'separator'"):
+        ExportOptions(extra={"separator": "comma"})
+    with pytest.raises(SettingsError, match="seam allowance -1 mm must be a number of at least 0"):
+        ExportOptions(seam_allowance_mm=-1)
 
 
 def test_toy_reader_through_the_cli(toy_formats, tmp_path, capsys):

@@ -6,8 +6,10 @@ the fibre angles as CSV).
     export(result, "octant.dxf", ExportOptions(seam_allowance_mm=10, units="m"))
 
 The file's suffix picks the format. A format is one :func:`register_exporter`
-call (the built-in ones are at the end of this module); :data:`FORMATS`,
-:func:`dialog_filter` and the CLI's help are read from that registry.
+call (the built-in ones are at the end of this module), which also declares the
+options its writer reads (:class:`ExportOption`: name, kind, choices, default,
+help); :data:`FORMATS`, :func:`dialog_filter`, the CLI's flags and help and the
+export dialog's rows are all read from that registry.
 
 Every writer builds the whole file in memory and it is written atomically, so
 a failed export leaves no partial file and an existing file untouched (a full disk, a folder that
@@ -22,9 +24,11 @@ wrongly) before writing it.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +47,8 @@ from flatweave.export.mesh3d import vtp_files
 from flatweave.method.fibres import fibres_csv
 from flatweave.export.mesh3d import obj_files
 
-__all__ = ["ExportOptions", "Exporter", "FORMATS", "UNITS", "PAPERS", "DXF_VARIANTS", "OBJ_TEXTURES",
+__all__ = ["ExportOptions", "ExportOption", "export_options", "option_formats", "Exporter", "FORMATS", "UNITS",
+           "PAPERS", "DXF_VARIANTS", "OBJ_TEXTURES",
            "export", "export_all", "export_bytes",
            "check_target", "register_exporter", "unregister_exporter", "exporters", "exporter_for",
            "dialog_filter", "build_sheet", "Sheet", "mm_per_unit", "Surprise", "surprises", "MAX_QUIET_PAGES",
@@ -51,6 +56,70 @@ __all__ = ["ExportOptions", "Exporter", "FORMATS", "UNITS", "PAPERS", "DXF_VARIA
 
 MAX_QUIET_PAGES = 50  # a PDF of more pages is a surprise
 MAX_QUIET_PIECE_MM = 5000.0  # so is a 2D file with a piece larger than this (its longer side, cut line)
+
+
+@dataclass(frozen=True)
+class ExportOption:
+    """One option an exporter's writer reads, declared with the exporter: the
+    CLI's flag and the export dialog's row are built from it.
+
+    name : the key in :class:`ExportOptions` (``options.get(name)``)
+    kind : ``"number"``, ``"choice"`` or ``"text"``
+    default : the value when not given
+    help : one line, for the CLI's help and the dialog's tooltip
+    label : the dialog's row label
+    choices : for ``"choice"``: value -> the text the dialog shows
+    flag : the CLI's flag (default: ``--`` and the name with dashes)
+    unit : shown after a number (``"mm"``)
+    minimum, maximum : a number's range
+    """
+
+    name: str
+    kind: str
+    default: Any
+    help: str
+    label: str
+    choices: Mapping[str, str] | None = None
+    flag: str = ""
+    unit: str = ""
+    minimum: float = 0.0
+    maximum: float = math.inf
+
+    def __post_init__(self):
+        if self.kind not in ("number", "choice", "text"):
+            raise ValueError(f"option kind {self.kind!r} is not number, choice or text")
+        if self.kind == "choice" and not self.choices:
+            raise ValueError(f"option {self.name!r} is a choice with no choices")
+
+    @property
+    def what(self) -> str:
+        """How a message names it: the label without its parenthesis, acronyms kept."""
+        words = self.label.split(" (")[0]
+        return words if words[:2].isupper() else words.lower()
+
+    @property
+    def cli_flag(self) -> str:
+        return self.flag or "--" + self.name.replace("_", "-")
+
+    def check(self, value: Any) -> Any:
+        """The value as the writer gets it, or a one-line SettingsError naming the option."""
+        if self.kind == "number":
+            try:
+                x = float(value)
+            except (TypeError, ValueError):
+                x = math.nan
+            if not (self.minimum <= x <= self.maximum) or math.isinf(x):
+                unit = f" {self.unit}" if self.unit else ""
+                bound = f"from {self.minimum:g} to {self.maximum:g}" if math.isfinite(self.maximum) \
+                    else f"of at least {self.minimum:g}"
+                raise SettingsError(f"{self.what} {value!r}{unit} must be a number {bound}")
+            return x
+        if self.kind == "choice":
+            key = str(value).lower() if isinstance(value, str) else value
+            if key not in self.choices:
+                raise SettingsError(f"unknown {self.what} {value!r}: use one of {', '.join(self.choices)}")
+            return key
+        return str(value)
 
 
 @dataclass(frozen=True)
@@ -66,6 +135,7 @@ class Exporter:
         files written beside ``path`` with it (all or nothing, like the main file),
         e.g. the OBJ's ``.mtl`` and texture; when given, the main file is
         ``companions``' first entry and ``writer`` serves :func:`export_bytes`
+    options : the :class:`ExportOption` s the writer reads
     """
 
     suffix: str
@@ -73,6 +143,7 @@ class Exporter:
     description: str
     needs_sheet: bool
     companions: Callable[..., list] | None = None
+    options: tuple[ExportOption, ...] = ()
 
     def files(self, result, options, sheet, path: Path) -> list[tuple[Path, bytes]]:
         """Every file an export to ``path`` writes, the main one first."""
@@ -85,17 +156,25 @@ _EXPORTERS: dict[str, Exporter] = {}
 
 
 def register_exporter(suffix: str, writer: Callable[..., bytes], description: str, needs_sheet: bool,
-                      companions: Callable[..., list] | None = None) -> Exporter:
+                      companions: Callable[..., list] | None = None, options=()) -> Exporter:
     """Add the format of files ending in ``suffix``; returns its entry (see :class:`Exporter`).
 
-    ValueError if the suffix is malformed or already has an exporter.
+    ValueError if the suffix is malformed or already has an exporter, or if an
+    option shares a name with another format's option but not its declaration.
     """
     s = str(suffix).lower()
     if not s.startswith(".") or len(s) < 2 or "/" in s or os.sep in s:
         raise ValueError(f"a suffix is a dot and a name, like '.dxf', not {suffix!r}")
     if s in _EXPORTERS:
         raise ValueError(f"{s} files already have an exporter")
-    entry = Exporter(s, writer, str(description), bool(needs_sheet), companions)
+    options = tuple(options)
+    known = {o.name: o for o in export_options()}
+    for o in options:
+        if not isinstance(o, ExportOption):
+            raise ValueError(f"an exporter's options are ExportOption declarations, not {type(o).__name__}")
+        if o.name in known and known[o.name] != o:
+            raise ValueError(f"option {o.name!r} is declared differently by another format")
+    entry = Exporter(s, writer, str(description), bool(needs_sheet), companions, options)
     _EXPORTERS[s] = entry
     return entry
 
@@ -108,6 +187,20 @@ def unregister_exporter(suffix: str) -> None:
 def exporters() -> list[Exporter]:
     """The registered exporters, in registration order."""
     return list(_EXPORTERS.values())
+
+
+def export_options() -> list[ExportOption]:
+    """Every option some registered format reads, once each, in registration order."""
+    seen: dict[str, ExportOption] = {}
+    for e in _EXPORTERS.values():
+        for o in e.options:
+            seen.setdefault(o.name, o)
+    return list(seen.values())
+
+
+def option_formats(name: str) -> list[str]:
+    """The suffixes of the formats that read option ``name``."""
+    return [e.suffix for e in _EXPORTERS.values() if any(o.name == name for o in e.options)]
 
 
 def exporter_for(suffix: str) -> Exporter | None:
@@ -146,7 +239,8 @@ def _needs_sheet(suffixes) -> bool:
 
 @dataclass(frozen=True)
 class ExportOptions:
-    """How a pattern is exported.
+    """How a pattern is exported: a value for each option the formats declare
+    (:func:`export_options`); a writer reads ``options.get(name)``.
 
     seam_allowance_mm : width of the seam allowance (0: none)
     units : the model's units (mm, cm, m, in); 2D files are written in mm
@@ -158,6 +252,9 @@ class ExportOptions:
     obj_texture : ``"none"`` (texture coordinates = the pattern's ``nodes.xy``) or
         ``"checker"`` (also a ``.mtl`` and a checker PNG beside the OBJ, the texture
         coordinates scaled so the checker squares are round lengths of the pattern)
+    extra : the values of options other formats declare (a registered exporter's own)
+
+    Every value is checked against its declaration when made: a one-line SettingsError.
     """
 
     seam_allowance_mm: float = 10.0
@@ -166,21 +263,37 @@ class ExportOptions:
     name: str = "piece"
     dxf_variant: str = "astm"
     obj_texture: str = "none"
+    extra: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
-        mm_per_unit(self.units)
-        if self.dxf_variant not in DXF_VARIANTS:
-            raise SettingsError(f"unknown DXF variant {self.dxf_variant!r}: use one of {', '.join(DXF_VARIANTS)}")
-        if self.obj_texture not in OBJ_TEXTURES:
-            raise SettingsError(f"unknown OBJ texture {self.obj_texture!r}: use one of {', '.join(OBJ_TEXTURES)}")
-        if self.paper.lower() not in PAPERS:
-            raise SettingsError(f"unknown paper {self.paper!r}: use one of {', '.join(PAPERS)}")
-        try:
-            sa = float(self.seam_allowance_mm)
-        except (TypeError, ValueError):
-            sa = float("nan")
-        if not sa >= 0 or sa == float("inf"):
-            raise SettingsError(f"seam allowance {self.seam_allowance_mm!r} mm must be zero or a positive number")
+        declared = {o.name: o for o in export_options()}
+        for f in fields(self):
+            if f.name != "extra" and f.name in declared:
+                object.__setattr__(self, f.name, declared[f.name].check(getattr(self, f.name)))
+        extra = dict(self.extra)
+        for key, value in extra.items():
+            if key not in declared:
+                raise SettingsError(f"no export format has an option {key!r}")
+            extra[key] = declared[key].check(value)
+        object.__setattr__(self, "extra", extra)
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any]) -> "ExportOptions":
+        """Options from name -> value (the CLI's flags, the dialog's rows); unnamed ones keep their defaults."""
+        own = {f.name for f in fields(cls)} - {"extra"}
+        return cls(**{k: v for k, v in values.items() if k in own},
+                   extra={k: v for k, v in values.items() if k not in own})
+
+    def get(self, name: str) -> Any:
+        """The value of option ``name``: given, or its declared default."""
+        if name in self.extra:
+            return self.extra[name]
+        if name != "extra" and name in {f.name for f in fields(self)}:
+            return getattr(self, name)
+        for o in export_options():
+            if o.name == name:
+                return o.default
+        raise KeyError(name)
 
 
 def check_target(path) -> Path:
@@ -338,12 +451,30 @@ def _obj_files(result, options: ExportOptions, sheet: None, path: Path) -> list:
     return obj_files(result, path, options.name, options.obj_texture)
 
 
-register_exporter(".dxf", _dxf, "DXF, ASTM D6673 / AAMA (R12) or layered R2000, mm", needs_sheet=True)
-register_exporter(".svg", _svg, "SVG at true size (mm)", needs_sheet=True)
-register_exporter(".pdf", _pdf, "PDF, tiled 1:1 with overview and assembly map", needs_sheet=True)
+SEAM_ALLOWANCE = ExportOption("seam_allowance_mm", "number", 10.0, "seam allowance of exported patterns in mm "
+                              "(0 for none)", "Seam allowance", flag="--seam-allowance", unit="mm")
+MODEL_UNITS = ExportOption("units", "choice", "m", "units of the surface model (what one coordinate unit is); 2D "
+                           "files are written in mm", "Model units", choices={u: u for u in UNITS})
+PIECE_NAME = ExportOption("name", "text", "piece", "piece name in exported labels and DXF blocks", "Piece name")
+PAPER = ExportOption("paper", "choice", "a4", "paper of the tiled PDF", "Paper (PDF)",
+                     choices={p: (p.upper() if p == "a4" else p) for p in PAPERS})
+DXF_VARIANT = ExportOption("dxf_variant", "choice", "astm", "DXF for pattern CAD and cutting rooms (astm: ASTM "
+                           "D6673 / AAMA, R12) or for CAD, GDAL and laser cutters (layered: R2000 with $INSUNITS)",
+                           "DXF variant", choices=dict(DXF_VARIANTS))
+OBJ_TEXTURE = ExportOption("obj_texture", "choice", "none", "checker: an OBJ export also writes a .mtl and a checker "
+                           "texture", "OBJ texture",
+                           choices={"none": "none (the pattern as texture coordinates)",
+                                    "checker": "checker (.mtl and image: the pattern shows on the surface)"})
+
+register_exporter(".dxf", _dxf, "DXF, ASTM D6673 / AAMA (R12) or layered R2000, mm", needs_sheet=True,
+                  options=(SEAM_ALLOWANCE, MODEL_UNITS, PIECE_NAME, DXF_VARIANT))
+register_exporter(".svg", _svg, "SVG at true size (mm)", needs_sheet=True,
+                  options=(SEAM_ALLOWANCE, MODEL_UNITS, PIECE_NAME))
+register_exporter(".pdf", _pdf, "PDF, tiled 1:1 with overview and assembly map", needs_sheet=True,
+                  options=(SEAM_ALLOWANCE, MODEL_UNITS, PIECE_NAME, PAPER))
 register_exporter(".vtp", _vtp, "VTK PolyData: draped mesh and cell shear, springs and their strain beside it",
                   needs_sheet=False, companions=_vtp_files)
 register_exporter(".obj", _obj, "Wavefront OBJ: surface mesh, pattern as texture coordinates",
-                  needs_sheet=False, companions=_obj_files)
+                  needs_sheet=False, companions=_obj_files, options=(PIECE_NAME, OBJ_TEXTURE))
 register_exporter(".csv", _csv, "CSV of fibre angles per cell: centre, (u, v), weft and warp directions, "
                   "deviation from the rosette, shear", needs_sheet=False)
