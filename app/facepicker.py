@@ -7,7 +7,7 @@ face's surface sampled on a (u, v) grid and cut to its trimmed region
 chooses it (the others are drawn faint); a shift-click (in the view or the
 list) adds a face to the choice, or takes it out again. OK emits
 ``chosen(index)`` for one face, ``joined(indices)`` for several: the window
-joins them into one surface (:func:`flatweave.reading.cad.join_faces`), so that a piece
+joins them into one surface (:func:`flatweave.reading.cadjoin.join_faces`), so that a piece
 can cross a fillet.
 """
 

@@ -31,7 +31,7 @@ from flatweave.app.actions import view_choices
 from flatweave.app.facepicker import FacePicker
 from flatweave.app.meshpicker import MeshLoopPicker
 from flatweave.app.worker import one_line
-from flatweave.reading.cad import join_faces
+from flatweave.reading.cadjoin import join_faces
 
 __all__ = ["Files", "open_filter", "project_filter", "AUTOSAVE_MS", "stored_view"]
 
@@ -189,7 +189,7 @@ class Files(QObject):
 
     def open_faces(self, opened, faces, asked_at: int | None = None) -> bool:
         """Open faces ``faces`` of a CAD file joined into one surface
-        (:func:`flatweave.reading.cad.join_faces`: tessellated, welded, fitted as a mesh) as a
+        (:func:`flatweave.reading.cadjoin.join_faces`: tessellated, welded, fitted as a mesh) as a
         new document; ``source`` is ``"path#faces=2,5,7"``, and the project keeps
         the fitted surface, so it reopens without the CAD file."""
         from PySide6.QtWidgets import QApplication

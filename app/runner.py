@@ -35,7 +35,7 @@ the live patterns, a tenth of the run. With software OpenGL on a loaded 2-core
 machine a frame can take 0.1 s, and drawing every one made the run 40 % longer
 (docs/decisions/0030-dragged-points-preview-outside-the-document.md). The repaint is most of a frame's
 cost (a 2,500-node frame: 20-30 ms in its slots, 40-80 ms repainting both views);
-counting only the slots, as sessions 7 to 9 did, spent three to four times the
+counting only the slots would spend three to four times the
 share (docs/decisions/0044-live-frames-paced-first-frame-shows-the-v.md). None: every
 pump period. The run's first live frame goes out at once (a re-solve's answer
 starts there); the drape's frames are paced by the drape itself

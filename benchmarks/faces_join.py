@@ -1,4 +1,4 @@
-"""How long joining several CAD faces takes (``--faces``, ``flatweave.reading.cad.join_faces``).
+"""How long joining several CAD faces takes (``--faces``, ``flatweave.reading.cadjoin.join_faces``).
 
 Measured by ``benchmarks/suite.py`` (case ``faces_join``): a STEP file is made
 with Open CASCADE (the shapes of tests/test_faces_join.py): at 3 faces a
@@ -19,6 +19,7 @@ from pathlib import Path
 
 def measure(faces: int) -> dict:
     import flatweave.reading.cad as cad
+    from flatweave.reading.cadjoin import join_faces
     from tests import cadfiles as cf
     from tests.test_faces_join import fillet_shell, lid_faces, rounded_box
 
@@ -33,7 +34,7 @@ def measure(faces: int) -> dict:
         cad_file = cad.read_cad_faces(path)
         read = time.perf_counter() - t0
         t1 = time.perf_counter()
-        piece = cad.join_faces(cad_file, pick(cad_file))
+        piece = join_faces(cad_file, pick(cad_file))
         join = time.perf_counter() - t1
     fit = piece.fit
     if len(fit.faces) != faces:

@@ -25,7 +25,7 @@ from pathlib import Path
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.reading.registry import open_path
 from flatweave.reading.cad import is_cad_path, parse_face_list
-from flatweave.reading.cad import join_faces
+from flatweave.reading.cadjoin import join_faces
 from flatweave.reading.registry import readers
 from flatweave.export.registry import exporters
 from flatweave.method.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
@@ -140,7 +140,7 @@ def _face_list(args):
 
 def _join_faces(args, opened, indices):
     """``--faces 2,5,7``: those faces of a STEP or IGES file joined into one
-    surface by the mesh route (:func:`flatweave.reading.cad.join_faces`)."""
+    surface by the mesh route (:func:`flatweave.reading.cadjoin.join_faces`)."""
     import dataclasses
 
     if opened.cad is None:

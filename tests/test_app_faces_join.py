@@ -1,6 +1,6 @@
 """The face picker joins faces: a shift-click adds a face to the choice (a
 second one takes it out), OK opens the faces joined into one surface
-(flatweave.reading.cad.join_faces), and the project keeps the fitted surface and which
+(flatweave.reading.cadjoin.join_faces), and the project keeps the fitted surface and which
 faces it joins, so it reopens without the CAD file."""
 
 from __future__ import annotations

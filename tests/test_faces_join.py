@@ -1,4 +1,4 @@
-"""Several faces of a CAD file joined into one surface (``--faces``, flatweave.reading.cad.join_faces).
+"""Several faces of a CAD file joined into one surface (``--faces``, flatweave.reading.cadjoin.join_faces).
 
 The files are made here with Open CASCADE, and Open CASCADE in this process
 is the oracle: ``BRepGProp`` areas of the faces and lengths of the piece's
@@ -112,7 +112,8 @@ def fillet_file(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fillet_piece(fillet_file):
-    from flatweave.reading.cad import join_faces, read_cad_faces
+    from flatweave.reading.cadjoin import join_faces
+    from flatweave.reading.cad import read_cad_faces
     cad = read_cad_faces(fillet_file)
     return cad, join_faces(cad, (0, 1, 2))
 
@@ -209,7 +210,7 @@ def test_cli_flatten_with_faces(fillet_file, tmp_path):
 # ---------------------------------------------------------------------- a doubly curved piece
 @pytest.mark.slow
 def test_lid_of_a_rounded_box_joins_planes_cylinders_and_spheres(box_cad):
-    from flatweave.reading.cad import join_faces
+    from flatweave.reading.cadjoin import join_faces
     from flatweave.method.settings import FlattenSettings
     from flatweave.method.pipeline import flatten
     from flatweave.geometry.region import cover_for
@@ -231,7 +232,7 @@ def test_lid_of_a_rounded_box_joins_planes_cylinders_and_spheres(box_cad):
 # ---------------------------------------------------------------------- refusals
 @pytest.mark.slow
 def test_faces_that_do_not_make_one_piece_are_refused(box_cad):
-    from flatweave.reading.cad import join_faces
+    from flatweave.reading.cadjoin import join_faces
     top = next(f.index for f in box_cad.faces if f.kind == "plane" and f.bbox[2] > BOX[2] - 1e-6)
     bottom = next(f.index for f in box_cad.faces if f.kind == "plane" and f.bbox[5] < 1e-6)
     with pytest.raises(SettingsError, match="do not make one piece"):
@@ -244,13 +245,14 @@ def test_faces_that_do_not_make_one_piece_are_refused(box_cad):
 
 @pytest.mark.slow
 def test_a_closed_choice_is_refused(box_cad):
-    from flatweave.reading.cad import join_faces
+    from flatweave.reading.cadjoin import join_faces
     with pytest.raises(SettingsError, match="closed surface"):
         join_faces(box_cad, tuple(range(len(box_cad.faces))))
 
 
 def test_a_crash_while_tessellating_is_one_line(fillet_piece, monkeypatch):
-    from flatweave.reading.cad import CadFileError, join_faces
+    from flatweave.reading.cad import CadFileError
+    from flatweave.reading.cadjoin import join_faces
     cad, _ = fillet_piece
     monkeypatch.setenv("FLATWEAVE_CAD_FAULT", "abort")  # the child dies by SIGABRT, as OCCT can
     with pytest.raises(CadFileError, match="crashed") as info:
@@ -260,7 +262,8 @@ def test_a_crash_while_tessellating_is_one_line(fillet_piece, monkeypatch):
 
 @pytest.mark.slow
 def test_an_iges_file_joins_too(tmp_path):
-    from flatweave.reading.cad import join_faces, read_cad_faces
+    from flatweave.reading.cadjoin import join_faces
+    from flatweave.reading.cad import read_cad_faces
     from flatweave.geometry.region import cover_for
     from tests import cadfiles as cf
     cad = read_cad_faces(cf.write_iges(fillet_shell(), tmp_path / "fillet.igs"))

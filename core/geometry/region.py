@@ -13,7 +13,7 @@ owns what the stages derive from it, each computed once:
 
 - ``area``: :func:`flatweave.geometry.uvregion.region_area` (Green's theorem per knot cell)
   of the polygon region; the whole domain's is
-  :func:`flatweave.geometry.quadrature.region_area`, as before;
+  :func:`flatweave.geometry.quadrature.region_area`;
 - ``boundary_length``: the length on the surface of every loop, each
   polyline segment's image integrated by Gauss-Legendre (8 nodes on pieces
   no longer than 1/64 of the domain); whole domain:

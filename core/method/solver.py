@@ -110,7 +110,7 @@ class SolverOptions:
         off-axis weft angles took 3-5x the iterations of the on-axis one.
         On (the default), a round's convergence also drops springs that
         came to cross a dart. Off: Newton in (u, v), the chart's exact
-        Hessian and straight steps (the solver before 2026-12-02).
+        Hessian and straight steps (docs/decisions/0029-newton-on-the-surface.md).
     dead_after : a lattice position that has lost its node this many times is
         never refilled. 2 from the drape, where the net slides and a position
         emptied once is often needed again; 1 for a start carried from a

@@ -100,7 +100,6 @@ from flatweave.errors import SettingsError, SurfaceError
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.geometry.uvregion import region_bbox
 from flatweave.geometry.numerics import polygon_area
-from flatweave.geometry.meshfit import NeedsRegion, SeveralParts, clean_mesh, densify, mesh_surface, weld_parts
 
 __all__ = [
     "CadFace",
@@ -115,7 +114,6 @@ __all__ = [
     "INSTALL_HINT",
     "DEFAULT_TIMEOUT",
     "DEFAULT_CHORD_TOL",
-    "join_faces",
     "parse_face_list",
 ]
 
@@ -136,21 +134,6 @@ region's area is off by about (2/3) chord_tol x perimeter / area (in (u, v));
 measured on the test faces: at most 2.4e-7 relative (a free-curve outer
 loop), 1.9e-7 for a disc. A circle across the face takes about 6,600 points,
 one of a fifth of it 2,500-5,000."""
-
-JOIN_ANGULAR_DEFLECTION = 0.08
-"""Largest angle (radians) between the normals along a triangle of the
-tessellation of joined faces. The nodes lie on the faces; the points
-:func:`flatweave.geometry.meshfit.densify` adds are lifted off the chords by the nodes'
-normals (a circle's sagitta to O(a^4))."""
-
-JOIN_LINEAR_DEFLECTION = 2e-4
-"""Largest distance of the tessellation of joined faces from them, relative
-to the chosen faces' bounding-box diagonal."""
-
-JOIN_EDGE_LENGTH = 1.0 / 50.0
-"""Longest triangle edge of joined faces' mesh, relative to their diagonal:
-Open CASCADE makes two triangles of a rectangle; the fit needs vertices
-inside it too."""
 
 FAULT_ENV = "FLATWEAVE_CAD_FAULT"
 """Testing hook read by the child: ``abort`` (die by SIGABRT), ``hang``
@@ -323,7 +306,7 @@ def _sniff(path: Path, fmt: str) -> None:
             raise CadFileError(f"{name}: not an IGES file (its first line has no section letter in column 73)")
 
 
-def _timeout(timeout) -> float:
+def read_timeout(timeout) -> float:
     if timeout is None:
         env = os.environ.get("FLATWEAVE_CAD_TIMEOUT", "")
         try:
@@ -342,7 +325,7 @@ def _signal_name(code: int) -> str:
         return f"signal {-code}"
 
 
-def _run_child(path: Path, fmt: str, chord_tol: float, timeout: float, task: tuple = ()) -> dict:
+def run_child(path: Path, fmt: str, chord_tol: float, timeout: float, task: tuple = ()) -> dict:
     """Read path in a child Python process; its result dict (or a one-line error).
     ``task``: extra words for the child (``("tessellate", "2,5,7", lin, ang)``
     tessellates those faces instead of reading them all)."""
@@ -406,9 +389,9 @@ def read_cad_faces(path, *, timeout: float | None = None, chord_tol: float = DEF
         raise CadFileError(f"{path.name}: not a STEP (.step, .stp) or IGES (.iges, .igs) file name")
     if not (isinstance(chord_tol, (int, float)) and 0 < chord_tol < 0.1):
         raise SettingsError(f"chord_tol must be a number in (0, 0.1), got {chord_tol!r}")
-    timeout = _timeout(timeout)
+    timeout = read_timeout(timeout)
     _sniff(path, fmt)
-    result = _run_child(path.resolve(), fmt, chord_tol, timeout)
+    result = run_child(path.resolve(), fmt, chord_tol, timeout)
     faces = tuple(_make_face(path.name, d) for d in result["faces"])
     return CadFile(path=str(path), format=fmt, units=result["units"], mm_per_unit=float(result["mm_per_unit"]),
                    faces=faces)
@@ -431,85 +414,6 @@ def parse_face_list(text) -> tuple[int, ...]:
     if not indices:
         raise SettingsError("--faces needs one face index or more")
     return indices
-
-
-def _joined_pieces(faces: list[dict], edges_of) -> list[list[int]]:
-    """The chosen faces grouped into pieces joined through shared edges
-    (positions in ``faces``)."""
-    parent = list(range(len(faces)))
-
-    def root(k):
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
-    owner = {}
-    for k, f in enumerate(faces):  # a face's few dozen edges: no hot loop
-        for e in edges_of(f):
-            if e in owner:
-                parent[root(k)] = root(owner[e])
-            else:
-                owner[e] = k
-    groups = {}
-    for k in range(len(faces)):
-        groups.setdefault(root(k), []).append(k)
-    return list(groups.values())
-
-
-def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
-               angular_deflection: float = JOIN_ANGULAR_DEFLECTION,
-               linear_deflection: float = JOIN_LINEAR_DEFLECTION):
-    """Faces ``indices`` of ``cad_file`` joined into one surface by the mesh
-    route: tessellated by Open CASCADE (in a child process), welded along
-    the edges they share, densified, then :func:`flatweave.geometry.meshfit.mesh_surface`
-    (map, fit, region). Returns its :class:`flatweave.geometry.meshfit.MeshPiece`; the
-    fit records the faces (``fit.faces``).
-
-    One-line SettingsError when an index is out of range or repeated, the
-    faces do not make one connected piece, or they close up (a closed
-    surface, a handle); SurfaceError from the mesh checks (three faces along
-    one edge)."""
-
-    name = Path(cad_file.path).name
-    indices = tuple(indices)
-    if not indices:
-        raise SettingsError("--faces needs one face index or more")
-    seen = set()
-    for i in indices:
-        cad_file.face(i)  # out of range: one line
-        if int(i) in seen:
-            raise SettingsError(f"face {i} is given twice")
-        seen.add(int(i))
-    chosen = [cad_file.face(i) for i in indices]
-    box = np.array([f.bbox for f in chosen], float)
-    size = float(np.linalg.norm(box[:, 3:].max(axis=0) - box[:, :3].min(axis=0)))
-    if not size > 0:
-        raise SettingsError(f"faces {', '.join(map(str, indices))} of {name} have no extent")
-    task = ("tessellate", ",".join(str(int(i)) for i in indices), repr(linear_deflection * size),
-            repr(float(angular_deflection)))
-    path = Path(cad_file.path)
-    result = _run_child(path.resolve(), cad_file.format, DEFAULT_CHORD_TOL, _timeout(timeout), task)
-    parts = result["faces"]
-    groups = _joined_pieces(parts, lambda f: [e for e, _ in f["edges"]])
-    if len(groups) > 1:
-        listed = "; ".join(", ".join(str(parts[k]["index"]) for k in g) for g in groups)
-        raise SettingsError(f"faces {', '.join(map(str, indices))} of {name} do not make one piece: they fall "
-                            f"into {len(groups)} parts that share no edge ({listed}); choose adjacent faces")
-    normals = None if any(p["normals"] is None for p in parts) else [p["normals"] for p in parts]
-    V, F, N = weld_parts([(p["nodes"], p["triangles"]) for p in parts],
-                         [[(e, nodes) for e, nodes in p["edges"]] for p in parts], normals)
-    V, F, _ = densify(V, F, JOIN_EDGE_LENGTH * size, normals=N)
-    label = f"faces {', '.join(map(str, indices))} of {name}"
-    try:
-        V, F, repairs = clean_mesh(V, F, label)
-    except SeveralParts:  # the faces share edges, but their triangles do not meet along one
-        raise SettingsError(f"{label} could not be welded into one piece: their tessellations do not meet "
-                            f"along the edges they share") from None
-    try:
-        return mesh_surface(V, F, source=os.fspath(path), name=label, repairs=repairs, faces=indices)
-    except NeedsRegion:  # its own advice (a drawn region) is not for joined faces
-        raise SettingsError(f"{label} make a closed surface, or one with handles: it cannot be flattened "
-                            f"whole; leave some faces out") from None
 
 
 # ---------------------------------------------------------------------- faces from the child's data
@@ -1080,5 +984,5 @@ def _occ_tessellate(path: str, fmt: str, indices: list, linear: float, angular: 
     return {"units": units, "mm_per_unit": factor, "faces": out}
 
 
-if __name__ == "__main__":  # the child process of _run_child: python -I -m flatweave.reading.cad ...
+if __name__ == "__main__":  # the child process of run_child: python -I -m flatweave.reading.cad ...
     _child_main(sys.argv[1:])
