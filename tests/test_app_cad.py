@@ -5,17 +5,13 @@ source, so it reopens without the CAD file."""
 
 from __future__ import annotations
 
-import importlib.util
 
 import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, Qt
 
-try:
-    HAVE_OCP = importlib.util.find_spec("OCP") is not None
-except (ImportError, ValueError):
-    HAVE_OCP = False
-pytestmark = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
+from tests.helpers import needs_ocp
+pytestmark = needs_ocp
 
 RUN_TIMEOUT_MS = 90000
 

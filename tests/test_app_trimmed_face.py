@@ -14,7 +14,6 @@ region the designer drew keeps the whole surface in sight, to edit the boundary 
 
 from __future__ import annotations
 
-import importlib.util
 from dataclasses import replace
 
 import numpy as np
@@ -23,11 +22,8 @@ import pytest
 from flatweave.geometry.region import LOOP_CHORD_TOL
 from tests.test_trimmed_face_loops import chord_gap, occ_edge_curves, occ_surface_distance
 
-try:
-    HAVE_OCP = importlib.util.find_spec("OCP") is not None
-except (ImportError, ValueError):
-    HAVE_OCP = False
-pytestmark = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
+from tests.helpers import needs_ocp
+pytestmark = needs_ocp
 
 GRID_CELLS = 59 * 59  # the whole surface's quads (flatweave.app.presenter.GRID_POINTS = 60)
 

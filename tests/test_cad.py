@@ -10,7 +10,6 @@ saying why, only when OCP cannot be imported.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -25,11 +24,7 @@ from flatweave.reading.cad import (CadFileError, CadUnavailableError, INSTALL_HI
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.geometry.uvregion import region_area
 
-try:
-    HAVE_OCP = importlib.util.find_spec("OCP") is not None
-except (ImportError, ValueError):  # ValueError: OCP blocked by sys.modules["OCP"] = None
-    HAVE_OCP = False
-needs_ocp = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
+from tests.helpers import HAVE_OCP, needs_ocp
 
 BAD = Path(__file__).parent / "data" / "bad"
 ROOT = Path(__file__).resolve().parent.parent

@@ -10,7 +10,6 @@ today's path (the other test files check that its numbers did not change).
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import subprocess
@@ -28,13 +27,9 @@ from flatweave.geometry.quadrature import boundary_length, region_area as domain
 from flatweave.reading.registry import open_path
 from flatweave.geometry.region import Cover, Region, circle_loop, cover_for
 from flatweave.geometry.uvregion import region_area
+from tests.helpers import HAVE_OCP, needs_ocp
 
 ROOT = Path(__file__).resolve().parent.parent
-try:
-    HAVE_OCP = importlib.util.find_spec("OCP") is not None
-except (ImportError, ValueError):
-    HAVE_OCP = False
-needs_ocp = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
 
 SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
 HOLE_C, HOLE_R = (0.45, 0.5), 0.15

@@ -10,7 +10,6 @@ record's (u, v), and its edges' 3D curves (``BRepAdaptor_Curve``), sampled finel
 
 from __future__ import annotations
 
-import importlib.util
 import json
 
 import numpy as np
@@ -18,11 +17,8 @@ import pytest
 
 from flatweave.geometry.region import LOOP_CHORD_TOL, loops_on_surface, region_from_cad_face, region_record
 
-try:
-    HAVE_OCP = importlib.util.find_spec("OCP") is not None
-except (ImportError, ValueError):
-    HAVE_OCP = False
-pytestmark = pytest.mark.skipif(not HAVE_OCP, reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
+from tests.helpers import needs_ocp
+pytestmark = needs_ocp
 
 EDGE_SAMPLES = 2001  # points per OCC edge curve: its own chords are ~1e-6 mm off it, far below the tolerances
 
