@@ -1,5 +1,6 @@
-"""The window's actions: one table (:data:`ACTIONS`, with the tools' rows from
-:data:`flatweave.app.tooling.TOOLS`) from which the actions, the menus and the toolbar
+"""The window's actions: one table (:func:`action_specs`: :data:`BASE_ACTIONS`
+and a row for each registered tool, :func:`flatweave.app.tooling.tool_specs`,
+read when a window is made) from which the actions, the menus and the toolbar
 are built (:func:`build_actions`, :func:`build_menus`, :func:`build_toolbar`),
 and one function that enables, names and checks them for the window's state
 (:func:`update_actions`).
@@ -13,9 +14,9 @@ from typing import Callable
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QAction, QActionGroup, QKeySequence
 
-from flatweave.app.tooling import TOOLS
+from flatweave.app.tooling import tool_specs
 
-__all__ = ["ActionSpec", "ACTIONS", "MENUS", "UiState", "build_actions", "build_menus",
+__all__ = ["ActionSpec", "BASE_ACTIONS", "action_specs", "MENUS", "UiState", "build_actions", "build_menus",
            "build_toolbar", "update_actions", "view_choices", "show_view_choices"]
 
 Keys = QKeySequence.StandardKey
@@ -102,7 +103,7 @@ MENUS = ("&File", "&Edit", "E&xamples", "&Tools", "&Solve", "&View")
 
 _FILE, _EDIT, _TOOLS, _SOLVE, _VIEW = "&File", "&Edit", "&Tools", "&Solve", "&View"
 
-ACTIONS: tuple[ActionSpec, ...] = (
+BASE_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("open", "&Open...", "open_dialog", Keys.Open,
                "Open a project (.flatweave), a surface (geomdl JSON, STEP, IGES) or a mesh (STL, OBJ, PLY, OFF)",
                menu=_FILE),
@@ -153,8 +154,6 @@ ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("show_fit_mesh", "&Mesh beside the surface", "presenter.show_fit_mesh_beside", None,
                "Draw the mesh the surface was fitted to beside it (off: over it, when its deviation is shown)",
                True, False, menu=_VIEW, section=3, enabled=_has_fit),
-    *(ActionSpec(t.key, t.text, None, t.shortcut, t.tip, checkable=True, menu=t.menu,
-                 toolbar=3 if t.toolbar else None, enabled=_has_doc, tool=t.tool) for t in TOOLS),
     ActionSpec("sweep", "&Best orientation...", "sweep_dialog", "Ctrl+Shift+A",
                "Solve at several weft angles and rank them: area beyond the lock angle, max shear, boundary error",
                menu=_SOLVE, section=1, enabled=lambda s: s.has_doc and not s.solving),
@@ -171,6 +170,15 @@ ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("tool_cancel", "Ca&ncel", "cancel_tool", "Esc", "Drop the dart or yarn being made (Esc)",
                menu=_TOOLS, section=1, enabled=lambda s: s.tools.tool is not None and not s.tools.tool.implied),
 )
+"""The window's actions other than the tools' (their order matters only within a menu's or the toolbar's section)."""
+
+
+def action_specs() -> tuple[ActionSpec, ...]:
+    """The window's actions: :data:`BASE_ACTIONS` and a checkable action for each
+    registered tool that has a key (section 0 of its menu, section 3 of the toolbar)."""
+    return BASE_ACTIONS + tuple(
+        ActionSpec(t.key, t.text, None, t.shortcut, t.tip, checkable=True, menu=t.menu,
+                   toolbar=3 if t.toolbar else None, enabled=_has_doc, tool=t.tool) for t in tool_specs() if t.key)
 
 
 def _resolve(window, dotted: str):
@@ -192,7 +200,7 @@ def _set_shortcut(action: QAction, shortcut) -> None:
     # Qt's default context, WindowShortcut, keeps every key to this window.
 
 
-def build_actions(window, specs=ACTIONS) -> dict[str, QAction]:
+def build_actions(window, specs) -> dict[str, QAction]:
     """The window's QActions by key, connected to their slots, view options or tools."""
     acts: dict[str, QAction] = {}
     groups: dict[str, QActionGroup] = {}
@@ -232,7 +240,7 @@ def _sections(items):
         yield spec, k > 0 and section != ordered[k - 1][0]
 
 
-def build_menus(window, actions: dict[str, QAction], specs=ACTIONS) -> dict[str, object]:
+def build_menus(window, actions: dict[str, QAction], specs) -> dict[str, object]:
     """The menu bar's menus (by title, in :data:`MENUS` order) with their actions."""
     menus = {title: window.menuBar().addMenu(title) for title in MENUS}
     for title, menu in menus.items():
@@ -243,7 +251,7 @@ def build_menus(window, actions: dict[str, QAction], specs=ACTIONS) -> dict[str,
     return menus
 
 
-def build_toolbar(window, actions: dict[str, QAction], specs=ACTIONS):
+def build_toolbar(window, actions: dict[str, QAction], specs):
     tb = window.addToolBar("Main")
     tb.setObjectName("main-toolbar")
     tb.setMovable(False)
@@ -254,7 +262,7 @@ def build_toolbar(window, actions: dict[str, QAction], specs=ACTIONS):
     return tb
 
 
-def update_actions(actions: dict[str, QAction], state: UiState, specs=ACTIONS) -> None:
+def update_actions(actions: dict[str, QAction], state: UiState, specs) -> None:
     """Enable, name and check the actions for ``state`` (the one place that does)."""
     for spec in specs:
         a = actions[spec.key]
@@ -268,11 +276,11 @@ def update_actions(actions: dict[str, QAction], state: UiState, specs=ACTIONS) -
             a.blockSignals(False)
 
 
-def _view_specs(specs=ACTIONS):
+def _view_specs(specs=BASE_ACTIONS):
     return [s for s in specs if s.option is not None and s.tool is None]
 
 
-def view_choices(actions: dict[str, QAction], specs=ACTIONS) -> dict[str, object]:
+def view_choices(actions: dict[str, QAction], specs=BASE_ACTIONS) -> dict[str, object]:
     """The view choices the actions hold ({"mode": "shear", "weft": True, ...}: the
     checkable view actions' ViewOptions fields), as a project file keeps them."""
     out: dict[str, object] = {}
@@ -285,7 +293,7 @@ def view_choices(actions: dict[str, QAction], specs=ACTIONS) -> dict[str, object
     return out
 
 
-def show_view_choices(actions: dict[str, QAction], choices, specs=ACTIONS) -> None:
+def show_view_choices(actions: dict[str, QAction], choices, specs=BASE_ACTIONS) -> None:
     """Check the view actions for ``choices`` (a mapping as :func:`view_choices`
     makes; missing or unknown entries leave an action as it is). The actions'
     toggles set the views' options, so the views and the toolbar follow."""

@@ -32,7 +32,8 @@ from flatweave.errors import FlatweaveError
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.document.project import Project, new_project
 
-from flatweave.app.actions import UiState, build_actions, build_menus, build_toolbar, show_view_choices, update_actions
+from flatweave.app.actions import (UiState, action_specs, build_actions, build_menus, build_toolbar,
+                                   show_view_choices, update_actions)
 from flatweave.app.aspects import aspects_of
 from flatweave.app.dartpanel import DartPanel
 from flatweave.app.exporting import Exports
@@ -41,7 +42,7 @@ from flatweave.app.panels import MetricsPanel, SettingsPanel
 from flatweave.app.plot import EnergyPlot
 from flatweave.app.presenter import Presenter
 from flatweave.app.runcontrol import NO_DOCUMENT, RunControl
-from flatweave.app.tooling import TOOLS, ToolControl
+from flatweave.app.tooling import ToolControl, tool_specs
 from flatweave.app.view2d import PatternView
 from flatweave.app.view3d import SurfaceView
 from flatweave.app.suggest import SuggestDialog
@@ -121,12 +122,13 @@ class MainWindow(QMainWindow):
         self.files = Files(self, recovery)
         self.exports = Exports(self)
 
-        self.actions = build_actions(self)
+        self.action_specs = action_specs()  # the tools registered now
+        self.actions = build_actions(self, self.action_specs)
         self._build_layout()
-        self.menus = build_menus(self, self.actions)
+        self.menus = build_menus(self, self.actions, self.action_specs)
         self.examples_menu = self.menus["E&xamples"]
         self.files.fill_examples_menu(self.examples_menu)
-        build_toolbar(self, self.actions)
+        build_toolbar(self, self.actions, self.action_specs)
         self.statusBar().addWidget(self._name_label)
         self.statusBar().addWidget(self._hover_label, 1)
         self.statusBar().addPermanentWidget(self._info_label)
@@ -185,21 +187,18 @@ class MainWindow(QMainWindow):
         sp.settings_edited.connect(self.edit_settings)
         sp.display_edited.connect(self.edit_display)
         sp.input_error.connect(self.show_error)
-        dp.set_actions(**{t.panel_button: self.actions[t.key] for t in TOOLS if t.panel_button})
+        dp.set_actions({t.panel_button: self.actions[t.key] for t in tool_specs() if t.key and t.panel_button})
         dp.dart_selected.connect(lambda row: tools.select_dart(row if row >= 0 else None))
         dp.dart_renamed.connect(lambda row, name: tools.dart_edit(self.document.rename_dart, row, name))
         dp.dart_visibility.connect(lambda row, on: tools.dart_edit(self.document.set_dart_visible, row, on))
         dp.dart_delete.connect(tools.delete_dart)
         dp.dart_edit.connect(tools.edit_dart)
-        dp.plane_values.connect(tools.plane_values)
-        dp.plane_apply.connect(tools.finish_tool)
-        dp.plane_cancel.connect(lambda: tools.set_tool(None))
+        dp.editor_values.connect(tools.editor_values)
+        dp.editor_apply.connect(tools.finish_tool)
+        dp.editor_cancel.connect(tools.cancel_tool)
         dp.yarn_selected.connect(lambda _row: self.presenter.show_yarns(self.project))
         dp.yarn_remove.connect(lambda row: tools.dart_edit(self.document.remove_yarn, row))
         dp.yarn_edit.connect(tools.edit_yarn)
-        dp.yarn_choice.connect(tools.yarn_choice)
-        dp.yarn_apply.connect(tools.finish_tool)
-        dp.yarn_cancel.connect(tools.cancel_tool)
         dp.input_error.connect(self.show_error)
         dp.regions.region_edit.connect(tools.region_edit)
 
@@ -207,7 +206,8 @@ class MainWindow(QMainWindow):
     def update_actions(self) -> None:
         """Enable, disable and name the actions and panels for the current state (the one place that does)."""
         has_doc = self.document is not None
-        update_actions(self.actions, UiState(self.document, self.runner.state, self.exports.busy, self.tools))
+        update_actions(self.actions, UiState(self.document, self.runner.state, self.exports.busy, self.tools),
+                       self.action_specs)
         self.settings_panel.setEnabled(has_doc)
         self.dart_panel.setEnabled(has_doc)
 

@@ -23,6 +23,7 @@ from flatweave.document.project import Project
 
 from flatweave.app.aspects import HISTORY, WHOLE, Aspect
 from flatweave.app.frames import FrameMaker
+from flatweave.app.overlay import LayerStyle
 from flatweave.app.plot import result_note
 from flatweave.app.viewbase import ViewOptions
 from flatweave.geometry.region import cover_for
@@ -36,6 +37,7 @@ __all__ = ["Presenter", "surface_grid", "piece_grid", "piece_surface", "PieceSur
 GRID_POINTS = 60
 CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
 KEEP_PATTERN_FOR_LIVE_FRAMES = True
+KEPT_REGIONS = LayerStyle("#808080", width=2.0, closed=True)  # candidate regions kept beside the active one
 """A live frame without a pattern leaves the pattern view as it is when that shows a pattern (the
 last result's, or an earlier frame's): it changes when the run has a pattern of its own. The first
 frame of a re-solve has none (``flatweave.app.worker.FIRST_PATTERN_AT_ONCE``), and drawing its mesh in the pattern
@@ -324,7 +326,7 @@ class Presenter:
         """The shown candidate regions' loops (flatweave.document.candidates), faint, beside the active region."""
         loops = [project.surface.points(p) for c in project.candidates
                  if c.visible and c.region is not None for p in cover_for(project.surface, c.region).loops]
-        self.view.set_kept_regions(loops)
+        self.view.draw("kept regions", KEPT_REGIONS, loops)
 
     def show_yarns(self, project: Project | None, frame=None) -> None:
         if project is None:

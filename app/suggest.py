@@ -21,6 +21,7 @@ from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QHBoxLayout, QLabel, Q
 
 from flatweave.app.background import BackgroundCall
 from flatweave.app.frames import FrameMaker
+from flatweave.app.overlay import PREVIEW
 from flatweave.method.result import judge_result
 from flatweave.studies.autodarts import suggest_darts
 
@@ -133,7 +134,7 @@ class SuggestDialog(QDialog):
         frame = FrameMaker(r.surface, r.settings, r.metrics.get("boundary_length_3d"),
                            r.metrics.get("area_3d")).from_result(r)
         w.presenter.draw_frame(frame)
-        w.view.set_preview(curve=r.surface.points(p.dart.uv))
+        w.view.draw("suggested dart", PREVIEW, [r.surface.points(p.dart.uv)])
 
     def checked(self) -> list[int]:
         return [k for k in range(self.list.count())
@@ -157,7 +158,7 @@ class SuggestDialog(QDialog):
 
     def _restore(self) -> None:
         w = self.window_
-        w.view.set_preview()
+        w.view.clear_layers(["suggested dart"], render=True)
         if w.document is not None:
             w.presenter.show_result(w.document.project)
 

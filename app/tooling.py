@@ -1,12 +1,16 @@
 """The window's side of the 3D view's tools (:mod:`flatweave.app.tools`).
 
-:data:`TOOLS` is the one table of the tools a designer chooses: a tool is a
-:class:`~flatweave.app.tools.Tool` subclass and a row here; its action, menu entry,
-toolbar button and darts-panel button come from the row (:mod:`flatweave.app.actions`).
-:class:`ToolControl` keeps the active tool and the selected dart, hands the
-tool the 3D view's mouse (:class:`ToolMouse`) and the keys, and turns the darts
-panel's reports into document edits; tools reach the window only through
-:class:`WindowToolHost`.
+The tools are one registry (:func:`register_tool`, :func:`tool_specs`): a tool
+is a :class:`~flatweave.app.tools.Tool` subclass and one :class:`ToolSpec`; its
+action, menu entry, toolbar button and darts-panel button come from the spec
+(:func:`flatweave.app.actions.action_specs`, read when a window is made), its
+overlay layers and its editor from the class. :class:`ToolControl` keeps the
+active tool and the selected dart, hands the tool the 3D view's mouse
+(:class:`ToolMouse`), the keys and its editor's reports, clears its layers and
+hides its editor when it ends, and turns the darts panel's reports into
+document edits; tools reach the window only through :class:`WindowToolHost`.
+Below the registry nothing here, in the window or in the views names a
+particular tool.
 """
 
 from __future__ import annotations
@@ -20,14 +24,20 @@ from flatweave.errors import FlatweaveError
 from flatweave.app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, SeedTool, Tool, YarnTool
 from flatweave.app.worker import one_line
 
-__all__ = ["ToolSpec", "TOOLS", "ToolControl", "ToolMouse", "WindowToolHost"]
+__all__ = ["ToolSpec", "register_tool", "unregister_tool", "tool_specs", "ToolControl", "ToolMouse",
+           "WindowToolHost"]
 
 
 @dataclass(frozen=True)
 class ToolSpec:
-    """A tool the designer chooses: its checkable action and the tool class it makes.
+    """A registered tool: the tool class and, when ``key`` is set, the checkable
+    action that makes it (an ``implied`` tool, made for the selection, has none).
 
-    panel_button : the darts panel's button that shows the action (see ``DartPanel.set_actions``; "": none)
+    key, text, shortcut, tip : the action's key (``window.actions[key]``), menu
+        text, shortcut ("": none) and tip
+    panel_button : the darts panel's button that shows the action (one of
+        ``DartPanel.BUTTONS``; "": none)
+    menu : the menu the action sits in; toolbar : whether the toolbar shows it
     """
 
     key: str
@@ -40,7 +50,7 @@ class ToolSpec:
     toolbar: bool = True
 
 
-TOOLS = (
+_TOOLS: list[ToolSpec] = [
     ToolSpec("tool_curve_dart", "&Curve dart", "D", "Draw a curve dart: click points on the surface, Enter finishes",
              CurveDartTool, "draw_curve"),
     ToolSpec("tool_plane_dart", "&Plane dart", "P", "Place a plane dart with a plane and a box, or numbers",
@@ -51,7 +61,30 @@ TOOLS = (
              "first point closes; a loop inside it is a hole", RegionTool, ""),
     ToolSpec("tool_seed", "&Seed and direction", "S", "Pick the seed inside the piece (click) and the weft "
              "direction (drag from it); the rosette is drawn as two arrows", SeedTool, ""),
-)
+    ToolSpec("", "", "", "", HandleEditor, "", toolbar=False),
+]
+
+
+def register_tool(spec: ToolSpec) -> None:
+    """Add a tool (after those registered); a window made afterwards offers it.
+    A key already registered is refused (ValueError)."""
+    if not isinstance(spec, ToolSpec) or not (isinstance(spec.tool, type) and issubclass(spec.tool, Tool)):
+        raise TypeError("register_tool takes a ToolSpec whose tool is a Tool subclass")
+    if spec.key and any(t.key == spec.key for t in _TOOLS):
+        raise ValueError(f"a tool with key {spec.key!r} is registered already")
+    if not spec.key and not spec.tool.implied:
+        raise ValueError(f"{spec.tool.__name__} needs an action key: only an implied tool goes without one")
+    _TOOLS.append(spec)
+
+
+def unregister_tool(key_or_class) -> None:
+    """Remove the tool registered under this action key (or with this tool class)."""
+    _TOOLS[:] = [t for t in _TOOLS if t.key != key_or_class and t.tool is not key_or_class]
+
+
+def tool_specs() -> tuple[ToolSpec, ...]:
+    """The registered tools, in order."""
+    return tuple(_TOOLS)
 
 
 class WindowToolHost:
@@ -60,7 +93,6 @@ class WindowToolHost:
     def __init__(self, window, control: ToolControl):
         self._window, self._control = window, control
         self.view = window.view
-        self.editors = window.dart_panel
 
     @property
     def document(self):
@@ -80,6 +112,16 @@ class WindowToolHost:
 
     def end_preview(self) -> None:
         self._window.runs.end_preview()
+
+    def show_editor(self, tool: Tool) -> None:
+        if tool.editor is not None and tool is self._control.tool:
+            editor = self._window.dart_panel.editor(tool.editor)
+            editor.show_tool(tool)
+            editor.show()
+
+    def hide_editor(self, tool: Tool) -> None:
+        if tool.editor is not None:
+            self._window.dart_panel.editor(tool.editor).hide()
 
 
 class ToolMouse:
@@ -134,8 +176,10 @@ class ToolControl:
                 old.deactivate()
             except Exception as exc:  # never leave the window in a half-switched state
                 self._fail(old, exc)
+            old.clear_drawing()  # what a tool drew and its editor end with it
+            old.hide_editor()
         if tool is None:
-            tool = self._handle_editor()
+            tool = self._implied_tool()
         self.tool = tool
         if tool is not None:
             if not tool.implied:
@@ -163,13 +207,22 @@ class ToolControl:
         """Whether ``kind``'s action shows as checked."""
         return isinstance(self.tool, kind)
 
-    def _handle_editor(self) -> HandleEditor | None:
-        """The editor of the selected curve dart's points, if a curve dart is selected and shown."""
+    @staticmethod
+    def editing_tool(item: str, implied: bool) -> type[Tool] | None:
+        """The registered tool class that edits items of kind ``item`` ("plane dart", "yarn", ...),
+        among the implied tools or the chosen ones; None when none does."""
+        for spec in tool_specs():
+            if item in spec.tool.edits and spec.tool.implied == implied:
+                return spec.tool
+        return None
+
+    def _implied_tool(self) -> Tool | None:
+        """The tool the selected dart implies (a curve dart's points to drag), if any."""
         k, doc = self.selected_dart, self.window.document
         if doc is None or k is None or k >= len(doc.project.settings.darts):
             return None
-        dart = doc.project.settings.darts[k]
-        return self.make(HandleEditor, k) if dart.editable_points and dart.visible else None
+        kind = self.editing_tool(f"{doc.project.settings.darts[k].kind} dart", implied=True)
+        return self.make(kind, k) if kind is not None and kind.wants(doc, k) else None
 
     def refresh_handles(self) -> None:
         if self.tool is None or self.tool.implied:
@@ -202,13 +255,15 @@ class ToolControl:
         if self.tool is not None:
             self.tool.back()
 
-    def plane_values(self, plane, box) -> None:
-        if self.tool is not None:
-            self.tool.on_plane_values(plane, box)
-
-    def yarn_choice(self, kind, angle, k) -> None:
-        if self.tool is not None:
-            self.tool.on_yarn_choice(kind, angle, k)
+    def editor_values(self, editor, values: dict) -> None:
+        """An editor's report goes to the active tool if the editor is that tool's
+        (a field left as another tool starts reports to nobody)."""
+        tool = self.tool
+        if tool is not None and tool.editor is not None and type(editor) is tool.editor:
+            try:
+                tool.on_editor(values)
+            except Exception as exc:
+                self._fail(tool, exc)
 
     def result_changed(self) -> None:
         if self.tool is not None:
@@ -260,21 +315,30 @@ class ToolControl:
         self.dart_edit(self.window.document.remove_dart, index)
 
     def edit_dart(self, index: int) -> None:
-        """Edit dart ``index``: a plane dart's plane and box in the widgets; a curve dart by its points."""
+        """The darts panel's Edit on dart ``index``: see ``edit``."""
         darts = self.window.document.project.settings.darts
-        if not 0 <= index < len(darts):
-            return
-        if darts[index].has_widget:
-            self.set_tool(self.make(PlaneDartTool, index))
-        else:
-            self.select_dart(index)
-            self.window.hint("Drag the dart's points (dots) on the surface.")
+        if 0 <= index < len(darts):
+            self.edit(f"{darts[index].kind} dart", index)
 
     def edit_yarn(self, index: int) -> None:
-        if not isinstance(self.tool, YarnTool):
-            self.set_tool(self.make(YarnTool))
-        if isinstance(self.tool, YarnTool):
-            self.tool.edit(index)
+        self.edit("yarn", index)
+
+    def edit(self, item: str, index: int) -> None:
+        """Edit item ``index`` of kind ``item``: with the chosen tool that edits such items
+        (made unless active, then ``edit(index)``); else, for a dart, by selecting it
+        (an implied tool edits it, a curve dart's points say)."""
+        kind = self.editing_tool(item, implied=False)
+        if kind is None:
+            if item.endswith(" dart"):
+                self.select_dart(index)  # the implied tool, if any, says what to drag
+            return
+        if type(self.tool) is not kind:
+            self.set_tool(self.make(kind))
+        if type(self.tool) is kind:
+            try:
+                self.tool.edit(index)
+            except Exception as exc:
+                self._fail(self.tool, exc)
 
     # ------------------------------------------------------------------ the document
     def document_changed(self, cause: str, surface_or_reset: bool, lists_restored: bool) -> None:

@@ -38,9 +38,10 @@ from flatweave.document.history import unique_name
 from flatweave.method.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
 from flatweave.errors import SettingsError
 from flatweave.geometry.region import check_region_size, cover_for, region_from_spec
-from flatweave.method.rosette import rosette, rosette_arrows
-from flatweave.method.rosette import seed_fraction
-from flatweave.method.rosette import angle_towards
+from flatweave.method.rosette import angle_towards, rosette, rosette_arrows, seed_fraction
+
+from flatweave.app.overlay import HANDLES, PREVIEW, LayerStyle
+from flatweave.app.tooleditors import PlaneEditor, YarnEditor
 
 __all__ = ["Tool", "ToolHost", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
            "RegionTool", "SeedTool", "PointsTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS",
@@ -82,14 +83,11 @@ class ToolHost(Protocol):
     """What a tool may ask of the window (``flatweave.app.tooling.WindowToolHost`` is the window's).
 
     view : the 3D view (``flatweave.app.view3d.SurfaceView``): viewing rays, display
-        points, previews, handles and the plane and box widgets
-    editors : the darts panel's tool editors (``show_plane_editor(tool or None)``,
-        ``show_yarn_editor(tool or None)``)
+        points, overlay layers (``draw``) and the plane and box widgets
     document : the open ``flatweave.document.history.Document``: every commit is one of its edits
     """
 
     view: Any
-    editors: Any
 
     @property
     def document(self) -> Any: ...
@@ -109,19 +107,40 @@ class ToolHost(Protocol):
     def end_preview(self) -> None:
         """The drag's preview is over without an edit: show the document again."""
 
+    def show_editor(self, tool: Tool) -> None:
+        """Show ``tool``'s editor (its class ``tool.editor``) filled from the tool."""
+
+    def hide_editor(self, tool: Tool) -> None:
+        """Hide ``tool``'s editor."""
+
 
 class Tool:
     """A tool of the 3D view (see the module docstring), working for ``host``.
 
     What the window asks of every tool is here, so it never checks a tool's
     class: the mouse (``press``, ``move``, ``release``), the keys (``finish``,
-    ``cancel``, ``back``), a new result (``on_result``) and the darts panel's
-    editors (``on_plane_values``, ``on_yarn_choice``).
+    ``cancel``, ``back``), a new result (``on_result``), its editor's reports
+    (``on_editor``) and an item of the document to edit (``edit``).
+
+    A tool declares what it draws and edits:
+
+    layers : {name: :class:`~flatweave.app.overlay.LayerStyle`}, the 3D view's
+        overlay layers the tool draws (``draw``); the window clears them when
+        the tool ends, so a tool never leaves a drawing behind
+    editor : the :class:`~flatweave.app.tooleditors.ToolEditor` class the darts
+        panel shows for it (``show_editor``), or None
+    edits : the kinds of document item it edits (``"plane dart"``, ``"curve
+        dart"``, ``"yarn"``): the panel's Edit on such an item makes this tool
+        and calls ``edit(index)`` (an ``implied`` tool is made for the selected
+        item instead, as ``cls(host, index)``, when ``wants(document, index)``)
     """
 
     name = "tool"
     implied = False     # comes and goes with the dart selection (not chosen): Finish and Cancel do not apply
     takes_back = False  # Backspace takes back a step
+    layers: dict[str, LayerStyle] = {"preview": PREVIEW, "handles": HANDLES}
+    editor: type | None = None
+    edits: tuple[str, ...] = ()
 
     def __init__(self, host: ToolHost):
         self.host = host
@@ -166,11 +185,39 @@ class Tool:
     def on_result(self) -> None:
         """The document's result changed (a solve ended, or undo)."""
 
-    def on_plane_values(self, plane, box) -> None:
-        """Numbers typed in the darts panel's plane editor."""
+    def on_editor(self, values: dict) -> None:
+        """What the designer changed in the tool's editor (keys are the editor's)."""
 
-    def on_yarn_choice(self, kind, angle_deg, k) -> None:
-        """A choice in the darts panel's yarn editor."""
+    def edit(self, index: int) -> None:
+        """Load item ``index`` of a kind in ``edits`` for editing (called after ``activate``)."""
+
+    @classmethod
+    def wants(cls, document, index: int) -> bool:
+        """Whether an ``implied`` tool is made for selected item ``index``."""
+        return False
+
+    # -------------------------------------------------------------- drawing and the editor
+    def draw(self, name: str, lines=(), points=None, render: bool = True) -> None:
+        """Draw layer ``name`` (one of ``layers``): polylines (k, 3) each and points (j, 3)."""
+        self.view.draw(name, self.layers[name], lines, points, render)
+
+    def draw_preview(self, curve=None, points=None, render: bool = True) -> None:
+        """The preview: what the tool would make (a curve (k, 3)) and its points (j, 3); no arguments clear it."""
+        self.draw("preview", [] if curve is None else [curve], points, render)
+
+    def draw_handles(self, points=None, render: bool = True) -> None:
+        """Draggable handles at ``points`` (h, 3); None hides them."""
+        self.draw("handles", (), points, render)
+
+    def clear_drawing(self) -> None:
+        """Empty every layer of the tool's."""
+        self.view.clear_layers(self.layers, render=True)
+
+    def show_editor(self) -> None:
+        self.host.show_editor(self)
+
+    def hide_editor(self) -> None:
+        self.host.hide_editor(self)
 
     def _rim_point(self, x: float, y: float):
         """The visible rim point within SNAP_PIXELS of (x, y): ((u, v), xyz), or None."""
@@ -239,7 +286,7 @@ class PointsTool(Tool):
         self.placed.clear()
         self.pixels.clear()
         self.preview = None
-        self.view.set_preview()
+        self.draw_preview()
 
 
 # ---------------------------------------------------------------------- curve darts
@@ -323,7 +370,7 @@ class CurveDartTool(PointsTool):
             except SettingsError as exc:
                 self.hint(str(exc))
                 curve = pts
-        self.view.set_preview(curve, pts)
+        self.draw_preview(curve, pts)
 
     def finish(self) -> bool:
         if len(self.handles) < 2:
@@ -362,6 +409,12 @@ class HandleEditor(Tool):
 
     name = "dart points"
     implied = True
+    edits = ("curve dart",)
+
+    @classmethod
+    def wants(cls, document, index: int) -> bool:
+        dart = document.project.settings.darts[index]
+        return dart.editable_points and dart.visible
 
     def __init__(self, host, index: int):
         super().__init__(host)
@@ -374,11 +427,12 @@ class HandleEditor(Tool):
         self.previewing = False  # a preview of an uncommitted position was asked for
 
     def activate(self) -> None:
-        self.view.set_handles(self.surface.points(self.handles))
+        self.draw_handles(self.surface.points(self.handles))
+        self.hint(f"{self.dart.name}: drag its points (the squares) on the surface.")
 
     def deactivate(self) -> None:
-        self.view.set_handles()
-        self.view.set_preview()
+        self.draw_handles()
+        self.draw_preview()
         self._end_preview()
 
     def _end_preview(self) -> None:
@@ -416,8 +470,8 @@ class HandleEditor(Tool):
             dart, curve = None, pts
         else:
             curve = self.surface.points(dart.uv)
-        self.view.set_handles(pts, render=False)
-        self.view.set_preview(curve, None)
+        self.draw_handles(pts, render=False)
+        self.draw_preview(curve, None)
         if dart is not None:
             self.previewing = True
             self.host.preview_dart(self.index, dart)
@@ -440,11 +494,11 @@ class HandleEditor(Tool):
         except SettingsError as exc:
             self.hint(f"Cannot move the point: {exc}")
             self.handles = dart_handles(self.surface, d)
-            self.view.set_handles(self.surface.points(self.handles))
-            self.view.set_preview()
+            self.draw_handles(self.surface.points(self.handles))
+            self.draw_preview()
             self._end_preview()
             return False
-        self.view.set_preview()
+        self.draw_preview()
         self.previewing = False  # the edit takes the preview over (or re-runs)
         if self.document.replace_dart(self.index, new, label=f"Move {d.name}") is None:
             self.host.end_preview()  # the same dart as before: no edit, nothing to answer
@@ -458,10 +512,12 @@ class PlaneDartTool(Tool):
     replaces dart ``index`` when editing one."""
 
     name = "plane dart"
+    editor = PlaneEditor
+    edits = ("plane dart",)
 
-    def __init__(self, host, index: int | None = None):
+    def __init__(self, host):
         super().__init__(host)
-        self.index = index
+        self.index: int | None = None  # the dart edited, or None for a new one
         s = self.surface
         (u0, u1), (v0, v1) = s.domain
         g = np.linspace(0, 1, 33)
@@ -470,25 +526,27 @@ class PlaneDartTool(Tool):
         lo, hi = xyz.min(axis=0), xyz.max(axis=0)
         pad = 0.05 * float(np.linalg.norm(hi - lo))
         self.bounds = np.ravel(np.column_stack([lo - pad, hi + pad]))  # the widgets' room
-        if index is not None:
-            d = self.document.project.settings.darts[index]
-            self.plane = tuple(float(x) for x in d.plane)
-            self.box = None if d.box is None else tuple(float(x) for x in d.box)
-            self.dart_name = d.name
-        else:
-            # across the longest extent, through the middle; the box keeps the lower 60 % of the
-            # next longest, so the dart starts at the rim and ends inside (move both to taste)
-            order = np.argsort(-(hi - lo), kind="stable")
-            axis = np.zeros(3)
-            axis[order[0]] = 1.0
-            centre = 0.5 * (lo + hi)
-            self.plane = (*(float(a) for a in axis), float(-axis @ centre))
-            blo, bhi = lo - 0.01 * pad, hi + 0.01 * pad
-            bhi[order[1]] = lo[order[1]] + 0.6 * (hi - lo)[order[1]]
-            self.box = tuple(float(b) for b in np.ravel(np.column_stack([blo, bhi])))
-            self.dart_name = unique_name("plane dart", (d.name for d in self.document.project.settings.darts))
+        # across the longest extent, through the middle; the box keeps the lower 60 % of the
+        # next longest, so the dart starts at the rim and ends inside (move both to taste)
+        order = np.argsort(-(hi - lo), kind="stable")
+        axis = np.zeros(3)
+        axis[order[0]] = 1.0
+        centre = 0.5 * (lo + hi)
+        self.plane = (*(float(a) for a in axis), float(-axis @ centre))
+        blo, bhi = lo - 0.01 * pad, hi + 0.01 * pad
+        bhi[order[1]] = lo[order[1]] + 0.6 * (hi - lo)[order[1]]
+        self.box = tuple(float(b) for b in np.ravel(np.column_stack([blo, bhi])))
+        self.dart_name = unique_name("plane dart", (d.name for d in self.document.project.settings.darts))
         self.dart: PlaneDart | None = None
         self.curve = np.zeros((0, 3))
+
+    def edit(self, index: int) -> None:
+        """Move plane dart ``index``: its plane and box in the widgets and the editor; Apply replaces it."""
+        d = self.document.project.settings.darts[index]
+        self.index, self.dart_name = index, d.name
+        self.set_values(tuple(float(x) for x in d.plane), None if d.box is None else tuple(float(x) for x in d.box))
+        self.hint(f"Moving {d.name}: drag the plane and the box, or type the numbers; Apply or Enter replaces "
+                  "the dart, Esc cancels.")
 
     # -------------------------------------------------------------- state
     def activate(self) -> None:
@@ -503,8 +561,8 @@ class PlaneDartTool(Tool):
     def deactivate(self) -> None:
         self.view.hide_plane_widget()
         self.view.hide_box_widget()
-        self.view.set_preview()
-        self.host.editors.show_plane_editor(None)
+        self.draw_preview()
+        self.hide_editor()
 
     def _origin_normal(self):
         p = np.asarray(self.plane, dtype=float)
@@ -523,8 +581,8 @@ class PlaneDartTool(Tool):
         self.box = tuple(float(b) for b in bounds)
         self._changed(from_widgets=True)
 
-    def on_plane_values(self, plane, box) -> None:
-        self.set_values(plane, box)
+    def on_editor(self, values: dict) -> None:
+        self.set_values(values["plane"], values["box"])
 
     def set_values(self, plane, box) -> bool:
         """Numbers typed in the panel: the plane (a, b, c, d) and the box (6) or None."""
@@ -532,7 +590,7 @@ class PlaneDartTool(Tool):
             dart = PlaneDart(tuple(plane), None if box is None else tuple(box), name=self.dart_name)
         except SettingsError as exc:
             self.hint(str(exc))
-            self.host.editors.show_plane_editor(self)
+            self.show_editor()
             return False
         self.plane, self.box = dart.plane, dart.box
         origin, normal = self._origin_normal()
@@ -556,10 +614,10 @@ class PlaneDartTool(Tool):
         s = self.surface
         uv = self.dart.curve_uv(s, PREVIEW_GRID)
         self.curve = s.points(uv) if len(uv) >= 2 else np.zeros((0, 3))
-        self.view.set_preview(self.curve if len(self.curve) else None)
+        self.draw_preview(self.curve if len(self.curve) else None)
         if not len(self.curve):
             self.hint("The plane does not meet the surface inside the box.")
-        self.host.editors.show_plane_editor(self)
+        self.show_editor()
 
     # -------------------------------------------------------------- commit
     def finish(self) -> bool:
@@ -610,6 +668,9 @@ class YarnTool(Tool):
     it about that normal."""
 
     name = "yarn"
+    editor = YarnEditor
+    edits = ("yarn",)
+    layers = {**Tool.layers, "picked yarn": LayerStyle("#00a0d0", width=6.0, size=16.0)}
 
     def __init__(self, host):
         super().__init__(host)
@@ -630,9 +691,9 @@ class YarnTool(Tool):
 
     def deactivate(self) -> None:
         self.pending = None
-        self.view.set_picked_yarn()
-        self.view.set_preview()
-        self.host.editors.show_yarn_editor(None)
+        self.draw("picked yarn")
+        self.draw_preview()
+        self.hide_editor()
 
     def press(self, x, y, double):
         r = self.result
@@ -653,8 +714,8 @@ class YarnTool(Tool):
         self.pick(int(node), kind)
         return True
 
-    def on_yarn_choice(self, kind, angle_deg, k) -> None:
-        self.set_choice(kind, angle_deg, k)
+    def on_editor(self, values: dict) -> None:
+        self.set_choice(**values)
 
     def on_result(self) -> None:
         """A new result (a solve ended, or undo): the picked node is found again
@@ -719,7 +780,7 @@ class YarnTool(Tool):
         if p is None or r is None:
             return
         nodes = yarn_nodes(r.mesh, p.kind, p.index)
-        self.view.set_picked_yarn(r.xyz[nodes], r.xyz[p.node], render=False)
+        self.draw("picked yarn", [r.xyz[nodes]], r.xyz[p.node], render=False)
         normal = self.surface.evaluate(r.uv[p.node:p.node + 1]).normal[0]
         self.plane = None
         try:
@@ -728,11 +789,11 @@ class YarnTool(Tool):
             base = p.base if p.base is not None else yarn_plane(r.xyz[nodes[[0, -1]]], normal)
             self.plane = turn_plane(base, r.xyz[p.node], normal, p.angle_deg)
             uv = PlaneDart(self.plane).curve_uv(self.surface, PREVIEW_GRID)
-            self.view.set_preview(self.surface.points(uv) if len(uv) >= 2 else None)
+            self.draw_preview(self.surface.points(uv) if len(uv) >= 2 else None)
         except SettingsError as exc:
-            self.view.set_preview()
+            self.draw_preview()
             self.hint(str(exc))
-        self.host.editors.show_yarn_editor(self)
+        self.show_editor()
 
     def finish(self) -> bool:
         p = self.pending
@@ -749,18 +810,18 @@ class YarnTool(Tool):
         else:
             self.document.replace_yarn(p.replaces, yarn)
         self.pending = None
-        self.view.set_picked_yarn()
-        self.view.set_preview()
-        self.host.editors.show_yarn_editor(None)
+        self.draw("picked yarn")
+        self.draw_preview()
+        self.hide_editor()
         self.hint(f"Constrained the {yarn.label()}. Click another node, or Esc.")
         return True
 
     def cancel(self) -> None:
         if self.pending is not None:
             self.pending = None
-            self.view.set_picked_yarn()
-            self.view.set_preview()
-            self.host.editors.show_yarn_editor(None)
+            self.draw("picked yarn")
+            self.draw_preview()
+            self.hide_editor()
         else:
             self.host.drop_tool()
 
@@ -821,7 +882,7 @@ class RegionTool(PointsTool):
 
     def deactivate(self) -> None:
         self.cancel(quiet=True)
-        self.view.set_handles()
+        self.draw_handles()
         self._end_preview()
 
     def on_result(self) -> None:
@@ -842,7 +903,7 @@ class RegionTool(PointsTool):
 
     def _show_handles(self) -> None:
         loops = self._drawn_loops()
-        self.view.set_handles(np.vstack(loops) if loops else None)
+        self.draw_handles(np.vstack(loops) if loops else None)
 
     def _handle_at(self, x, y) -> tuple[int, int] | None:
         """(loop, point) of the drawn region's point within HANDLE_PIXELS of (x, y), or None."""
@@ -967,15 +1028,15 @@ class RegionTool(PointsTool):
             curve = self.surface.points(np.vstack([loop, loop[:1]]))
             self.previewing = True
             self.host.preview_settings(region=region, seed=seed)
-        self.view.set_handles(pts, render=False)
-        self.view.set_preview(curve, None)
+        self.draw_handles(pts, render=False)
+        self.draw_preview(curve, None)
         return True
 
     def release(self, x, y):
         if self.grabbed is None:
             return False
         spec, self.grabbed, self.dragged = self.dragged, None, None
-        self.view.set_preview()
+        self.draw_preview()
         if spec is None:
             return True  # a click on a point: picked (Delete removes it)
         if not self._commit(spec, "Move region point"):
@@ -1058,7 +1119,7 @@ class RegionTool(PointsTool):
                 curve = self.surface.points(np.vstack([loop, loop[:1]]))
             except SettingsError as exc:
                 self.hint(str(exc))
-        self.view.set_preview(curve, pts)
+        self.draw_preview(curve, pts)
 
     def finish(self) -> bool:
         if len(self.placed) < 3:
@@ -1099,6 +1160,7 @@ class SeedTool(Tool):
     settings edit (seed, and angle when dragged)."""
 
     name = "seed"
+    layers = {"weft arrow": LayerStyle("#c0392b", width=4.0), "warp arrow": LayerStyle("#1f5fbf", width=4.0)}
 
     def __init__(self, host):
         super().__init__(host)
@@ -1113,7 +1175,7 @@ class SeedTool(Tool):
 
     def deactivate(self) -> None:
         self.seed = self.angle = self.start = None
-        self.view.set_rosette()
+        self.clear_drawing()
 
     def on_result(self) -> None:
         if self.seed is None:
@@ -1126,7 +1188,9 @@ class SeedTool(Tool):
     def _draw(self, seed=None, angle=None) -> None:
         s = self.document.project.settings
         r = rosette(self.surface, s.seed if seed is None else seed, s.angle_deg if angle is None else angle)
-        self.view.set_rosette(rosette_arrows(r, self._length()))
+        weft, warp = rosette_arrows(r, self._length())
+        self.draw("weft arrow", [weft], render=False)
+        self.draw("warp arrow", [warp])
 
     def press(self, x, y, double):
         hit = pick_surface(self.surface, self.view, x, y)

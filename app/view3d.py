@@ -24,6 +24,7 @@ from vtkmodules.vtkRenderingCore import (vtkActor2D, vtkCellPicker, vtkColorTran
                                          vtkPolyDataMapper2D)
 
 from flatweave.app.camera import fit_view, home_view
+from flatweave.app.overlay import PREVIEW, LayerStyle
 from flatweave.app.viewbase import SCALE_TITLES, ViewBase, ViewOptions, polyline_cells, replace_geometry, text_size
 
 __all__ = ["SurfaceView", "FaceView", "MeshLoopView", "grid_faces", "grid_boundary", "bar_labels"]
@@ -32,12 +33,8 @@ SURFACE_COLOR = "#d8c3a5"
 EDGE_COLOR = "#3b3b3b"
 DART_COLOR = "#111111"
 SELECTED_COLOR = "#d4145a"
-PREVIEW_COLOR = "#ff7f00"
 YARN_COLOR = "#6a3d9a"
-PICK_COLOR = "#00a0d0"
 LOOP_COLOR = "#000000"
-ROSETTE_COLORS = ("#c0392b", "#1f5fbf")  # the rosette's weft and warp arrows
-KEPT_COLOR = "#808080"  # the loops of regions kept beside the active one
 FAINT_COLOR = "#c8c8c8"
 CHOSEN_COLOR = "#e08a1e"
 MESH_COLOR = "#b9c4cf"  # the fitted-to mesh drawn plain (beside the surface)
@@ -50,9 +47,6 @@ TEXT_COLOR = (0.1, 0.1, 0.1)
 TOOL_PRIORITY = 10.0  # above the camera style (0) and VTK's widgets (0.5): tools see clicks first
 VIEW_ANGLE = 30.0  # degrees, vertical (VTK's default)
 WHEEL_ZOOM = 1.2  # per wheel step (VTK's trackball style dollies by 1.1 ** 2)
-HANDLE_FILL = (1.0, 1.0, 1.0)
-HANDLE_EDGE = (0.07, 0.07, 0.07)
-HANDLE_SIZE, HANDLE_EDGE_SIZE = 11.0, 17.0  # pixels: white squares ringed in black, over everything
 BAR_MARGIN = 8  # pixels between a colour bar and the view's right edge
 BAR_PAD = 10  # pixels round a bar's text inside its frame
 BAR_RATIO = 0.26  # of a bar's frame width: the colour swatch
@@ -125,6 +119,41 @@ def bar_labels(lo: float, hi: float, gap: float = 0.09) -> list[float]:
     return sorted(kept)
 
 
+class _Layer:
+    """A named overlay layer's data and actors (see ``SurfaceView.draw``)."""
+
+    def __init__(self, plotter, style: LayerStyle):
+        self.style = style
+        self.lines, self.points = pv.PolyData(), pv.PolyData()
+        self.line_actor = plotter.add_mesh(self.lines, color=style.color, line_width=style.width, render=False,
+                                           reset_camera=False, pickable=False)
+        if style.marker == "square":
+            # 2D squares placed at world points, drawn after the 3D scene: always visible
+            self.point_actors = []
+            for colour, size in ((style.edge, style.edge_size), (style.color, style.size)):
+                world = vtkCoordinate()
+                world.SetCoordinateSystemToWorld()
+                mapper = vtkPolyDataMapper2D()
+                mapper.SetInputData(self.points)
+                mapper.SetTransformCoordinate(world)
+                actor = vtkActor2D()
+                actor.SetMapper(mapper)
+                actor.GetProperty().SetColor(*pv.Color(colour).float_rgb)
+                actor.GetProperty().SetPointSize(size)
+                actor.SetPickable(False)
+                plotter.renderer.AddViewProp(actor)
+                self.point_actors.append(actor)
+        else:
+            self.point_actors = [plotter.add_mesh(self.points, color=style.color, point_size=style.size,
+                                                  render_points_as_spheres=True, render=False, reset_camera=False,
+                                                  pickable=False)]
+
+    def remove(self, plotter) -> None:
+        plotter.remove_actor(self.line_actor, render=False)
+        for actor in self.point_actors:
+            plotter.renderer.RemoveViewProp(actor)
+
+
 class SurfaceView(ViewBase):
     """The 3D view. ``set_surface`` shows a new surface (and clears the mesh);
     ``show_frame`` draws a frame; ``restyle`` applies new view options."""
@@ -150,29 +179,7 @@ class SurfaceView(ViewBase):
         self._darts, self._dart_actor = overlay(DART_COLOR, 3.0)
         self._selected, self._selected_actor = overlay(SELECTED_COLOR, 5.0)
         self._yarns, self._yarns_actor = overlay(YARN_COLOR, 4.0)
-        self._pick, self._pick_actor = overlay(PICK_COLOR, 6.0)
-        self._pick_node, self._pick_node_actor = overlay(PICK_COLOR, points=True, size=16.0)
-        self._preview, self._preview_actor = overlay(PREVIEW_COLOR, 5.0)
-        self._preview_points, self._preview_points_actor = overlay(PREVIEW_COLOR, points=True, size=13.0)
-        self._rosette = [overlay(c, 4.0) for c in ROSETTE_COLORS]  # the seed's weft and warp arrows
-        self._kept, self._kept_actor = overlay(KEPT_COLOR, 2.0)  # candidate regions kept beside the active one
-        # a curve dart's handles: 2D squares (white, ringed in black) drawn over everything,
-        # unlike the round red and blue dart nodes among which they sit
-        self._handles = pv.PolyData()
-        self._handle_actors = []
-        for colour, size in ((HANDLE_EDGE, HANDLE_EDGE_SIZE), (HANDLE_FILL, HANDLE_SIZE)):
-            world = vtkCoordinate()
-            world.SetCoordinateSystemToWorld()
-            mapper = vtkPolyDataMapper2D()
-            mapper.SetInputData(self._handles)
-            mapper.SetTransformCoordinate(world)
-            actor = vtkActor2D()
-            actor.SetMapper(mapper)
-            actor.GetProperty().SetColor(*colour)
-            actor.GetProperty().SetPointSize(size)
-            actor.SetPickable(False)
-            p.renderer.AddViewProp(actor)
-            self._handle_actors.append(actor)
+        self._layers: dict[str, _Layer] = {}  # named overlay layers (draw), made on first use
         self.dart_curves: list = []  # the document's darts as drawn: (k, 3) each, or None when hidden
         self.selected_dart: int | None = None
         self.plane_widget: vtkImplicitPlaneWidget | None = None
@@ -592,11 +599,7 @@ class SurfaceView(ViewBase):
         """Remove darts, yarns, tool previews and widgets (they belonged to another surface)."""
         self.set_darts([], [], None, render=False)
         self.set_yarns([], render=False)
-        self.set_preview(render=False)
-        self.set_handles(render=False)
-        self.set_rosette(render=False)
-        self.set_kept_regions(render=False)
-        self.set_picked_yarn(render=False)
+        self.clear_layers()
         self.hide_plane_widget()
         self.hide_box_widget()
 
@@ -623,78 +626,55 @@ class SurfaceView(ViewBase):
         if render:
             self.render()
 
-    # ------------------------------------------------------------------ what the tools draw
-    def set_preview(self, curve=None, points=None, render: bool = True) -> None:
-        """The tool's preview: a curve on the surface (k, 3) and marked points (j, 3); None clears."""
-        pts, cells = polyline_cells([] if curve is None else [curve], closed=False)
-        replace_geometry(self._preview, pts, lines=cells)
-        replace_geometry(self._preview_points, np.zeros((0, 3)) if points is None else points, verts=True)
+    # ------------------------------------------------------------------ overlay layers
+    def draw(self, name: str, style: LayerStyle, lines=(), points=None, render: bool = True) -> None:
+        """Draw overlay layer ``name`` in ``style``: polylines ``lines`` ((k, 3)
+        each; closed loops when ``style.closed``) and marked ``points`` ((j, 3)).
+        A call with neither clears the layer. A layer is made on its first
+        draw and restyled when a later draw brings another style; the view
+        knows nothing of who draws it (tools, dialogs, the presenter)."""
+        layer = self._layers.get(name)
+        if layer is None or layer.style != style:
+            if layer is not None:
+                layer.remove(self._plotter)
+            layer = self._layers[name] = _Layer(self._plotter, style)
+        pts, cells = polyline_cells([np.asarray(c, dtype=float).reshape(-1, 3) for c in lines], closed=style.closed)
+        replace_geometry(layer.lines, pts, lines=cells)
+        replace_geometry(layer.points, np.zeros((0, 3)) if points is None else np.reshape(points, (-1, 3)),
+                         verts=True)
         if render:
             self.render()
 
-    @property
-    def preview_curve(self) -> np.ndarray:
-        """(k, 3) the preview curve drawn now (empty when none)."""
-        return np.array(self._preview.points).reshape(-1, 3)
-
-    @property
-    def preview_points(self) -> np.ndarray:
-        return np.array(self._preview_points.points).reshape(-1, 3)
-
-    def set_handles(self, points=None, render: bool = True) -> None:
-        """A curve dart's handles (h, 3) as draggable squares; None hides them."""
-        replace_geometry(self._handles, np.zeros((0, 3)) if points is None else points, verts=True)
+    def clear_layers(self, names=None, render: bool = False) -> None:
+        """Empty the named layers (None: every layer)."""
+        for name in list(self._layers) if names is None else names:
+            if name in self._layers:
+                self.draw(name, self._layers[name].style, render=False)
         if render:
             self.render()
 
-    def set_rosette(self, arrows=None, render: bool = True) -> None:
-        """The seed's rosette: two arrows (weft, warp), polylines (k, 3) each; None hides them."""
-        for k, (poly, _actor) in enumerate(self._rosette):
-            line = [] if arrows is None else [arrows[k]]
-            pts, cells = polyline_cells(line, closed=False)
-            replace_geometry(poly, pts, lines=cells)
-        if render:
-            self.render()
+    def layer_lines(self, name: str) -> np.ndarray:
+        """(k, 3) the points of layer ``name``'s lines drawn now (empty when none)."""
+        layer = self._layers.get(name)
+        return np.zeros((0, 3)) if layer is None else np.array(layer.lines.points).reshape(-1, 3)
 
-    def set_kept_regions(self, loops=None, render: bool = True) -> None:
-        """The loops of the candidate regions shown beside the active one ((k, 3) each, closed); None: none."""
-        pts, cells = polyline_cells([] if loops is None else list(loops), closed=True)
-        replace_geometry(self._kept, pts, lines=cells)
-        if render:
-            self.render()
+    def layer_points(self, name: str) -> np.ndarray:
+        """(j, 3) layer ``name``'s marked points drawn now (empty when none)."""
+        layer = self._layers.get(name)
+        return np.zeros((0, 3)) if layer is None else np.array(layer.points.points).reshape(-1, 3)
 
-    @property
-    def kept_region_points(self) -> np.ndarray:
-        return np.array(self._kept.points).reshape(-1, 3)
-
-    @property
-    def rosette_arrows(self) -> list[np.ndarray]:
-        """The rosette's arrows drawn now, weft then warp ((k, 3) each; empty when hidden)."""
-        return [np.array(poly.points).reshape(-1, 3) for poly, _actor in self._rosette]
-
-    @property
-    def handle_points(self) -> np.ndarray:
-        return np.array(self._handles.points).reshape(-1, 3)
-
-    @property
-    def handle_style(self) -> dict:
-        """How the handles are drawn: ``size`` and ``edge_size`` (pixels), ``fill``
-        and ``edge`` colours, ``overlay`` (drawn over the 3D scene), ``round``."""
-        edge, fill = (a.GetProperty() for a in self._handle_actors)
-        return {"size": fill.GetPointSize(), "edge_size": edge.GetPointSize(), "fill": tuple(fill.GetColor()),
-                "edge": tuple(edge.GetColor()), "overlay": True, "round": False}
-
-    def set_picked_yarn(self, polyline=None, node=None, render: bool = True) -> None:
-        """Highlight a picked yarn (its nodes in order, (k, 3)) and the picked node (3,)."""
-        pts, cells = polyline_cells([] if polyline is None else [polyline], closed=False)
-        replace_geometry(self._pick, pts, lines=cells)
-        replace_geometry(self._pick_node, np.zeros((0, 3)) if node is None else np.reshape(node, (1, 3)), verts=True)
-        if render:
-            self.render()
-
-    @property
-    def picked_yarn_points(self) -> np.ndarray:
-        return np.array(self._pick.points).reshape(-1, 3)
+    def layer_look(self, name: str) -> dict:
+        """How layer ``name``'s points are drawn, read back from VTK: ``size``
+        (pixels), ``fill`` colour, ``overlay`` (over the 3D scene), ``round``;
+        for square markers also ``edge_size`` and ``edge`` (the ring)."""
+        layer = self._layers[name]
+        fill = layer.point_actors[-1].GetProperty()
+        look = {"size": fill.GetPointSize(), "fill": tuple(fill.GetColor()), "overlay": layer.style.marker == "square",
+                "round": layer.style.marker != "square"}
+        if layer.style.marker == "square":
+            edge = layer.point_actors[0].GetProperty()
+            look.update(edge_size=edge.GetPointSize(), edge=tuple(edge.GetColor()))
+        return look
 
     # ------------------------------------------------------------------ plane dart widgets
     def show_plane_widget(self, origin, normal, bounds, on_change: Callable) -> None:
@@ -931,10 +911,10 @@ class MeshLoopView(FaceView):
         super().__init__(parent)
         self.on_point: Callable[[np.ndarray], None] | None = None
         self._loop = pv.PolyData()
-        self._loop_actor = self._plotter.add_mesh(self._loop, color=PREVIEW_COLOR, line_width=4, render=False,
+        self._loop_actor = self._plotter.add_mesh(self._loop, color=PREVIEW.color, line_width=4, render=False,
                                                   reset_camera=False, pickable=False)
         self._loop_points = pv.PolyData()
-        self._loop_points_actor = self._plotter.add_mesh(self._loop_points, color=PREVIEW_COLOR, point_size=12,
+        self._loop_points_actor = self._plotter.add_mesh(self._loop_points, color=PREVIEW.color, point_size=12,
                                                          render_points_as_spheres=True, render=False,
                                                          reset_camera=False, pickable=False)
         self.loop = np.zeros((0, 3))

@@ -207,7 +207,7 @@ def test_several_candidate_regions_one_active(make_window, qtbot, tmp_path):
     assert panel.isVisible() and panel.names() == ["region"] and not panel.use.isEnabled()
     panel.keep.click()
     assert panel.names() == ["region", "region 2"] and doc.undo_label == "Keep region"
-    assert len(view.kept_region_points) > 50  # the kept copy drawn on the surface (under the active one)
+    assert len(view.layer_lines("kept regions")) > 50  # the kept copy drawn on the surface (under the active one)
     # draw a smaller region elsewhere: it replaces the active one, the copy stays
     from flatweave.app.tools import RegionTool
     if not isinstance(win.tool, RegionTool):
@@ -234,7 +234,7 @@ def test_several_candidate_regions_one_active(make_window, qtbot, tmp_path):
     # hide the kept one: nothing drawn, no solve
     revision, result = doc.revision, p.result
     panel.list.item(1).setCheckState(Qt.CheckState.Unchecked)
-    assert doc.undo_label == "Hide small ply" and len(view.kept_region_points) == 0
+    assert doc.undo_label == "Hide small ply" and len(view.layer_lines("kept regions")) == 0
     assert doc.revision == revision + 1 and win.project.result is result
     # saved and reopened: names, regions and visibility come back
     assert win.save_to(tmp_path / "plies")

@@ -45,7 +45,7 @@ def test_draw_a_region_and_a_hole_undo_and_reopen(make_window, qtbot, tmp_path):
     for k, (x, y) in enumerate(pixels):
         click(qtbot, view, x, y)
         assert len(win.tool.points) == k + 1, win.last_hint
-    assert len(view.preview_curve) > 50  # the closed loop on the surface, as drawn so far
+    assert len(view.layer_lines("preview")) > 50  # the closed loop on the surface, as drawn so far
     assert doc.project is before  # nothing is an edit before the loop closes
     seen = view.view_direction() / np.linalg.norm(view.view_direction())
     rays = [ray_sphere(view, x, y) for x, y in pixels]
@@ -67,7 +67,7 @@ def test_draw_a_region_and_a_hole_undo_and_reopen(make_window, qtbot, tmp_path):
     assert r.metrics["area_3d"] < 0.6 * before.result.metrics["area_3d"]
 
     # drag a point outwards: the piece re-solves larger; undo puts it back
-    assert len(view.handle_points) == 6  # the drawn points, to drag
+    assert len(view.layer_points("handles")) == 6  # the drawn points, to drag
     area0 = r.metrics["area_3d"]
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
         drag(qtbot, view, pixel(view, drawn.outer[0]), pixel(view, ring((1, 1, 1), 33, 6)[0]))

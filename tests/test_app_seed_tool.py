@@ -30,7 +30,7 @@ def test_pick_the_seed_and_the_weft_direction(make_window, qtbot):
     view, doc, s = win.view, win.document, win.surface
     win.actions["tool_seed"].trigger()
     assert win.tool.name == "seed"
-    arrows = view.rosette_arrows
+    arrows = [view.layer_lines("weft arrow"), view.layer_lines("warp arrow")]
     seed_xyz = s.points(np.array([s.domain[:, 0] + np.array(win.project.settings.seed)
                                   * (s.domain[:, 1] - s.domain[:, 0])]))[0]
     assert len(arrows) == 2 and all(len(a) == 5 for a in arrows)
@@ -56,7 +56,7 @@ def test_pick_the_seed_and_the_weft_direction(make_window, qtbot):
     dom = s.domain
     seed_uv = dom[:, 0] + np.array(p.settings.seed) * (dom[:, 1] - dom[:, 0])
     np.testing.assert_allclose(s.points(seed_uv[None])[0], under, atol=1e-7)
-    assert np.linalg.norm(view.rosette_arrows[0][0] - under) < 0.01
+    assert np.linalg.norm(view.layer_lines("weft arrow")[0] - under) < 0.01
 
     # a drag from the seed turns the weft towards the cursor
     aim = ring(CENTRE, 20, 6)[4]
@@ -67,7 +67,7 @@ def test_pick_the_seed_and_the_weft_direction(make_window, qtbot):
     q = win.project
     assert doc.undo_label == "Seed and weft direction" and q.result_is_current
     np.testing.assert_allclose(reference_direction(s, q.settings), tangent(under, aimed), atol=3e-3)
-    np.testing.assert_allclose(tangent(under, view.rosette_arrows[0][1]), tangent(under, aimed), atol=3e-3)
+    np.testing.assert_allclose(tangent(under, view.layer_lines("weft arrow")[1]), tangent(under, aimed), atol=3e-3)
     assert abs(q.settings.angle_deg - p.settings.angle_deg) > 5
     doc.undo()
     assert win.project.settings.angle_deg == p.settings.angle_deg

@@ -32,8 +32,8 @@ def test_suggest_preview_accept_and_undo(qtbot, make_window):
     assert "energy -" in box.list.item(0).text()
 
     # the preview: the dart on the surface, its re-solved piece in both views
-    assert len(win.view.preview_curve) == len(first.dart.uv)
-    assert np.allclose(win.view.preview_curve, before.surface.points(first.dart.uv))
+    assert len(win.view.layer_lines("suggested dart")) == len(first.dart.uv)
+    assert np.allclose(win.view.layer_lines("suggested dart"), before.surface.points(first.dart.uv))
     assert win.presenter.frame.mesh.n_nodes == first.result.mesh.n_nodes
     assert not np.array_equal(win.presenter.frame.pattern.xy, shown_before) or \
         len(win.presenter.frame.pattern.darts) == 1
@@ -51,7 +51,7 @@ def test_suggest_preview_accept_and_undo(qtbot, make_window):
     assert after.result.metrics["energy"] == first.metrics["energy"]
     qtbot.wait(400)  # longer than the re-run delay: no solve starts
     assert win.runner.state == runs_before == "idle"
-    assert win.view.preview_curve.size == 0
+    assert win.view.layer_lines("suggested dart").size == 0
 
     assert win.document.undo()
     assert win.document.project is before

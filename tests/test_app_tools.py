@@ -18,6 +18,7 @@ from PySide6.QtCore import QPoint, Qt
 from flatweave.method.darts import DartSet, PlaneDart, curve_dart_through
 from flatweave.method.energy import yarn_nodes
 from flatweave.document.project import project_problems, project_to_dict
+from flatweave.app.tooleditors import PlaneEditor, YarnEditor
 
 from tests.test_app_run import RUN_TIMEOUT_MS, run_to_end, small_project
 
@@ -131,8 +132,8 @@ def test_a_three_click_curve_dart_lies_where_the_clicks_project_and_cuts(each_wi
     for k, (x, y) in enumerate(pixels):
         click(qtbot, view, x, y)
         assert len(win.tool.handles) == k + 1, win.last_hint
-        assert len(view.preview_points) == k + 1  # the curve grows on the surface as it is drawn
-    assert len(view.preview_curve) > 10
+        assert len(view.layer_points("preview")) == k + 1  # the curve grows on the surface as it is drawn
+    assert len(view.layer_lines("preview")) > 10
     assert doc.project is before  # nothing is an edit before Enter
     qtbot.keyClick(view.widget, Qt.Key.Key_Return)
     assert len(win.project.settings.darts) == 1
@@ -143,7 +144,7 @@ def test_a_three_click_curve_dart_lies_where_the_clicks_project_and_cuts(each_wi
     fresh = curve_dart_through(win.surface, dart.handles, view.view_direction(), name=dart.name)
     np.testing.assert_array_equal(dart.uv, fresh.uv)
     assert dart.view_dir == fresh.view_dir
-    assert len(view.preview_curve) == 0
+    assert len(view.layer_lines("preview")) == 0
 
     # each point is where its pixel's viewing ray meets the sphere, and the curve runs through them
     s = win.surface
@@ -182,7 +183,7 @@ def test_a_click_that_misses_the_surface_adds_nothing(solved, qtbot):
     corner = (8, 8)  # the view's bottom left corner: off the octant
     assert ray_sphere(view, *corner, octant_only=True) is None
     click(qtbot, view, *corner)
-    assert win.tool.handles == [] and len(view.preview_points) == 0
+    assert win.tool.handles == [] and len(view.layer_points("preview")) == 0
     assert "missed the surface" in win.last_hint
     assert "missed the surface" in win.statusBar().currentMessage()
     # one point on the surface, then another miss: still one point; Enter refuses a one-point dart
@@ -192,7 +193,7 @@ def test_a_click_that_misses_the_surface_adds_nothing(solved, qtbot):
     qtbot.keyClick(view.widget, Qt.Key.Key_Return)
     assert "at least two points" in win.last_hint
     qtbot.keyClick(view.widget, Qt.Key.Key_Escape)
-    assert win.tool.handles == [] and len(view.preview_points) == 0
+    assert win.tool.handles == [] and len(view.layer_points("preview")) == 0
     assert doc.revision == revision and win.project.settings.darts == ()
 
 
@@ -226,10 +227,10 @@ def test_a_plane_dart_placed_with_the_widget(each_widget, solved, qtbot):
     before = win.project
     win.actions["tool_plane_dart"].trigger()
     tool = win.tool
-    assert panel.plane_box.isVisible() and view.box_widget is not None
+    assert panel.editor(PlaneEditor).isVisible() and view.box_widget is not None
     # numbers typed in the panel move the widget
-    panel.plane_edit.setText("1, 0, 0, -0.4")
-    panel.plane_edit.editingFinished.emit()
+    panel.editor(PlaneEditor).plane_edit.setText("1, 0, 0, -0.4")
+    panel.editor(PlaneEditor).plane_edit.editingFinished.emit()
     origin, normal = view.plane_widget_state()
     np.testing.assert_allclose(normal, [1, 0, 0], atol=1e-12)
     assert origin[0] == pytest.approx(0.4)
@@ -239,9 +240,9 @@ def test_a_plane_dart_placed_with_the_widget(each_widget, solved, qtbot):
     assert origin[0] > 0.45, "the drag did not move the plane"
     n = normal / np.linalg.norm(normal)
     np.testing.assert_allclose(tool.plane, (*n, -n @ origin), atol=1e-12)
-    assert panel.plane_edit.text() == ", ".join(f"{v:.6g}" for v in tool.plane)
+    assert panel.editor(PlaneEditor).plane_edit.text() == ", ".join(f"{v:.6g}" for v in tool.plane)
     # the preview is the plane's curve on the surface, inside the box
-    curve = view.preview_curve
+    curve = view.layer_lines("preview")
     assert len(curve) > 10
     np.testing.assert_allclose(curve @ n - n @ origin, 0.0, atol=1e-7)
     np.testing.assert_allclose(np.linalg.norm(curve, axis=1), 1.0, atol=1e-9)
@@ -249,12 +250,12 @@ def test_a_plane_dart_placed_with_the_widget(each_widget, solved, qtbot):
     assert np.all(curve >= box[0::2] - 1e-9) and np.all(curve <= box[1::2] + 1e-9)
     assert win.project is before  # not applied yet
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
-        qtbot.mouseClick(panel.plane_apply_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(panel.editor(PlaneEditor).apply_button, Qt.MouseButton.LeftButton)
     (dart,) = win.project.settings.darts
     assert isinstance(dart, PlaneDart) and dart.name == "plane dart 1"
     np.testing.assert_allclose(dart.plane, tool.plane)
     np.testing.assert_allclose(dart.box, tool.box)
-    assert win.tool is None and view.plane_widget is None and len(view.preview_curve) == 0
+    assert win.tool is None and view.plane_widget is None and len(view.layer_lines("preview")) == 0
     after = win.project
     assert after.result_is_current and project_problems(after) == []
     assert crossing_springs(before.result, dart) > 0 and crossing_springs(after.result, dart) == 0
@@ -264,10 +265,10 @@ def test_a_plane_dart_placed_with_the_widget(each_widget, solved, qtbot):
     qtbot.mouseClick(panel.edit_dart, Qt.MouseButton.LeftButton)
     assert isinstance(win.tool, type(tool)) and win.tool.index == 0 and view.plane_widget is not None
     np.testing.assert_allclose(view.plane_widget_state()[1], n, atol=1e-12)
-    panel.plane_edit.setText(format_plane((*n, dart.plane[3] + 0.05)))
-    panel.plane_edit.editingFinished.emit()
+    panel.editor(PlaneEditor).plane_edit.setText(format_plane((*n, dart.plane[3] + 0.05)))
+    panel.editor(PlaneEditor).plane_edit.editingFinished.emit()
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
-        qtbot.mouseClick(panel.plane_apply_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(panel.editor(PlaneEditor).apply_button, Qt.MouseButton.LeftButton)
     (edited,) = win.project.settings.darts
     assert edited.name == "plane dart 1" and win.document.undo_label == "Move plane dart 1"
     assert edited.plane[3] == pytest.approx(dart.plane[3] + 0.05)
@@ -290,30 +291,30 @@ def test_a_yarn_picked_by_clicking_a_node(solved, qtbot):
     row = np.flatnonzero(r.mesh.ij[:, 0] == i)
     assert len(row) > 3
     np.testing.assert_array_equal(np.sort(tool.nodes()), row)  # the weft row through the node
-    np.testing.assert_allclose(view.picked_yarn_points, r.xyz[yarn_nodes(r.mesh, "weft", i)])
+    np.testing.assert_allclose(view.layer_lines("picked yarn"), r.xyz[yarn_nodes(r.mesh, "weft", i)])
     # the warp column instead, chosen in the panel
-    panel.yarn_kind.setFocus()
-    qtbot.keyClick(panel.yarn_kind, Qt.Key.Key_Down)
+    panel.editor(YarnEditor).kind.setFocus()
+    qtbot.keyClick(panel.editor(YarnEditor).kind, Qt.Key.Key_Down)
     assert tool.pending.kind == "warp" and tool.pending.index == j
     col = yarn_nodes(r.mesh, "warp", j)
     np.testing.assert_array_equal(np.sort(tool.nodes()), np.flatnonzero(r.mesh.ij[:, 1] == j))
-    np.testing.assert_allclose(view.picked_yarn_points, r.xyz[col])
+    np.testing.assert_allclose(view.layer_lines("picked yarn"), r.xyz[col])
     # the default plane: through the column's end points, containing the normal at the node
     plane = np.array(tool.plane)
     np.testing.assert_allclose(r.xyz[col[[0, -1]]] @ plane[:3] + plane[3], 0.0, atol=1e-12)
     normal = before.surface.evaluate(r.uv[node:node + 1]).normal[0]
     assert abs(plane[:3] @ normal) < 1e-12
     # turned by 10 degrees about that normal, weight typed in, Enter applies
-    panel.yarn_angle.setValue(10.0)
+    panel.editor(YarnEditor).angle.setValue(10.0)
     turned = np.array(tool.plane)
     cos = turned[:3] @ plane[:3]
     assert cos == pytest.approx(np.cos(np.radians(10.0)), abs=1e-9)
-    assert len(view.preview_curve) > 10  # the plane's curve on the surface
-    panel.yarn_k.setFocus()
-    panel.yarn_k.selectAll()
-    qtbot.keyClicks(panel.yarn_k, "20000")
+    assert len(view.layer_lines("preview")) > 10  # the plane's curve on the surface
+    panel.editor(YarnEditor).k.setFocus()
+    panel.editor(YarnEditor).k.selectAll()
+    qtbot.keyClicks(panel.editor(YarnEditor).k, "20000")
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
-        qtbot.keyClick(panel.yarn_k, Qt.Key.Key_Return)
+        qtbot.keyClick(panel.editor(YarnEditor).k, Qt.Key.Key_Return)
     (yarn,) = win.project.settings.yarns
     assert (yarn.kind, yarn.index, yarn.k) == ("warp", j, 20000.0)
     np.testing.assert_allclose(yarn.plane, turned)
@@ -331,11 +332,11 @@ def test_a_yarn_picked_by_clicking_a_node(solved, qtbot):
     # edited from the list: the stored plane is the angle's zero
     panel.yarn_list.setCurrentRow(0)
     qtbot.mouseClick(panel.edit_yarn, Qt.MouseButton.LeftButton)
-    assert tool.pending is not None and tool.pending.replaces == 0 and not panel.yarn_kind.isEnabled()
+    assert tool.pending is not None and tool.pending.replaces == 0 and not panel.editor(YarnEditor).kind.isEnabled()
     np.testing.assert_allclose(tool.plane, turned, atol=1e-12)
-    panel.yarn_angle.setValue(-5.0)
+    panel.editor(YarnEditor).angle.setValue(-5.0)
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
-        qtbot.mouseClick(panel.yarn_apply_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(panel.editor(YarnEditor).apply_button, Qt.MouseButton.LeftButton)
     (edited,) = win.project.settings.yarns
     assert (edited.kind, edited.index, edited.k) == ("warp", j, 20000.0) and edited.point == yarn.point
     assert np.dot(edited.plane[:3], turned[:3]) == pytest.approx(np.cos(np.radians(5.0)), abs=1e-9)
@@ -363,7 +364,7 @@ def test_dart_list_rename_hide_move_points_and_delete(solved, qtbot):
     # select it: its points become handles; drag the middle one across the surface
     panel.dart_list.setCurrentRow(0)
     dart = win.project.settings.darts[0]
-    np.testing.assert_allclose(view.handle_points, win.surface.points(dart.handles))
+    np.testing.assert_allclose(view.layer_points("handles"), win.surface.points(dart.handles))
     assert view.selected_dart == 0
     start = pixel(view, win.surface.points(dart.handles[1:2])[0])
     target = np.array([0.55, 0.5, 0.67])
@@ -376,12 +377,12 @@ def test_dart_list_rename_hide_move_points_and_delete(solved, qtbot):
     np.testing.assert_allclose(win.surface.points(moved.handles[1:2])[0], ray_sphere(view, *end), atol=1e-7)
     assert distance_to_polyline(ray_sphere(view, *end), win.surface.points(moved.uv)) < 2e-3
     assert crossing_springs(win.project.result, moved) == 0 and win.project.result_is_current
-    np.testing.assert_allclose(view.handle_points, win.surface.points(moved.handles))
+    np.testing.assert_allclose(view.layer_points("handles"), win.surface.points(moved.handles))
     # delete
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
         qtbot.mouseClick(panel.delete_dart, Qt.MouseButton.LeftButton)
     assert win.project.settings.darts == () and panel.dart_list.count() == 0
-    assert len(view.handle_points) == 0 and view.dart_curves == []
+    assert len(view.layer_points("handles")) == 0 and view.dart_curves == []
 
 
 @pytest.mark.slow

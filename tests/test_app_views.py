@@ -25,6 +25,7 @@ from flatweave.app.viewbase import DENSE_PIXELS, SCALE_TITLES, THREAD, DIAGONAL,
 from flatweave.method.darts import CurveDart
 from flatweave.reading.examples import example_names, load_example
 from flatweave.method.metrics import spring_strain
+from flatweave.app.tooleditors import YarnEditor
 
 from tests.test_app_run import run_to_end, small_project
 
@@ -285,7 +286,7 @@ def test_the_darts_tab_leaves_the_energy_plot_room(make_window, qtbot, size):
     run_to_end(qtbot, win)
     win.side_tabs.setCurrentIndex(1)
     scroll = side_scroll(win)
-    for editor in (lambda: win.actions["tool_plane_dart"].trigger(), win.dart_panel.yarn_box.show):
+    for editor in (lambda: win.actions["tool_plane_dart"].trigger(), win.dart_panel.editor(YarnEditor).show):
         editor()
         qtbot.wait(50)
         assert not scroll.verticalScrollBar().isVisible()
@@ -301,7 +302,7 @@ def test_the_darts_tab_leaves_the_energy_plot_room(make_window, qtbot, size):
                 assert not rects[a].intersects(rects[b]), (plot.text_rects[a][0], plot.text_rects[b][0])
         if win.tool is not None:
             win.set_tool(None)
-        win.dart_panel.yarn_box.hide()
+        win.dart_panel.editor(YarnEditor).hide()
 
 
 @pytest.mark.slow
@@ -379,8 +380,8 @@ def test_curve_dart_handles_stand_out_from_dart_nodes(make_window, qtbot):
     run_to_end(qtbot, win)
     win.dart_panel.dart_list.setCurrentRow(0)
     view = win.view
-    assert len(view.handle_points) == 3
-    style = view.handle_style
+    assert len(view.layer_points("handles")) == 3
+    style = view.layer_look("handles")
     nodes = view.layer.node_actors
     node_size = max(a.GetProperty().GetPointSize() for a in nodes)
     node_colours = [tuple(a.GetProperty().GetColor()) for a in nodes]
@@ -390,7 +391,7 @@ def test_curve_dart_handles_stand_out_from_dart_nodes(make_window, qtbot):
     # on screen: a white square ringed in black at each handle, over whatever is there
     img = view.plotter.screenshot(None, return_img=True)
     h = img.shape[0]
-    for p in view.handle_points:
+    for p in view.layer_points("handles"):
         x, y = (int(round(c)) for c in view.display_point(p))
         if not (10 < x < img.shape[1] - 10 and 10 < y < h - 10):
             continue
