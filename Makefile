@@ -1,7 +1,7 @@
 # flatweave developer commands.
 #
 #   make run    create .venv if needed, install flatweave into it, open the app
-#   make test   install what the tests need (system packages too, as root), run pytest
+#   make test   install what the tests need (system packages too, as root), run pytest (a worker per core)
 #   make test-fast  the same, without the tests marked slow (pytest -m "not slow"): a couple of minutes
 #   make lint   ruff (from the venv's dev extras) on the whole tree, configured in pyproject.toml
 #
@@ -22,11 +22,14 @@ APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 run: $(STAMP)
 	$(VENV)/bin/flatweave resources/surfaces/octant.json
 
+# one pytest worker per core (pytest-xdist), a test file's tests on one worker (its module fixtures made once)
+WORKERS := -n auto --dist loadfile
+
 test: system-deps $(STAMP) check-qt
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PY) -m pytest $(WORKERS) $(PYTEST_ARGS)
 
 test-fast: system-deps $(STAMP) check-qt
-	$(PY) -m pytest -m "not slow" $(PYTEST_ARGS)
+	$(PY) -m pytest $(WORKERS) -m "not slow" $(PYTEST_ARGS)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
