@@ -102,7 +102,7 @@ class Files(QObject):
             elif opened.cad is not None and opened.face is None:
                 self.pick_face(opened)
                 return True
-            elif opened.mesh is not None and opened.surface is None and opened.mesh.needs_region:
+            elif opened.mesh is not None and (opened.surface is None or opened.mesh.advice):
                 self.pick_mesh_region(opened)
                 return True
             else:  # a surface, or a CAD file's only face (its region and units with it)
@@ -136,24 +136,35 @@ class Files(QObject):
 
     def pick_mesh_region(self, opened) -> MeshLoopPicker:
         """Show the region picker (non-modal) for a closed mesh (or one with
-        handles): the piece's outline is drawn on it, and its OK cuts the piece
-        out and opens it (:meth:`open_mesh_region`)."""
+        handles, or far from developable): the piece's outline is drawn on it,
+        and its OK cuts the piece out and opens it (:meth:`open_mesh_region`);
+        an open mesh can be opened whole instead."""
         if self.face_picker is not None:
             self.face_picker.close()
         doc = self.window.document
         asked_at = None if doc is None else doc.revision
         picker = MeshLoopPicker(opened, self.window)
         picker.chosen.connect(lambda loop: self.open_mesh_region(opened, loop, asked_at))
+        picker.whole.connect(lambda: self.open_mesh_whole(opened, asked_at))
         picker.finished.connect(lambda _result: self._picker_closed(picker))
         self.face_picker = picker
         picker.show()
-        reason = opened.mesh.needs_region.split(":")[0]
+        reason = picker.reason.split(":")[0]
         self._status(f"{reason}: draw the piece on it (click points round it, then OK)", 15000)
         return picker
 
+    def open_mesh_whole(self, opened, asked_at: int | None = None) -> bool:
+        """Open an open mesh as one piece (its picker's "Open it whole")."""
+        doc = self.window.document
+        if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
+            return False
+        self.window.set_project(opened.as_project())
+        self._status(f"Opened {opened.path} whole", 5000)
+        return True
+
     def open_mesh_region(self, opened, loop3d, asked_at: int | None = None) -> bool:
-        """Open the piece of a closed mesh inside ``loop3d`` ((k, 3) points drawn on it) as a
-        new document (:meth:`flatweave.geometry.meshfit.MeshFile.cut`: the smaller side of the loop)."""
+        """Open the piece of a mesh inside ``loop3d`` ((k, 3) points drawn on it) as a
+        new document (:meth:`flatweave.reading.meshes.MeshFile.cut`: the inside of the loop)."""
         doc = self.window.document
         if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
             return False

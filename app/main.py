@@ -27,7 +27,7 @@ from pathlib import Path
 from flatweave.app.choices import VIEW_KINDS, solver_labels, view_setting  # no Qt or VTK: checked before either loads
 from flatweave.reading.registry import open_path
 from flatweave.app.nonefix import keep_none_alive
-from flatweave.errors import FlatweaveError
+from flatweave.errors import FlatweaveError, SettingsError
 
 DEFAULT_EXAMPLE = "octant"
 READY_POLL_MS = 50
@@ -49,7 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="flatweave",
         description="Flat cutting patterns for fabric covering NURBS surfaces (desktop app).")
     parser.add_argument("file", nargs="?", type=Path, metavar="FILE",
-                        help="project (.flatweave) or surface (geomdl JSON); default: the sphere-octant example")
+                        help="project (.flatweave), surface (geomdl JSON, STEP, IGES) or mesh (STL, OBJ, PLY, OFF); "
+                             "a file of several faces opens the face picker; default: the sphere-octant example")
     parser.add_argument("--spacing", type=float, default=None, metavar="R",
                         help="mesh spacing for a surface (default: the example's, or about sqrt(area)/25)")
     parser.add_argument("--solver", choices=tuple(solver_labels()), default=None, help="solver to use")
@@ -69,17 +70,42 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def load_start_project(args):
-    """The project to open: a project file, or a surface with default settings
-    (a bundled example's recommended spacing and units when FILE is one)."""
+    """What to open: (project, its path or None, None), or (None, None, opened)
+    for a file whose piece is chosen in the window first (a STEP or IGES file of
+    several faces, a mesh that needs or is advised a panel drawn on it), as File
+    > Open does. ``--spacing`` and ``--solver`` apply to a project opened here."""
 
     opened = open_path(args.file if args.file is not None else DEFAULT_EXAMPLE)
+    if opened.project is None and _chosen_in_window(opened):
+        if args.run:
+            raise SettingsError(f"{opened.path.name}: the piece is chosen in the window first; "
+                                f"drop --run (or flatten it with flatweave-cli and --face / --region)")
+        return None, None, opened
     project = opened.as_project()
     path = opened.path if opened.project is not None else None
     if args.spacing is not None:
         project = project.with_settings(spacing=args.spacing)
     if args.solver is not None:
         project = project.with_settings(solver=args.solver)
-    return project, path
+    return project, path, None
+
+
+def _chosen_in_window(opened) -> bool:
+    if opened.cad is not None:
+        return opened.face is None
+    mesh = opened.mesh
+    return mesh is not None and (opened.surface is None or bool(mesh.advice))
+
+
+def open_start(window, project, path, opened) -> None:
+    """Show :func:`load_start_project`'s answer in ``window``: the project, or the
+    face or panel picker over an empty window."""
+    if project is not None:
+        window.set_project(project, path)
+    elif opened.cad is not None:
+        window.files.pick_face(opened)
+    else:
+        window.files.pick_mesh_region(opened)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -97,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     # Load before any Qt work: a bad file is a one-line error, status 2.
 
     try:
-        project, project_path = load_start_project(args)
+        project, project_path, to_pick = load_start_project(args)
     except (FlatweaveError, OSError) as exc:
         print(f"flatweave: error: {exc}", file=sys.stderr)
         return 2
@@ -112,9 +138,9 @@ def main(argv: list[str] | None = None) -> int:
     window = MainWindow()
     if args.size is not None:
         window.resize(*args.size)
-    window.set_project(project, project_path)
     window.confirm_close = not args.quit  # a scripted run never stops to ask
     window.show()
+    open_start(window, project, project_path, to_pick)  # a picker opens over the shown window
     if not args.quit:  # offer back what a crashed flatweave autosaved
         if window.recovery_problem:
             window.statusBar().showMessage(window.recovery_problem, 15000)

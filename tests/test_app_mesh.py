@@ -186,10 +186,10 @@ def test_a_closed_mesh_says_it_needs_a_region_and_its_piece_is_drawn_on_it(make_
     assert isinstance(surface, FittedSurface) and "cut along a drawn loop" in surface.fit.repairs
     cover = cover_for(surface, win.project.settings.region)
     V, F = surface.mesh.vertices, surface.mesh.triangles
-    assert V[:, 2].min() > z0 - 0.15  # the cap above the ring (the smaller side), cut along mesh edges
+    assert V[:, 2].min() > z0 - 0.15  # the cap above the ring (the smaller side)
     mesh_area = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum()
     assert cover.area == pytest.approx(mesh_area, rel=3e-3)
-    # between the caps above z0 + 0.1 and z0 - 0.1: the edge paths between twelve points zigzag round the ring
+    # between the caps above z0 + 0.1 and z0 - 0.1: the outline runs through the twelve clicks
     assert 2 * math.pi * (0.9 - z0) < cover.area < 2 * math.pi * (1.1 - z0)
     assert win.actions["show_fit_deviation"].isEnabled() and not shown
 
@@ -197,3 +197,93 @@ def test_a_closed_mesh_says_it_needs_a_region_and_its_piece_is_drawn_on_it(make_
 def test_meshfit_record_round_trip():
     fit = MeshFit("a.stl", 10, 12, 2.0, 0.001, 0.0002, (7, 7), ("merged 1 duplicate vertices",))
     assert MeshFit.from_dict(fit.to_dict()) == fit
+
+
+def click_world(qtbot, view, p) -> None:
+    """A real click on a picker's view where it shows world point ``p``."""
+    from PySide6.QtCore import QPoint, Qt
+    from vtkmodules.vtkRenderingCore import vtkCoordinate
+
+    c = vtkCoordinate()
+    c.SetCoordinateSystemToWorld()
+    c.SetValue(*p)
+    x, y = c.GetComputedDoubleDisplayValue(view.plotter.renderer)
+    w = view.widget
+    ratio = w.devicePixelRatioF()
+    qtbot.mouseClick(w, Qt.MouseButton.LeftButton,
+                     pos=QPoint(int(round(x / ratio)), w.height() - 1 - int(round(y / ratio))))
+
+
+@pytest.fixture
+def dome_stl(tmp_path):
+    """An open dome: the unit icosphere's triangles above z = -0.2 (a hemisphere and a band; 45 % map distortion)."""
+    m = trimesh.creation.icosphere(4)
+    V, F = np.asarray(m.vertices), np.asarray(m.faces)
+    F = F[V[F].mean(axis=1)[:, 2] > -0.2]
+    used = np.unique(F)
+    path = tmp_path / "dome.stl"
+    path.write_bytes(trimesh.Trimesh(V[used], np.searchsorted(used, F), process=False).export(file_type="stl"))
+    return path
+
+
+@pytest.mark.slow
+def test_an_open_mesh_far_from_developable_asks_for_a_panel_which_is_cut_and_solved(make_window, qtbot, dome_stl):
+    """The dome: the window asks for a panel; twelve clicks round the circle 40 degrees from the
+    top and OK cut the cap out with its outline through the clicks; it solves within the limits."""
+    from tests.test_app_run import run_to_end
+
+    win = make_window(example=None)
+    shown = []
+    win.show_error = shown.append
+    assert win.open_file(dome_stl) and not shown and win.project is None
+    message = win.statusBar().currentMessage()
+    assert "\n" not in message and "far from developable" in message
+    picker = win.files.face_picker
+    qtbot.waitExposed(picker)
+    qtbot.waitUntil(picker.view.is_ready, timeout=10000)
+    assert picker.whole_button is not None and "far from developable" in picker.label.text()
+    view = picker.view
+    view.plotter.camera_position = "xy"
+    view.plotter.reset_camera()
+    view.render_now()
+    a = np.radians(40.0)
+    t = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    ring = np.stack([np.sin(a) * np.cos(t), np.sin(a) * np.sin(t), np.cos(a) + 0 * t], 1)
+    for p in ring:
+        click_world(qtbot, view, p)
+    assert len(picker.points) == 12 and np.abs(np.array(picker.points) - ring).max() < 0.05
+    picker.ok_button.click()
+    qtbot.waitUntil(lambda: win.project is not None, timeout=60000)
+    surface = win.project.surface
+    V = surface.mesh.vertices
+    polar = np.arctan2(np.linalg.norm(V[:, :2], axis=1), V[:, 2])
+    assert polar.max() < a + 0.02  # nothing outside the drawn ring
+    for p in ring:  # the outline passes through every click (split triangles, not the nearest edges)
+        assert np.linalg.norm(V - p, axis=1).min() < 0.02
+    run_to_end(qtbot, win)
+    r = win.project.result
+    # the 40-degree cap's curvature (1.47 sr) accounts for about 6 % boundary error: within its limit
+    assert r.metrics["boundary_error_pct"] < 8.0 and not any("boundary error" in w for w in r.warnings)
+    assert r.usable and not shown and surface.fit.map_distortion < 0.15
+
+
+def test_an_open_mesh_far_from_developable_can_still_be_opened_whole(make_window, qtbot, dome_stl):
+    win = make_window(example=None)
+    assert win.open_file(dome_stl) and win.project is None
+    picker = win.files.face_picker
+    qtbot.waitExposed(picker)
+    picker.whole_button.click()
+    qtbot.waitUntil(lambda: win.project is not None, timeout=30000)
+    fit = win.project.surface.fit
+    assert fit.map_distortion > 0.3 and "cut along a drawn loop" not in fit.repairs
+
+
+def test_a_mesh_far_from_developable_on_the_command_line_opens_the_panel_picker(make_window, qtbot, dome_stl):
+    from flatweave.app.main import build_parser, load_start_project, open_start
+    from flatweave.app.meshpicker import MeshLoopPicker
+
+    project, path, opened = load_start_project(build_parser().parse_args([str(dome_stl)]))
+    assert project is None and opened.mesh.advice
+    win = make_window(example=None)
+    open_start(win, project, path, opened)
+    assert isinstance(win.files.face_picker, MeshLoopPicker) and win.project is None

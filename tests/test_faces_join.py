@@ -315,11 +315,11 @@ def test_densify_keeps_the_shape_and_bounds_the_edges():
     """Two triangles of a 40 x 1 rectangle and a fan: after densify no edge is
     longer than h, the area and the boundary are the same, the mesh is one
     manifold piece wound as before."""
-    from flatweave.geometry.meshfit import _edge_table, boundary_loops, clean_mesh, densify
+    from flatweave.geometry.meshfit import edge_table, boundary_loops, clean_mesh, densify
     V = np.array([[0, 0, 0], [40, 0, 0], [40, 1, 0], [0, 1, 0], [20, 30, 0]], float)
     F = np.array([[0, 1, 2], [0, 2, 3], [3, 2, 4]])
     V2, F2, _ = densify(V, F, 0.7)
-    uniq, _, _ = _edge_table(F2)
+    uniq, _, _ = edge_table(F2)
     assert np.linalg.norm(V2[uniq[:, 0]] - V2[uniq[:, 1]], axis=1).max() <= 0.7 + 1e-12
     a, b, c = V2[F2[:, 0]], V2[F2[:, 1]], V2[F2[:, 2]]
     cross = np.cross(b - a, c - a)

@@ -297,6 +297,7 @@ def _bad_files(tmp_path: Path) -> dict:
         "property float y\nproperty float z\nelement face 200000000\nproperty list uchar int vertex_indices\n"
         "end_header\n" + "\0" * 100)
     put("two_parts.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 0 0\nv 6 0 0\nv 5 1 0\nf 1 2 3\nf 4 5 6\n")
+    put("huge.obj", "v 0 0 0\nv 1e308 0 0\nv 0 1e308 0\nv 1e308 1e308 0\nf 1 2 3\nf 2 4 3\n")
     sphere = trimesh.creation.icosphere(2)
     put("closed.stl", sphere.export(file_type="stl"))
     torus = trimesh.creation.torus(1.0, 0.3)  # with one triangle cut out: a boundary, but a handle
@@ -307,7 +308,8 @@ def _bad_files(tmp_path: Path) -> dict:
 BAD = {"empty.stl": "empty", "no_triangles.obj": "no triangles", "no_faces.off": "no triangles",
        "nonmanifold.obj": "non-manifold", "nan.obj": "NaN", "truncated.stl": "truncated",
        "claims_2gb.stl": "claims 43,000,000 triangles", "claims_2gb.ply": "claims 200,000,000 triangles",
-       "two_parts.obj": "2 separate parts", "closed.stl": "closed mesh", "torus.off": "genus 1"}
+       "two_parts.obj": "2 separate parts", "closed.stl": "closed mesh", "torus.off": "genus 1",
+       "huge.obj": "coordinates up to 1e+308"}
 
 
 @pytest.mark.parametrize("name", list(BAD))
@@ -324,7 +326,7 @@ def test_bad_meshes_refused_in_one_line(tmp_path, name):
 @pytest.mark.slow
 def test_bad_meshes_through_the_cli(tmp_path):
     files = _bad_files(tmp_path)
-    for name in ("nan.obj", "truncated.stl", "claims_2gb.stl", "closed.stl", "two_parts.obj"):
+    for name in ("nan.obj", "truncated.stl", "claims_2gb.stl", "closed.stl", "two_parts.obj", "huge.obj"):
         info = [] if name == "closed.stl" else [["info", files[name]]]  # info describes a closed mesh
         for cmd in info + [["flatten", files[name], "--spacing", "0.1", "--out", tmp_path / "r.json"]]:
             r = _cli(*cmd)
@@ -368,7 +370,7 @@ def test_cli_info_and_result_metrics(tmp_path):
     region = tmp_path / "region.json"
     region.write_text(json.dumps({"outer": [[0.2, 0.2], [0.8, 0.2], [0.8, 0.8]]}))
     r = _cli("flatten", path, "--spacing", "0.12", "--out", out, "--region", region)
-    assert r.returncode == 2 and "is a mesh: its region is the mesh's boundary" in r.stderr
+    assert r.returncode == 2 and "a mesh's region is {\"loop3d\"" in r.stderr and r.stderr.count("\n") == 1
     assert m["fit_mean_deviation"] == pytest.approx(info["fit_mean_deviation"])
 
 
@@ -491,3 +493,25 @@ def test_a_hole_in_a_doubly_curved_panel_costs_what_the_hole_costs(pieces, sourc
     assert len(got[0].pattern.pieces) == 1 and len(got[0].pattern.pieces[0].holes) == 1
     assert abs(holed["boundary_error_pct"] - plain["boundary_error_pct"]) < 1.0, (holed, plain)
     assert abs(holed["area_error_pct"] - plain["area_error_pct"]) < 1.0, (holed, plain)
+
+
+def test_a_vertex_where_two_fans_touch_is_split_and_the_mesh_flattens():
+    """A 3 x 3 grid of squares without its centre and its top-right corner: the hole and the outer edge
+    touch at one vertex, as holes of a scan do. The vertex becomes two; the piece is one flat loop."""
+    from flatweave.geometry.meshfit import boundary_loops, clean_mesh, mesh_surface
+
+    ij = np.array([(i, j) for i in range(4) for j in range(4)], dtype=float)
+    V = np.column_stack([ij, np.zeros(len(ij))])
+    quads = [(i, j) for i in range(3) for j in range(3) if (i, j) not in ((1, 1), (2, 2))]
+    F = []
+    for i, j in quads:
+        a, b, c, d = 4 * i + j, 4 * (i + 1) + j, 4 * (i + 1) + j + 1, 4 * i + j + 1
+        F += [(a, b, c), (a, c, d)]
+    with pytest.raises(Exception, match="non-manifold vertex"):
+        boundary_loops(np.array(F))
+    V2, F2, repairs = clean_mesh(V, np.array(F), "pinched")
+    assert "split 1 vertices where separate fans of triangles touched" in repairs
+    assert len(V2) == len(np.unique(F)) + 1  # the 15 vertices used, one of them twice
+    assert len(boundary_loops(F2)) == 1
+    piece = mesh_surface(V2, F2, name="pinched")
+    assert piece.fit.map_distortion < 1e-9 and piece.fit.max_deviation < 2e-4 * piece.fit.size  # FIT_TOL

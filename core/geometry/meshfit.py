@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 from scipy.sparse.csgraph import connected_components
 
 from flatweave.errors import SettingsError, SurfaceError
@@ -42,8 +43,8 @@ from flatweave.geometry.numerics import polygon_area
 from flatweave.geometry.region import Region
 
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MAX_TRIANGLES", "clean_mesh", "lscm", "fit_bspline",
-           "mesh_surface", "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "cut_mesh", "with_fit",
-           "FitMesh", "vertex_deviation", "weld_parts", "densify"]
+           "mesh_surface", "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "edge_table",
+           "map_distortion", "MAP_DISTORTION_LIMIT", "with_fit", "FitMesh", "vertex_deviation", "weld_parts", "densify"]
 
 
 MAX_TRIANGLES = 2_000_000
@@ -56,6 +57,12 @@ the mesh's bounding-box diagonal (or the control net reaches
 :data:`MAX_CTRL`)."""
 
 MAX_CTRL = 96  # control points per direction at most
+MAX_COORDINATE = 1e30  # a vertex farther from the origin than this is a broken file, not a model
+MAP_DISTORTION_LIMIT = 0.15
+"""A mesh whose conformal map changes areas more than this (MeshFit.map_distortion)
+is one no single piece covers well: a panel drawn on it is advised. The sphere's
+octant (the paper's example, which flattens within every warning limit) measures
+0.057, a 60-degree cap 0.14, a hemisphere 0.34."""
 SMOOTH = 1e-5  # weight of the roughness term against the mean squared distance (both in model units squared)
 
 
@@ -72,6 +79,10 @@ class MeshFit:
     ctrl : (nu, nv), the fitted control net
     repairs : what was repaired, e.g. ``("merged 120 duplicate vertices",)``
     faces : the CAD file's faces joined into this mesh (``--faces``), else ()
+    map_distortion : how far the mesh's least-squares conformal map changes
+        its triangles' areas (the area-weighted mean of |scaled flat area /
+        area - 1|): 0 for a developable piece; above MAP_DISTORTION_LIMIT one
+        piece of fabric cannot cover it well and a panel should be drawn on it
     """
 
     source: str
@@ -83,6 +94,7 @@ class MeshFit:
     ctrl: tuple = (0, 0)
     repairs: tuple = ()
     faces: tuple = ()
+    map_distortion: float = 0.0
 
     def metrics(self) -> dict:
         """The keys the result file's metrics get (the deviations in model units and as percent of the
@@ -96,14 +108,16 @@ class MeshFit:
         return {"source": self.source, "vertices": self.vertices, "triangles": self.triangles, "size": self.size,
                 "max_deviation": self.max_deviation, "mean_deviation": self.mean_deviation,
                 "ctrl": list(self.ctrl), "repairs": list(self.repairs),
-                **({"faces": [int(i) for i in self.faces]} if self.faces else {})}
+                **({"faces": [int(i) for i in self.faces]} if self.faces else {}),
+                **({"map_distortion": self.map_distortion} if self.map_distortion else {})}
 
     @classmethod
     def from_dict(cls, d) -> "MeshFit":
         try:
             return cls(str(d["source"]), int(d["vertices"]), int(d["triangles"]), float(d["size"]),
                        float(d["max_deviation"]), float(d["mean_deviation"]), tuple(int(x) for x in d.get("ctrl", ())),
-                       tuple(str(x) for x in d.get("repairs", ())), tuple(int(x) for x in d.get("faces", ())))
+                       tuple(str(x) for x in d.get("repairs", ())), tuple(int(x) for x in d.get("faces", ())),
+                       float(d.get("map_distortion", 0.0)))
         except (KeyError, TypeError, ValueError) as exc:
             raise SettingsError(f"a mesh fit record is malformed: {exc}") from None
 
@@ -181,7 +195,7 @@ def _edges(F: np.ndarray) -> np.ndarray:
     return np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)
 
 
-def _edge_table(F: np.ndarray):
+def edge_table(F: np.ndarray):
     """Undirected edges: (unique (e, 2) sorted pairs, per directed edge its
     undirected index (3m,), faces per undirected edge (e,))."""
     E = _edges(F)
@@ -197,7 +211,7 @@ def _orient(F: np.ndarray, name: str) -> tuple[np.ndarray, int]:
     SurfaceError when a part cannot be oriented (a Moebius strip)."""
     m = len(F)
     E = _edges(F)
-    _, inv, count = _edge_table(F)
+    _, inv, count = edge_table(F)
     # pairs of triangles across each interior edge (two directed edges per undirected one)
     order = np.argsort(inv, kind="stable")
     inner = count[inv[order]] == 2
@@ -240,7 +254,8 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
     triangles with a repeated vertex or no area and repeated triangles, and
     winds the triangles consistently. Refuses in one line: NaN or infinite
     coordinates, no triangles, an edge of more than two triangles, a mesh of
-    several parts unless ``component`` (0 = the largest) picks one.
+    several parts unless ``component`` (0 = the largest) picks one;
+    ``component`` may also be a point (3,), for the part nearest it.
     """
     V = np.asarray(V, dtype=float)
     F = np.asarray(F, dtype=np.int64)
@@ -253,6 +268,10 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
         raise SurfaceError(f"{name} has {bad} vertices with NaN or infinite coordinates")
     V = V[used]
     F = np.searchsorted(used, F)
+    big = float(np.abs(V).max())
+    if big > MAX_COORDINATE:  # its squares overflow long before a model gets there
+        raise SurfaceError(f"{name} has coordinates up to {big:.3g}: no model is that large (the limit is "
+                           f"{MAX_COORDINATE:g} units)")
     size = float(np.linalg.norm(np.ptp(V, axis=0)))
     if not size > 0:
         raise SurfaceError(f"{name}: all its vertices are at one point")
@@ -279,7 +298,7 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
     if len(keep) < len(F):
         repairs.append(f"dropped {len(F) - len(keep)} repeated triangles")
         F = F[np.sort(keep)]
-    _, inv_e, count = _edge_table(F)
+    _, inv_e, count = edge_table(F)
     if count.max() > 2:
         n_bad = int((count > 2).sum())
         raise SurfaceError(f"{name} has {n_bad} non-manifold edge{'s' if n_bad != 1 else ''} "
@@ -298,6 +317,10 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
             listed = ", ".join(str(int(s)) for s in sizes[rank[:5]]) + (", ..." if n_parts > 5 else "")
             raise SeveralParts(f"{name} has {n_parts} separate parts ({listed} triangles): choose one with "
                                f"--face N (0 = the largest, to {n_parts - 1})", n_parts)
+        if np.ndim(component) == 1:  # a point on the part wanted (a loop drawn on it)
+            _, v = cKDTree(V).query(np.asarray(component, dtype=float).reshape(3))
+            t = int(np.flatnonzero((F == v).any(axis=1))[0])
+            component = int(np.flatnonzero(rank == labels[t])[0])
         if not 0 <= component < n_parts:
             raise SettingsError(f"{name} has {n_parts} parts; --face must be 0 to {n_parts - 1}")
         F = F[labels == rank[component]]
@@ -309,14 +332,42 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
     F, flipped = _orient(F, name)
     if flipped and flipped < len(F):
         repairs.append(f"re-wound {flipped} triangles")
+    V, F, n_split = _split_pinched(V, F)
+    if n_split:
+        repairs.append(f"split {n_split} vertices where separate fans of triangles touched")
     return V, F, tuple(repairs)
+
+
+def _split_pinched(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """A vertex whose triangles form several fans (joined through it alone, as
+    where two holes of a scan touch) becomes one vertex per fan, at the same
+    place. Returns (V, F, how many vertices were split)."""
+    m = len(F)
+    corner_vertex = F.ravel()
+    _, inv, count = edge_table(F)
+    order = np.argsort(inv, kind="stable")
+    inner = count[inv[order]] == 2
+    d = order[inner].reshape(-1, 2)  # the two directed-edge rows (3 t + k) of each interior edge
+    nxt = lambda r: 3 * (r // 3) + (r % 3 + 1) % 3  # noqa: E731  (the corner at the edge's end)
+    a1, b1, a2, b2 = d[:, 0], nxt(d[:, 0]), d[:, 1], nxt(d[:, 1])
+    same = corner_vertex[a1] == corner_vertex[a2]  # the two rows run the edge in the same sense
+    # join the corners of each edge's two triangles that hold the same vertex
+    i = np.r_[a1, b1]
+    j = np.r_[np.where(same, a2, b2), np.where(same, b2, a2)]
+    G = sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(3 * m, 3 * m))
+    _, fan = connected_components(G, directed=False)
+    pairs, new_id = np.unique(np.column_stack([corner_vertex, fan]), axis=0, return_inverse=True)
+    if len(pairs) == len(V):
+        return V, F, 0
+    n_split = int(len(pairs) - len(np.unique(pairs[:, 0])))
+    return V[pairs[:, 0]], new_id.reshape(-1).reshape(m, 3), n_split
 
 
 def boundary_loops(F: np.ndarray, name: str = "the mesh") -> list[np.ndarray]:
     """The boundary loops of a consistently wound manifold mesh, each an
     array of vertex indices in the boundary's sense (the mesh on its left)."""
     E = _edges(F)
-    _, inv, count = _edge_table(F)
+    _, inv, count = edge_table(F)
     B = E[count[inv] == 1]
     if len(B) == 0:
         return []
@@ -466,6 +517,20 @@ def _normalise_map(uv: np.ndarray) -> tuple[np.ndarray, float]:
     return (q - lo) / ext, float(ext[1] / ext[0])
 
 
+def map_distortion(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> float:
+    """The area-weighted mean of |s A_flat / A - 1| over the triangles of a
+    flat map ``uv`` of mesh (V, F), s the one scale that makes the total areas
+    equal: 0 when the map keeps every area (a developable piece)."""
+    a3 = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    e1, e2 = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
+    a2 = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    total = float(a3.sum())
+    if total <= 0 or a2.sum() <= 0:
+        return 0.0
+    s = total / float(a2.sum())
+    return float(np.abs(s * a2 - a3).sum() / total)
+
+
 def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple = (), faces: tuple = ()) -> MeshPiece:
     """A repaired, consistently wound, one-part mesh (:func:`clean_mesh`)
     made a :class:`MeshPiece`: surface, region, map and deviations.
@@ -476,7 +541,7 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     V = np.asarray(V, dtype=float)
     F = np.asarray(F, dtype=np.int64)
     loops = boundary_loops(F, name)
-    n_edges = len(_edge_table(F)[0])
+    n_edges = len(edge_table(F)[0])
     chi = len(V) - n_edges + len(F)
     genus = (2 - chi - len(loops)) // 2
     if not loops:
@@ -503,7 +568,7 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
         nu = min(int(nu * 1.5), MAX_CTRL)
         nv = min(max(int(round((nu - 3) * aspect)), 4), MAX_CTRL - 3) + 3
     fit = MeshFit(str(source), len(V), len(F), size, float(dev.max()), float(dev.mean()), (nu, nv), tuple(repairs),
-                  tuple(int(i) for i in faces))
+                  tuple(int(i) for i in faces), map_distortion(V, F, raw))
     surface = FittedSurface(3, 3, _clamped_knots(nu), _clamped_knots(nv), C, fit=fit, mesh=FitMesh(V, F, uv))
     loops_uv = [uv[lp] for lp in loops]
     areas = [abs(polygon_area(p)) for p in loops_uv]
@@ -600,7 +665,7 @@ def densify(V: np.ndarray, F: np.ndarray, h: float, max_triangles: int = MAX_TRI
     F = np.asarray(F, np.int64)
     N = None if normals is None else np.asarray(normals, float)
     for _ in range(passes):
-        uniq, inv, _ = _edge_table(F)
+        uniq, inv, _ = edge_table(F)
         length = np.linalg.norm(V[uniq[:, 0]] - V[uniq[:, 1]], axis=1)
         k = np.maximum(np.ceil(length / h * (1 - 1e-9)), 1).astype(np.int64)
         if k.max() == 1 or len(F) + 2 * int((k - 1).sum()) > max_triangles:
@@ -655,60 +720,3 @@ def vertex_deviation(surface: NurbsSurface, mesh: FitMesh) -> np.ndarray:
     """(n,) each mesh vertex's distance to the surface point it maps to: the
     numbers ``MeshFit`` summarises (its max and mean), for a colour map."""
     return fit_deviation(surface, mesh.uv, mesh.vertices)
-
-
-def cut_mesh(V: np.ndarray, F: np.ndarray, loop3d, name: str = "the mesh") -> tuple[np.ndarray, np.ndarray]:
-    """The part of a mesh inside a loop drawn on it: each loop point goes to its nearest vertex,
-    consecutive ones are joined by shortest edge paths, the triangles are split into the sides
-    of that closed path, and the smaller side (by area) is kept. One-line SettingsError when the
-    loop does not separate the mesh."""
-    from scipy.sparse.csgraph import dijkstra
-    from scipy.spatial import cKDTree
-
-    try:
-        P = np.asarray(loop3d, dtype=float).reshape(-1, 3)
-    except (TypeError, ValueError):
-        raise SettingsError("a mesh region's loop3d must be a list of [x, y, z] points") from None
-    if len(P) < 3 or not np.isfinite(P).all():
-        raise SettingsError("a mesh region's loop3d needs 3 or more finite [x, y, z] points")
-    _, near = cKDTree(V).query(P)
-    near = near[np.r_[True, near[1:] != near[:-1]]]
-    if len(near) > 1 and near[-1] == near[0]:
-        near = near[:-1]
-    if len(np.unique(near)) < 3:
-        raise SettingsError(f"the loop drawn on {name} is too small for its triangles (it meets fewer than 3 vertices)")
-    uniq, _, _ = _edge_table(F)
-    w = np.linalg.norm(V[uniq[:, 0]] - V[uniq[:, 1]], axis=1)
-    G = sp.coo_matrix((np.r_[w, w], (np.r_[uniq[:, 0], uniq[:, 1]], np.r_[uniq[:, 1], uniq[:, 0]])),
-                      shape=(len(V), len(V))).tocsr()
-    _, pred = dijkstra(G, indices=near, return_predecessors=True)
-    path = []
-    for k in range(len(near)):  # a path per drawn segment: the loop's few points, not a hot loop
-        a, b = near[k], near[(k + 1) % len(near)]
-        seg, v = [], b
-        while v != a and v >= 0:
-            seg.append(v)
-            v = pred[k, v]
-        path += [a] + seg[::-1][:-1]
-    path = np.asarray(path, dtype=np.int64)
-    n = len(V)
-    cut_keys = set((np.minimum(path, np.roll(path, -1)) * n + np.maximum(path, np.roll(path, -1))).tolist())
-    E = _edges(F)
-    key = np.minimum(E[:, 0], E[:, 1]) * n + np.maximum(E[:, 0], E[:, 1])
-    _, inv, count = np.unique(key, return_inverse=True, return_counts=True)
-    order = np.argsort(inv, kind="stable")
-    inner = count[inv[order]] == 2
-    pairs = order[inner].reshape(-1, 2)
-    cut = np.isin(key[pairs[:, 0]], np.fromiter(cut_keys, dtype=np.int64))
-    t = pairs[~cut] // 3
-    A = sp.coo_matrix((np.ones(len(t)), (t[:, 0], t[:, 1])), shape=(len(F), len(F)))
-    n_sides, labels = connected_components(A, directed=False)
-    if n_sides < 2:
-        raise SettingsError(f"the loop drawn on {name} does not cut it in two; draw a closed loop on it")
-    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    area = np.bincount(labels, 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1))
-    F = F[labels == int(np.argmin(area))]
-    used = np.unique(F)
-    return V[used], np.searchsorted(used, F)
-
-

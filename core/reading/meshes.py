@@ -21,12 +21,13 @@ import numpy as np
 from flatweave.errors import SurfaceError
 from flatweave.geometry.meshfit import FitMesh
 from flatweave.geometry.meshfit import FittedSurface
+from flatweave.geometry.meshfit import MAP_DISTORTION_LIMIT
 from flatweave.geometry.meshfit import MAX_TRIANGLES
 from flatweave.geometry.meshfit import MeshPiece
 from flatweave.geometry.meshfit import NeedsRegion
 from flatweave.geometry.meshfit import SeveralParts
+from flatweave.geometry.meshcut import cut_mesh
 from flatweave.geometry.meshfit import clean_mesh
-from flatweave.geometry.meshfit import cut_mesh
 from flatweave.geometry.meshfit import mesh_surface
 from flatweave.reading.opened import Opened
 
@@ -171,30 +172,45 @@ def load_mesh_piece(path, component: int | None = None) -> MeshPiece:
 
 @dataclass(frozen=True, eq=False)
 class MeshFile:
-    """A mesh file of several parts, read and waiting for a part to be chosen."""
+    """A mesh file as read: its parts, and the pieces cut from it.
+
+    needs_region : why the mesh cannot be covered whole (closed, handles); "" when it can
+    advice : why one piece would cover it badly (its conformal map's area
+        distortion above MAP_DISTORTION_LIMIT) so a panel should be drawn; "" when not
+    """
 
     path: Path
     vertices: np.ndarray
     triangles: np.ndarray
     n_parts: int
-    needs_region: str = ""  # why the mesh cannot be covered whole (closed, handles); "" when it can
+    needs_region: str = ""
+    advice: str = ""
 
     def piece(self, component: int) -> MeshPiece:
         V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
         return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name, repairs=repairs)
 
-    def cut(self, loop3d, component: int | None = None) -> MeshPiece:
-        """The piece inside a closed loop of 3D points drawn on the mesh (:func:`cut_mesh`)."""
+    def cut(self, loop3d, component: int | None = None, holes3d=()) -> MeshPiece:
+        """The piece inside a closed loop of 3D points drawn on the mesh, less the
+        loops ``holes3d`` drawn inside it (:func:`flatweave.geometry.meshcut.cut_mesh`),
+        on part ``component`` (default: the part the loop is drawn on)."""
+        if component is None and self.n_parts > 1:  # the part the loop is drawn on
+            try:
+                component = np.asarray(loop3d, dtype=float).reshape(-1, 3)[0]
+            except (TypeError, ValueError, IndexError):
+                pass  # cut_mesh says what is wrong with the loop
         V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
-        V, F = cut_mesh(V, F, loop3d, self.path.name)
+        V, F = cut_mesh(V, F, loop3d, self.path.name, holes3d)
         return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name,
                             repairs=repairs + ("cut along a drawn loop",))
 
 
 def open_mesh(path):
     """The reader of :mod:`flatweave.reading.registry`: an ``Opened`` with the surface and
-    region of a one-part mesh, or, for several parts, the :class:`MeshFile`
-    (``Opened.mesh``) to choose one from (``Opened.choose_face``)."""
+    region of a one-part mesh (and its :class:`MeshFile`, ``Opened.mesh``, to cut a
+    panel from), or, for several parts or a mesh that needs a region, the
+    :class:`MeshFile` alone, to choose a part from (``Opened.choose_face``) or
+    draw the piece on."""
 
     p = Path(path)
     V, F = read_mesh(p)
@@ -206,7 +222,16 @@ def open_mesh(path):
         piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
     except NeedsRegion as exc:  # closed, or handles: a loop drawn on it (--region) says which piece
         return Opened(mesh=MeshFile(p, V, F, 1, str(exc)))
-    return Opened(surface=piece.surface, region=piece.region)
+    advice = panel_advice(p.name, piece.fit)
+    return Opened(surface=piece.surface, region=piece.region, mesh=MeshFile(p, V, F, 1, advice=advice))
+
+
+def panel_advice(name: str, fit) -> str:
+    """Why a panel should be drawn on the mesh ``fit`` (a MeshFit) records, or "" (see MAP_DISTORTION_LIMIT)."""
+    if fit is None or fit.map_distortion <= MAP_DISTORTION_LIMIT:
+        return ""
+    return (f"{name} is far from developable (its flat map changes areas by {100 * fit.map_distortion:.0f} %): "
+            f"one piece covers it badly; draw a panel on it")
 
 
 def fit_mesh(surface: FittedSurface) -> FitMesh:
