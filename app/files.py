@@ -30,6 +30,7 @@ from flatweave.reading.registry import dialog_filter, open_path, reader_for
 from flatweave.app.actions import view_choices
 from flatweave.app.facepicker import FacePicker
 from flatweave.app.meshpicker import MeshLoopPicker
+from flatweave.app.unitsdialog import UnitsDialog
 from flatweave.app.worker import one_line
 from flatweave.reading.cadjoin import join_faces
 
@@ -71,6 +72,7 @@ class Files(QObject):
         self.session: Session | None = None
         self.recovery_box: QMessageBox | None = None
         self.face_picker: FacePicker | MeshLoopPicker | None = None  # open while a face or a mesh's piece is chosen
+        self.units_dialog: UnitsDialog | None = None  # the last question of a mesh's units
         self.recovery_problem: str | None = None
         if recovery:
             try:
@@ -107,6 +109,7 @@ class Files(QObject):
                 return True
             else:  # a surface, or a CAD file's only face (its region and units with it)
                 self.window.set_project(opened.as_project())
+                self.ask_units(opened)
         except (FlatweaveError, OSError) as exc:
             reader = reader_for(path)
             self.window.show_error(f"Cannot open {'project' if reader and reader.project else 'surface'}: {exc}")
@@ -160,6 +163,7 @@ class Files(QObject):
             return False
         self.window.set_project(opened.as_project())
         self._status(f"Opened {opened.path} whole", 5000)
+        self.ask_units(opened)
         return True
 
     def open_mesh_region(self, opened, loop3d, asked_at: int | None = None) -> bool:
@@ -176,7 +180,27 @@ class Files(QObject):
             return False
         self.window.set_project(project)
         self._status(f"Opened the piece drawn on {opened.path}: {piece.fit.describe()}", 10000)
+        self.ask_units(opened)
         return True
+
+    def ask_units(self, opened) -> UnitsDialog | None:
+        """For a file that carries no units (a mesh): the project took the unit its size suggests;
+        ask (non-modal) whether that is right. The answer is one display edit."""
+        project = self.window.project
+        fit = getattr(project.surface, "fit", None) if project is not None else None
+        if opened.units_guess is None or fit is None:
+            return None
+        dialog = UnitsDialog(Path(fit.source).name or project.name, fit.size, project.units, self.window)
+        doc = self.window.document
+
+        def chosen(unit):
+            if self.window.document is doc and unit != doc.project.units:
+                self.window.edit_display("Units", {"units": unit})
+
+        dialog.chosen.connect(chosen)
+        self.units_dialog = dialog
+        dialog.show()
+        return dialog
 
     def open_face(self, opened, index: int, asked_at: int | None = None) -> bool:
         """Open face ``index`` of a CAD file (``opened``, :func:`flatweave.reading.registry.open_path`'s)

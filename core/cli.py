@@ -26,7 +26,7 @@ from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.reading.registry import open_path
 from flatweave.reading.cad import is_cad_path, parse_face_list
 from flatweave.reading.cadjoin import join_faces
-from flatweave.reading.meshes import panel_advice
+from flatweave.reading.meshes import panel_advice, units_note
 from flatweave.reading.registry import readers
 from flatweave.export.registry import exporters
 from flatweave.method.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
@@ -106,7 +106,9 @@ def resolve_piece(args):
     if opened.mesh is not None:  # a mesh (or one part of it) flattened whole, as asked, if badly
         advice = panel_advice(Path(args.surface).name, getattr(opened.surface, "fit", None))
         if advice:
-            _print_warnings([f"{advice} (--region with a loop3d drawn on it cuts one out)"])
+            import dataclasses
+            opened = dataclasses.replace(
+                opened, notes=opened.notes + (f"{advice} (--region with a loop3d drawn on it cuts one out)",))
     offset = getattr(args, "region_offset", None)
     if args.region:
 
@@ -164,7 +166,8 @@ def _surface_help() -> str:
 
 
 # Export options whose default the command takes from the file, not from the declaration.
-_FILE_DEFAULTS = {"units": "a STEP or IGES file's own, else m", "name": "the surface's name"}
+_FILE_DEFAULTS = {"units": "a STEP or IGES file's own, a mesh's guessed from its size, else m",
+                  "name": "the surface's name"}
 
 
 def _add_export_option(parser, option: ExportOption) -> None:
@@ -181,11 +184,20 @@ def _add_export_option(parser, option: ExportOption) -> None:
     parser.add_argument(option.cli_flag, **kw)
 
 
+def _units_taken(args, opened) -> str | None:
+    """The one-line note that a mesh's units were guessed (never silently
+    metres), or None when --units is given or the file says its units."""
+    fit = getattr(opened.surface, "fit", None)
+    if args.units is not None or opened.cad is not None or opened.units_guess is None or fit is None:
+        return None
+    return f"{units_note(Path(args.surface).name, float(fit.size), opened.units_guess)}; give --units to choose"
+
+
 def _export_values(args, opened) -> dict:
     """The export options given on the command line, with the file's units and name where not given."""
     values = {o.name: getattr(args, o.name) for o in export_options() if getattr(args, o.name, None) is not None}
     if "units" not in values:
-        units = opened.units if opened.cad is not None else "m"
+        units = opened.units if opened.cad is not None else opened.units_guess or "m"
         if units not in UNITS:
             raise SettingsError(f"{Path(args.surface).name} is in {units}; exports take {', '.join(UNITS)}: "
                                 f"give --units")
@@ -205,8 +217,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="flatweave: flat patterns of woven fabric or isotropic sheets covering NURBS surfaces.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    exact = {"allow_abbrev": False}  # no option is read as a longer one (--face is never --faces)
 
-    f = sub.add_parser("flatten", help="drape a spring mesh on a surface, minimise it, write the result")
+    f = sub.add_parser("flatten", **exact, help="drape a spring mesh on a surface, minimise it, write the result")
     f.add_argument("surface", metavar="SURFACE", help=_surface_help())
     f.add_argument("--method", choices=method_names(), default="spring", help=method_help())
     f.add_argument("--spacing", type=float, required=True, metavar="R",
@@ -273,9 +286,10 @@ def build_parser() -> argparse.ArgumentParser:
     for option in export_options():  # every option a registered format declares
         _add_export_option(f, option)
 
-    w = sub.add_parser("sweep", help="solve at several weft angles (and seeds) and rank them: a usable pattern "
-                                     "(no metric past its bad limit) first, then area beyond the lock angle, "
-                                     "then max shear, then boundary error")
+    w = sub.add_parser("sweep", **exact,
+                       help="solve at several weft angles (and seeds) and rank them: a usable pattern "
+                            "(no metric past its bad limit) first, then area beyond the lock angle, "
+                            "then max shear, then boundary error")
     w.add_argument("surface", metavar="SURFACE", help=_surface_help())
     w.add_argument("--spacing", type=float, required=True, metavar="R", help="rest length of the weft springs")
     w.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
@@ -303,10 +317,12 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--out", metavar="SWEEP.json", help="write the ranked rows as JSON")
     w.add_argument("--quiet", action="store_true", help="no table on stdout")
 
-    i = sub.add_parser("info", help="domain, area and boundary length of a surface; the faces of a CAD file")
+    i = sub.add_parser("info", **exact, help="domain, area and boundary length of a surface; the faces of a CAD file")
     i.add_argument("surface", metavar="SURFACE", help=_surface_help())
     i.add_argument("--json", action="store_true",
                    help="print JSON (a STEP or IGES file: {\"units\": ..., \"faces\": [...]})")
+    i.add_argument("--face", type=int, default=None, metavar="N",
+                   help="a mesh of several parts: describe part N (0 = the largest); a STEP or IGES file: face N")
     i.add_argument("--faces", default=None, metavar="A,B,...",
                    help="a STEP or IGES file's faces joined as flatten --faces joins them: the piece and the fit")
 
@@ -361,6 +377,9 @@ def _cmd_flatten(args) -> int:
     targets = [check_target(p) for p in args.export]
     opened = resolve_piece(args)
     options = ExportOptions.from_values(_export_values(args, opened))
+    # warnings about the input: said at once (before a long solve) and kept in the result file
+    notes = list(opened.notes) + [n for n in [_units_taken(args, opened)] if n]
+    _print_warnings(notes)
     units = options.units
     surface, source, region = opened.surface, opened.source, opened.region
 
@@ -410,6 +429,7 @@ def _cmd_flatten(args) -> int:
                 print(f"{len(suggested)} of {args.auto_darts} suggested darts: {suggested.reason}", file=sys.stderr)
     if out is not None:
         doc = result_to_dict(result, source)
+        doc["warnings"] = notes + doc["warnings"]
         if swept is not None:
             doc["sweep"] = swept.to_dict()
         if args.auto_darts:
@@ -419,6 +439,8 @@ def _cmd_flatten(args) -> int:
             if opened.face is None:  # several faces joined (--faces)
                 doc["settings"]["faces"] = list(surface.fit.faces)
             doc["settings"]["units"] = opened.cad.units
+        elif opened.units_guess is not None or args.units is not None:  # a mesh: the units taken, kept
+            doc["settings"]["units"] = units
         write_json(out, doc)
     # a surprising export (hundreds of pages, a piece metres across) is written, but said first
     assumed = args.units is None and opened.cad is None  # a mesh or surface file's units are taken as m
@@ -561,6 +583,7 @@ def _cmd_sweep(args) -> int:
     if args.workers is not None and args.workers < 1:
         raise SettingsError(f"--workers must be 1 or more, got {args.workers}")
     opened = resolve_piece(args)
+    _print_warnings(opened.notes)
     surface, region = opened.surface, opened.region
     cover = cover_for(surface, region)
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
@@ -608,6 +631,9 @@ def _cmd_info(args) -> int:
     if opened.cad is not None:
 
         info = cad_info(opened.cad)
+        if args.face is not None:
+            opened.with_face(args.face)  # a face that is not there: one line
+            info["faces"] = [f for f in info["faces"] if f["index"] == args.face]
         if args.json:
             print(json.dumps(info))
             return 0
@@ -621,7 +647,7 @@ def _cmd_info(args) -> int:
     if opened.mesh is not None and opened.surface is None:
         if opened.mesh.needs_region:  # closed, or with handles: described; only flattening it needs a region
             return _info_mesh(opened, None, args.json)
-        opened.choose_face()  # a mesh of several parts: raises, saying how to choose one
+        opened = opened.choose_face(args.face)  # a mesh of several parts: part --face N, or how to choose one
     surface, source = opened.surface, opened.source
     fit = getattr(surface, "fit", None)
     if fit is not None:  # a mesh: the piece is the map's region, and the fit's deviation is the news
@@ -658,13 +684,16 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
         if as_json:
             print(json.dumps({"vertices": len(V), "triangles": len(F), "closed": n_loops == 0,
                               "boundary_loops": n_loops, "genus": genus, "size": size, "area": area,
-                              "repairs": list(repairs), "needs_region": mesh.needs_region}))
+                              "repairs": list(repairs), "needs_region": mesh.needs_region,
+                              "units_guess": opened.units_guess}))
             return 0
         shape = "closed (no boundary)" if n_loops == 0 else f"{n_loops} boundary loop{'s' if n_loops != 1 else ''}"
         handles = f"{genus} handle{'s' if genus != 1 else ''}"
         print(f"{opened.source}: mesh of {len(V)} vertices and {len(F)} triangles"
               + (f" ({'; '.join(repairs)})" if repairs else ""))
         print(f"{shape}, genus {genus} ({handles}); size {size:.6g} (bounding-box diagonal), area {area:.10g}")
+        if opened.units_guess is not None:
+            print(f"{units_note(mesh.path.name, size, opened.units_guess)}; flatten --units chooses")
         print("it needs a region to flatten: give flatten --region with a loop3d drawn on it, "
               "or cut the piece out of the mesh (the window's Open does)")
         return 0
@@ -672,7 +701,7 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
     if as_json:
         print(json.dumps({"domain": opened.surface.domain.tolist(), "area": cover.area,
                           "boundary_length": cover.boundary_length, "holes": opened.region.n_holes,
-                          "fit": fit.to_dict(), **fit.metrics()}))
+                          "fit": fit.to_dict(), **fit.metrics(), "units_guess": opened.units_guess}))
         return 0
     what = f"faces {', '.join(map(str, fit.faces))} joined: " if fit.faces else ""
     print(f"{opened.source}: {what}mesh of {fit.vertices} vertices and {fit.triangles} triangles"
@@ -680,6 +709,8 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
     print(f"surface: {opened.surface!r}, {fit.describe()}")
     print(f"area {cover.area:.10g}, boundary length {cover.boundary_length:.10g}, "
           f"{opened.region.n_holes} hole{'s' if opened.region.n_holes != 1 else ''}")
+    if opened.units_guess is not None:
+        print(f"{units_note(Path(opened.source).name, fit.size, opened.units_guess)}; flatten --units chooses")
     return 0
 
 

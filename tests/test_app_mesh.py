@@ -287,3 +287,24 @@ def test_a_mesh_far_from_developable_on_the_command_line_opens_the_panel_picker(
     win = make_window(example=None)
     open_start(win, project, path, opened)
     assert isinstance(win.files.face_picker, MeshLoopPicker) and win.project is None
+
+
+def test_a_mesh_takes_the_units_its_size_suggests_and_asks(make_window, qtbot, tmp_path):
+    """A cap 300 units across: the project takes mm (never silently metres) and a non-modal question
+    shows its size in each unit; choosing cm is one undoable edit."""
+    from flatweave.app.unitsdialog import UnitsDialog
+
+    V, F = sphere_cap_mesh()
+    path = tmp_path / "cap_mm.stl"
+    path.write_bytes(trimesh.Trimesh(V * 250.0, F, process=False).export(file_type="stl"))
+    win = make_window(example=None)
+    assert win.open_file(path) and win.project.units == "mm"
+    dialog = win.files.units_dialog
+    assert isinstance(dialog, UnitsDialog) and dialog.isVisible()
+    assert dialog.units.currentData() == "mm" and "carries no units" in dialog.label.text()
+    texts = [dialog.units.itemText(k) for k in range(dialog.units.count())]
+    size = win.project.surface.fit.size
+    assert f"{size * 0.001:.3g} m across" in texts[dialog.units.findData("mm")]
+    dialog.units.setCurrentIndex(dialog.units.findData("cm"))
+    dialog.accept()
+    assert win.project.units == "cm" and win.document.undo_label == "Units"

@@ -515,3 +515,42 @@ def test_a_vertex_where_two_fans_touch_is_split_and_the_mesh_flattens():
     assert len(boundary_loops(F2)) == 1
     piece = mesh_surface(V2, F2, name="pinched")
     assert piece.fit.map_distortion < 1e-9 and piece.fit.max_deviation < 2e-4 * piece.fit.size  # FIT_TOL
+
+
+@pytest.mark.parametrize("size, unit", [(300.0, "mm"), (1500.0, "mm"), (30.0, "cm"), (0.6, "m"), (2.0, "m"),
+                                        (5.0, "cm"), (1e6, "mm"), (1e-4, "m")])
+def test_a_mesh_s_units_are_guessed_from_its_size(size, unit):
+    from flatweave.reading.meshes import guess_units
+    assert guess_units(size) == unit
+
+
+@pytest.mark.slow
+def test_the_cli_says_which_units_it_took_for_a_mesh_and_keeps_them(tmp_path):
+    V, F = grid_mesh(cylinder, 20, 20)
+    path = _write(tmp_path / "cyl_mm.stl", trimesh.Trimesh(V * 300.0, F, process=False))
+    out = tmp_path / "r.json"
+    r = _cli("flatten", path, "--spacing", "40", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    [line] = [ln for ln in r.stderr.splitlines() if "units" in ln]
+    assert "cyl_mm.stl carries no units" in line and "taken as mm" in line and "--units" in line
+    assert json.loads(out.read_text())["settings"]["units"] == "mm"
+    r = _cli("flatten", path, "--spacing", "40", "--units", "cm", "--out", out, "--quiet")
+    assert r.returncode == 0 and "carries no units" not in r.stderr
+    assert json.loads(out.read_text())["settings"]["units"] == "cm"
+    r = _cli("info", path)
+    assert "taken as mm" in r.stdout
+
+
+@pytest.mark.slow
+def test_info_describes_one_part_of_a_mesh_with_face(tmp_path):
+    V1, F1 = grid_mesh(saddle, 12, 12)
+    V2, F2 = grid_mesh(cylinder, 8, 8)
+    path = _write(tmp_path / "two.obj", trimesh.Trimesh(np.r_[V2 + [5, 0, 0], V1], np.r_[F2, F1 + len(V2)],
+                                                         process=False))
+    r = _cli("info", path, "--face", "1", "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["fit"]["triangles"] == len(F2)
+    r = _cli("info", path)
+    assert r.returncode == 2 and "choose one with --face N" in r.stderr
+    r = _cli("info", path, "--fac", "1")  # never read as --faces
+    assert r.returncode == 2 and "unrecognized arguments: --fac" in r.stderr

@@ -44,7 +44,8 @@ from flatweave.geometry.region import Region
 
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MAX_TRIANGLES", "clean_mesh", "lscm", "fit_bspline",
            "mesh_surface", "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "edge_table",
-           "map_distortion", "MAP_DISTORTION_LIMIT", "with_fit", "FitMesh", "vertex_deviation", "weld_parts", "densify"]
+           "map_distortion", "MAP_DISTORTION_LIMIT", "MAX_COORDINATE", "with_fit", "FitMesh", "vertex_deviation",
+           "weld_parts", "densify"]
 
 
 MAX_TRIANGLES = 2_000_000

@@ -22,6 +22,7 @@ from flatweave.errors import SurfaceError
 from flatweave.geometry.meshfit import FitMesh
 from flatweave.geometry.meshfit import FittedSurface
 from flatweave.geometry.meshfit import MAP_DISTORTION_LIMIT
+from flatweave.geometry.meshfit import MAX_COORDINATE
 from flatweave.geometry.meshfit import MAX_TRIANGLES
 from flatweave.geometry.meshfit import MeshPiece
 from flatweave.geometry.meshfit import NeedsRegion
@@ -29,6 +30,7 @@ from flatweave.geometry.meshfit import SeveralParts
 from flatweave.geometry.meshcut import cut_mesh
 from flatweave.geometry.meshfit import clean_mesh
 from flatweave.geometry.meshfit import mesh_surface
+from flatweave.document.project import UNITS
 from flatweave.reading.opened import Opened
 
 
@@ -214,16 +216,41 @@ def open_mesh(path):
 
     p = Path(path)
     V, F = read_mesh(p)
+    used = V[np.unique(F)]
+    sane = np.isfinite(used).all() and np.abs(used).max() <= MAX_COORDINATE  # else clean_mesh refuses it
+    guess = guess_units(float(np.linalg.norm(np.ptp(used, axis=0)))) if sane else None
     try:
         V2, F2, repairs = clean_mesh(V, F, p.name)
     except SeveralParts as exc:
-        return Opened(mesh=MeshFile(p, V, F, exc.n_parts))
+        return Opened(mesh=MeshFile(p, V, F, exc.n_parts), units_guess=guess)
     try:
         piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
     except NeedsRegion as exc:  # closed, or handles: a loop drawn on it (--region) says which piece
-        return Opened(mesh=MeshFile(p, V, F, 1, str(exc)))
+        return Opened(mesh=MeshFile(p, V, F, 1, str(exc)), units_guess=guess)
     advice = panel_advice(p.name, piece.fit)
-    return Opened(surface=piece.surface, region=piece.region, mesh=MeshFile(p, V, F, 1, advice=advice))
+    return Opened(surface=piece.surface, region=piece.region, mesh=MeshFile(p, V, F, 1, advice=advice),
+                  units_guess=guess)
+
+
+UNIT_GUESS_ORDER = ("mm", "cm", "m")  # tried in this order (mm is the usual case); inches are chosen, not guessed
+PLAUSIBLE_SIZE_M = (0.1, 3.0)  # a piece's bounding-box diagonal in metres, from a shoe upper to a car seat
+
+
+def guess_units(size: float) -> str:
+    """The model unit a mesh ``size`` units across (its bounding-box diagonal)
+    is most likely in: the first of mm, cm, m that makes it 0.1 to 3 m
+    across (a 300-unit head is millimetres, a 30-unit one centimetres); when
+    none does, the one that brings it nearest 0.5 m."""
+    for unit in UNIT_GUESS_ORDER:
+        if PLAUSIBLE_SIZE_M[0] <= size * UNITS[unit] <= PLAUSIBLE_SIZE_M[1]:
+            return unit
+    return min(UNIT_GUESS_ORDER, key=lambda u: abs(np.log(max(size * UNITS[u], 1e-300) / 0.5)))
+
+
+def units_note(name: str, size: float, units: str) -> str:
+    """One line: the mesh carries no units, its size, and the unit taken for it."""
+    return (f"{name} carries no units: it is {size:.4g} units across, taken as {units} "
+            f"(a {size * UNITS[units]:.3g} m piece)")
 
 
 def panel_advice(name: str, fit) -> str:

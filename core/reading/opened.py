@@ -24,6 +24,8 @@ class Opened:
     project : the project for a project file, else None
     spacing : recommended mesh spacing in model units (bundled examples), else None
     units : model units when the file says (bundled examples: their units), else None
+    units_guess : for a file that carries no units (a mesh), the unit its size suggests
+        (:func:`flatweave.reading.meshes.guess_units`), which a new project takes
     example : the bundled example's name, else None
     reader : name of the reader that parsed the file
     region : the piece's region of the surface's domain (a trimmed CAD
@@ -33,6 +35,8 @@ class Opened:
         with several faces has none chosen: :meth:`with_face`)
     mesh : a mesh file of several parts (:class:`flatweave.geometry.meshfit.MeshFile`);
         ``--face N`` / :meth:`with_face` chooses part N (0 = the largest)
+    notes : one-line warnings about the input itself (a mesh far from
+        developable flattened whole), which a result made from it keeps
     """
 
     path: Path | None = None
@@ -47,6 +51,8 @@ class Opened:
     cad: Any = None
     face: int | None = None
     mesh: Any = None  # a mesh file of several parts (flatweave.geometry.meshfit.MeshFile), until one is chosen
+    units_guess: str | None = None
+    notes: tuple[str, ...] = ()
 
     def with_face(self, index) -> "Opened":
         """The CAD file's face ``index`` (its surface, region and units); a
@@ -98,11 +104,12 @@ class Opened:
 
     def as_project(self) -> Project:
         """The project: the file's own, or a new one for the surface with the
-        recommended spacing (default: about sqrt(area)/25) and units (default m)."""
+        recommended spacing (default: about sqrt(area)/25) and units (the file's, else the
+        guess from a mesh's size, else m)."""
 
         if self.project is not None:
             return self.project
-        units = self.units if self.units in UNITS else "m"
+        units = self.units if self.units in UNITS else self.units_guess if self.units_guess in UNITS else "m"
         if self.surface is None:
             self.choose_face()  # raises: a CAD file with several faces and none chosen
         return new_project(self.surface, self.name if self.path is None else self.path.stem, self.source,
