@@ -90,14 +90,11 @@ def resolve_piece(args):
     opened = open_path(args.surface, surface_only=True)
     if args.region and opened.mesh is not None:  # a loop drawn on a mesh (open, closed, or of several parts)
         data = _read_json(args.region, "region")
-        if not isinstance(data, dict) or "loop3d" not in data:
-            raise SettingsError(f"{args.region}: a mesh's region is {{\"loop3d\": [[x, y, z], ...]}} (a closed loop "
-                                f"drawn on it, with \"holes3d\": [loop, ...] inside it if any)")
-        holes = data.get("holes3d", [])
-        if not isinstance(holes, list):
-            raise SettingsError(f"{args.region}: \"holes3d\" must be a list of loops of [x, y, z] points")
+        try:
+            piece = opened.mesh.cut_spec(data, args.face)
+        except SettingsError as exc:
+            raise SettingsError(f"{args.region}: {exc}") from None
         import dataclasses
-        piece = opened.mesh.cut(data["loop3d"], args.face, holes)
         return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=args.face)
     if faces is not None:
         opened = _join_faces(args, opened, faces)

@@ -14,7 +14,7 @@ import pytest
 import trimesh
 
 from flatweave.errors import SettingsError
-from flatweave.geometry.meshcut import closest_on_mesh, cut_mesh
+from flatweave.geometry.meshcut import closest_on_mesh, cut_mesh, drawn_loop_on_mesh, project_to_mesh
 from flatweave.geometry.meshfit import boundary_loops, lscm, map_distortion
 
 T = np.linspace(0.0, 2.0 * np.pi, 240, endpoint=False)
@@ -143,3 +143,109 @@ def test_the_cli_warns_on_a_whole_dome_and_cuts_a_panel_with_a_hole(tmp_path):
     m = json.loads(out.read_text())["metrics"]
     assert m["area_3d"] == pytest.approx(2 * np.pi * 1e4 * (np.cos(0.2) - np.cos(0.7)), rel=5e-3)
     assert m["boundary_error_pct"] < 5.0
+
+
+def _first_hits_brute(V, F, P, d):
+    """Every line P + t d against every triangle in 3D (Moeller-Trumbore), the hit of smallest t."""
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    out = np.full((len(P), 3), np.nan)
+    for k, p in enumerate(P):
+        e1, e2 = B - A, C - A
+        h = np.cross(d, e2)
+        det = np.einsum("ij,ij->i", e1, h)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.einsum("ij,ij->i", p - A, h) / det
+            q = np.cross(p - A, e1)
+            t = (q @ d) / det
+            tt = np.einsum("ij,ij->i", e2, q) / det
+        ok = (np.abs(det) > 1e-15) & (s >= 0) & (t >= 0) & (s + t <= 1)
+        if ok.any():
+            out[k] = p + tt[ok].min() * d
+    return out
+
+
+def test_points_seen_along_a_view_land_on_the_first_triangle_the_line_meets():
+    V, F = sphere(subdivisions=3)
+    rng = np.random.default_rng(5)
+    d = np.array([0.3, -0.2, -1.0])
+    d /= np.linalg.norm(d)
+    P = rng.uniform(-1.3, 1.3, size=(150, 3))  # some lines miss the ball, some start inside it
+    xyz, hit = project_to_mesh(V, F, P, d)
+    brute = _first_hits_brute(V, F, P, d)
+    assert hit.sum() > 50 and (~hit).sum() > 5
+    np.testing.assert_array_equal(hit, np.isfinite(brute[:, 0]))
+    np.testing.assert_allclose(xyz[hit], brute[hit], atol=1e-9)
+
+
+def test_a_region_drawn_along_a_view_is_cut_along_the_projection_of_its_sides():
+    """A square drawn above a dome, seen from above: the panel's outline is the square's
+    projection (its sides' points keep their x, y), not the chords between its corners on the dome."""
+    V, F = sphere(cut_below=-0.2)
+    sq = np.array([[-0.5, -0.5, 3.0], [0.5, -0.5, 3.0], [0.5, 0.5, 3.0], [-0.5, 0.5, 3.0]])
+    loop = drawn_loop_on_mesh(V, F, sq, [0, 0, -1], "dome")
+    Vc, Fc = cut_mesh(V, F, loop, "dome")
+    rim = Vc[boundary_loops(Fc)[0]]
+    # every rim point on the square's outline in x, y, to a hundredth of an edge (between two samples the
+    # cut is straight in the piece's flat map, which bends where the facets do), and on the dome's top
+    edge = np.median(np.linalg.norm(V[F[:, 1]] - V[F[:, 0]], axis=1))
+    off = np.minimum(np.abs(np.abs(rim[:, 0]) - 0.5), np.abs(np.abs(rim[:, 1]) - 0.5))
+    assert off.max() < 0.01 * edge and np.abs(rim[:, :2]).max() < 0.5 + 0.01 * edge and rim[:, 2].min() > 0.6
+    assert len(rim) > 4 * 8  # the sides' samples, not four chords
+    with pytest.raises(SettingsError, match="misses it: point 2"):
+        drawn_loop_on_mesh(V, F, [[0, 0, 3], [5, 5, 3], [0, 0.5, 3]], [0, 0, -1], "dome")
+
+
+def _finned_sheet():
+    """A flat 20 x 20 grid of squares with one extra triangle on an interior edge near a corner (a
+    fin: the edge belongs to three triangles, as scans have a few)."""
+    ij = np.array([(i, j) for i in range(21) for j in range(21)], dtype=float)
+    V = np.column_stack([ij, np.zeros(len(ij))])
+    F = []
+    for i in range(20):
+        for j in range(20):
+            a, b, c, e = 21 * i + j, 21 * (i + 1) + j, 21 * (i + 1) + j + 1, 21 * i + j + 1
+            F += [(a, b, c), (a, c, e)]
+    V = np.vstack([V, [[2.5, 2.5, 1.0]]])
+    F.append((21 * 2 + 2, 21 * 3 + 3, len(V) - 1))  # on the diagonal edge of square (2, 2)
+    return V, np.array(F)
+
+
+def test_a_panel_away_from_a_non_manifold_edge_is_cut_and_one_reaching_it_is_refused(tmp_path):
+    from flatweave.reading.meshes import open_mesh
+
+    V, F = _finned_sheet()
+    path = tmp_path / "finned.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    opened = open_mesh(path)
+    assert opened.surface is None and "non-manifold" in opened.mesh.needs_region  # not covered whole
+    t = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    far = np.column_stack([12 + 4 * np.cos(t), 12 + 4 * np.sin(t), np.zeros_like(t)])
+    piece = opened.mesh.cut(far)
+    assert any(r.startswith("set aside 3 triangles at 1 non-manifold edges") for r in piece.fit.repairs)
+    assert piece.fit.max_deviation < 1e-4 * piece.fit.size  # a flat panel, fitted as flat
+    near = np.column_stack([3 + 2 * np.cos(t), 3 + 2 * np.sin(t), np.zeros_like(t)])
+    with pytest.raises(SettingsError) as err:
+        opened.mesh.cut(near)
+    assert "encloses or touches a non-manifold part" in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.slow
+def test_the_cli_cuts_a_region_drawn_as_points_seen_along_a_view(tmp_path):
+    V, F = sphere(cut_below=-0.2)
+    path = tmp_path / "dome.stl"
+    trimesh.Trimesh(V * 100.0, F, process=False).export(path)
+    t = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    a = 0.7
+    drawn = np.column_stack([100 * np.sin(a) * np.cos(t), 100 * np.sin(a) * np.sin(t), np.full_like(t, 500.0)])
+    region = tmp_path / "drawn.json"
+    region.write_text(json.dumps({"points": drawn.tolist(), "view_direction": [0, 0, -1]}))
+    out = tmp_path / "r.json"
+    p = _cli("flatten", path, "--spacing", "5", "--region", region, "--out", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    m = json.loads(out.read_text())["metrics"]
+    # the 24-gon's projection: its cap area lies between the inscribed and the circumscribed circle's
+    inner = 2 * np.pi * 1e4 * (1 - np.cos(np.arcsin(np.sin(a) * np.cos(np.pi / 24))))
+    assert inner * 0.995 < m["area_3d"] < 2 * np.pi * 1e4 * (1 - np.cos(a)) * 1.005
+    region.write_text(json.dumps({"points": drawn.tolist()}))
+    p = _cli("flatten", path, "--spacing", "5", "--region", region, "--out", out, "--quiet")
+    assert p.returncode == 2 and "view_direction" in p.stderr and p.stderr.count("\n") == 1

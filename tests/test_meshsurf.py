@@ -370,7 +370,7 @@ def test_cli_info_and_result_metrics(tmp_path):
     region = tmp_path / "region.json"
     region.write_text(json.dumps({"outer": [[0.2, 0.2], [0.8, 0.2], [0.8, 0.8]]}))
     r = _cli("flatten", path, "--spacing", "0.12", "--out", out, "--region", region)
-    assert r.returncode == 2 and "a mesh's region is {\"loop3d\"" in r.stderr and r.stderr.count("\n") == 1
+    assert r.returncode == 2 and "(a mesh) is {\"loop3d\"" in r.stderr and r.stderr.count("\n") == 1
     assert m["fit_mean_deviation"] == pytest.approx(info["fit_mean_deviation"])
 
 

@@ -30,11 +30,13 @@ from scipy.spatial import cKDTree
 from flatweave.errors import SettingsError
 from flatweave.geometry.meshfit import boundary_loops, edge_table, lscm
 
-__all__ = ["cut_mesh", "closest_on_mesh", "RINGS", "WELD"]
+__all__ = ["cut_mesh", "closest_on_mesh", "project_to_mesh", "drawn_loop_on_mesh", "RINGS", "WELD"]
 
 RINGS = 3        # rings of triangles grown round the inside side: the map holds the drawn loop
 WELD = 1e-3      # of the median edge: new points this close are one (no slivers)
 CANDIDATES = 24  # triangles (by nearest centroid) searched for a point's nearest
+SIDE_SAMPLES = 8  # points projected along each drawn side at least (the cut follows the side's projection)
+MAX_SIDE_SAMPLES = 2000  # and at most
 
 
 def closest_on_mesh(V: np.ndarray, F: np.ndarray, P: np.ndarray):
@@ -56,6 +58,76 @@ def closest_on_mesh(V: np.ndarray, F: np.ndarray, P: np.ndarray):
     tri = cand[rows, best]
     xyz = np.einsum("kj,kjd->kd", w, V[F[tri]])
     return tri, w, xyz, d[rows, best]
+
+
+def project_to_mesh(V: np.ndarray, F: np.ndarray, P: np.ndarray, view) -> tuple[np.ndarray, np.ndarray]:
+    """Move points along the view direction onto the mesh, as
+    :func:`flatweave.geometry.curves.project_points` does onto a surface:
+    each P goes to the hit of the line P + t d of smallest t (nearest the
+    camera; t may be negative). Returns (xyz (k, 3), hit (k,) bool); a
+    line that misses gets NaN.
+
+    The triangles seen along d are searched by their projected centroids
+    (a k-d tree in the view plane, within the largest projected
+    triangle's reach), then hit exactly (barycentric in the view plane)."""
+    P = np.asarray(P, dtype=float).reshape(-1, 3)
+    d = np.asarray(view, dtype=float).reshape(3)
+    d = d / np.linalg.norm(d)
+    a = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    E = np.column_stack([a, np.cross(d, a)])  # (3, 2): the view plane
+    T2 = (V @ E)[F]  # (m, 3, 2)
+    c2 = T2.mean(axis=1)
+    reach = float(np.linalg.norm(T2 - c2[:, None], axis=2).max())
+    q = P @ E
+    near = cKDTree(c2).query_ball_point(q, reach * (1 + 1e-9))
+    counts = np.fromiter((len(n) for n in near), dtype=np.int64, count=len(q))
+    xyz = np.full((len(P), 3), np.nan)
+    if not counts.sum():
+        return xyz, np.zeros(len(P), dtype=bool)
+    tri = np.concatenate([np.asarray(n, dtype=np.int64) for n in near])
+    row = np.repeat(np.arange(len(q)), counts)
+    T = T2[tri]
+    det = _signed_areas(T)
+    r = q[row] - T[:, 0]
+    e1, e2 = T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
+        t = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
+    eps = 1e-12
+    inside = (det != 0) & (s >= -eps) & (t >= -eps) & (s + t <= 1 + eps)
+    row, tri, s, t = row[inside], tri[inside], s[inside], t[inside]
+    W = np.column_stack([1 - s - t, s, t])
+    X = np.einsum("kj,kjd->kd", W, V[F[tri]])
+    depth = X @ d
+    order = np.lexsort((depth, row))  # per point, its hits nearest the camera first
+    row, X = row[order], X[order]
+    first = np.r_[True, row[1:] != row[:-1]]
+    xyz[row[first]] = X[first]
+    return xyz, np.isfinite(xyz[:, 0])
+
+
+def drawn_loop_on_mesh(V: np.ndarray, F: np.ndarray, points, view, name: str = "the mesh",
+                       what: str = "the region's outer loop") -> np.ndarray:
+    """A loop drawn as points seen along ``view`` (a ``--region`` spec's
+    ``points`` and ``view_direction``) as a loop3d on the mesh: each straight
+    side between two drawn points projected along ``view`` at SIDE_SAMPLES
+    points. A one-line SettingsError when a drawn point misses the mesh."""
+    D = _loop_points(points, what)
+    step = np.roll(D, -1, axis=0) - D
+    # a point per mesh edge along each side at least: the cut joins them straight in the piece's flat map
+    edge = float(np.median(np.linalg.norm(V[F[:, 1]] - V[F[:, 0]], axis=1)))
+    n = np.clip(np.ceil(np.linalg.norm(step, axis=1) / max(edge, 1e-300)), SIDE_SAMPLES, MAX_SIDE_SAMPLES)
+    n = n.astype(np.int64)
+    side = np.repeat(np.arange(len(D)), n)
+    frac = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    S = D[side] + (frac / n[side])[:, None] * step[side]
+    xyz, hit = project_to_mesh(V, F, S, view)
+    corners = hit[frac == 0]
+    if not corners.all():
+        raise SettingsError(f"{what} drawn on {name} misses it: point {int(np.argmin(corners)) + 1}, seen along "
+                            f"the view direction, meets none of its triangles")
+    return xyz[hit]  # a side's sample that slips past an edge of the mesh is left out, its neighbours kept
 
 
 def _closest_on_triangles3(q, A, B, C):

@@ -43,7 +43,8 @@ from flatweave.geometry.numerics import polygon_area
 from flatweave.geometry.region import Region
 
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MAX_TRIANGLES", "clean_mesh", "lscm", "fit_bspline",
-           "mesh_surface", "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "edge_table",
+           "mesh_surface", "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "NonManifold",
+           "edge_table",
            "map_distortion", "MAP_DISTORTION_LIMIT", "MAX_COORDINATE", "with_fit", "FitMesh", "vertex_deviation",
            "weld_parts", "densify"]
 
@@ -186,6 +187,11 @@ class SeveralParts(SurfaceError):
         self.n_parts = n_parts
 
 
+class NonManifold(SurfaceError):
+    """A mesh with edges of more than two triangles: it cannot be covered
+    whole, but a panel drawn away from those edges can be cut from it."""
+
+
 class NeedsRegion(SurfaceError):
     """A closed mesh, or one with handles: it cannot be covered whole."""
 
@@ -248,7 +254,7 @@ def _orient(F: np.ndarray, name: str) -> tuple[np.ndarray, int]:
     return F, int(flip.sum())
 
 
-def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
+def clean_mesh(V, F, name: str = "the mesh", component: int | None = None, aside: list | None = None):
     """Repair and check a mesh; returns (V, F, repairs).
 
     Merges vertices that coincide (to 1e-9 of the mesh's size), drops
@@ -257,6 +263,11 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
     coordinates, no triangles, an edge of more than two triangles, a mesh of
     several parts unless ``component`` (0 = the largest) picks one;
     ``component`` may also be a point (3,), for the part nearest it.
+
+    ``aside``: a list to set the triangles of non-manifold edges aside
+    instead of refusing them (a panel cut elsewhere on the mesh does not
+    need them): the ends of those edges are appended to it, so that a
+    piece cut from the rest can be checked not to reach them.
     """
     V = np.asarray(V, dtype=float)
     F = np.asarray(F, dtype=np.int64)
@@ -299,10 +310,19 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
     if len(keep) < len(F):
         repairs.append(f"dropped {len(F) - len(keep)} repeated triangles")
         F = F[np.sort(keep)]
-    _, inv_e, count = edge_table(F)
+    edges, inv_e, count = edge_table(F)
+    if count.max() > 2 and aside is not None:
+        bad = count > 2
+        aside.extend(V[np.unique(edges[bad])])
+        on_bad = bad[inv_e].reshape(-1, 3).any(axis=1)
+        repairs.append(f"set aside {int(on_bad.sum())} triangles at {int(bad.sum())} non-manifold edges")
+        F = F[~on_bad]
+        if len(F) == 0:
+            raise SurfaceError(f"{name} has no triangles off its non-manifold edges")
+        edges, inv_e, count = edge_table(F)
     if count.max() > 2:
         n_bad = int((count > 2).sum())
-        raise SurfaceError(f"{name} has {n_bad} non-manifold edge{'s' if n_bad != 1 else ''} "
+        raise NonManifold(f"{name} has {n_bad} non-manifold edge{'s' if n_bad != 1 else ''} "
                            f"(shared by more than two triangles); repair the mesh or keep one sheet")
     # parts: triangles joined through edges
     tri = np.repeat(np.arange(len(F)), 3)
@@ -326,7 +346,7 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None):
             raise SettingsError(f"{name} has {n_parts} parts; --face must be 0 to {n_parts - 1}")
         F = F[labels == rank[component]]
         repairs.append(f"part {component} of {n_parts}")
-    elif component not in (None, 0):
+    elif component is not None and np.ndim(component) == 0 and component != 0:  # a point: the only part
         raise SettingsError(f"{name} has one part; --face must be 0")
     used = np.unique(F)
     V, F = V[used], np.searchsorted(used, F)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from flatweave.errors import SettingsError
 from flatweave.errors import SurfaceError
 from flatweave.geometry.meshfit import FitMesh
 from flatweave.geometry.meshfit import FittedSurface
@@ -26,8 +27,11 @@ from flatweave.geometry.meshfit import MAX_COORDINATE
 from flatweave.geometry.meshfit import MAX_TRIANGLES
 from flatweave.geometry.meshfit import MeshPiece
 from flatweave.geometry.meshfit import NeedsRegion
+from flatweave.geometry.meshfit import NonManifold
 from flatweave.geometry.meshfit import SeveralParts
+from flatweave.geometry.meshcut import closest_on_mesh
 from flatweave.geometry.meshcut import cut_mesh
+from flatweave.geometry.meshcut import drawn_loop_on_mesh
 from flatweave.geometry.meshfit import clean_mesh
 from flatweave.geometry.meshfit import mesh_surface
 from flatweave.document.project import UNITS
@@ -192,17 +196,59 @@ class MeshFile:
         V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
         return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name, repairs=repairs)
 
+    def cut_spec(self, spec, component: int | None = None) -> MeshPiece:
+        """The piece a ``--region`` spec draws on the mesh: ``{"loop3d": [[x, y, z],
+        ...], "holes3d": [loop, ...]}`` (points on it), or ``{"points": [[x, y, z],
+        ...], "view_direction": [dx, dy, dz], "holes": [points, ...]}`` (drawn
+        points seen along the view, as on a surface: each side projected onto
+        the mesh, :func:`flatweave.geometry.meshcut.drawn_loop_on_mesh`)."""
+        name = self.path.name
+        if isinstance(spec, dict) and "loop3d" in spec and "points" not in spec:
+            holes = spec.get("holes3d", [])
+            if not isinstance(holes, list):
+                raise SettingsError('a mesh region\'s "holes3d" must be a list of loops of [x, y, z] points')
+            return self.cut(spec["loop3d"], component, holes)
+        if isinstance(spec, dict) and "points" in spec and "loop3d" not in spec:
+            view = spec.get("view_direction")
+            try:
+                view = np.asarray(view, dtype=float).reshape(3)
+            except (TypeError, ValueError):
+                view = np.zeros(3)
+            if not (np.isfinite(view).all() and np.linalg.norm(view) > 0):
+                raise SettingsError("a drawn region needs 'view_direction': a non-zero [dx, dy, dz]")
+            holes = spec.get("holes", [])
+            if not isinstance(holes, list):
+                raise SettingsError("a region's holes must be a list of loops")
+            V, F = self.vertices, self.triangles
+            ok = np.isfinite(V).all(axis=1)[F].all(axis=1)  # a broken vertex is clean_mesh's to refuse, later
+            loop = drawn_loop_on_mesh(V, F[ok], spec["points"], view, name)
+            holes3d = [drawn_loop_on_mesh(V, F[ok], h, view, name, f"hole {k + 1} of the region")
+                       for k, h in enumerate(holes)]
+            return self.cut(loop, component, holes3d)
+        raise SettingsError(f"a region on {name} (a mesh) is {{\"loop3d\": [[x, y, z], ...]}} (a closed loop on it, "
+                            f"\"holes3d\" inside it if any) or {{\"points\": [[x, y, z], ...], \"view_direction\": "
+                            f"[dx, dy, dz]}} (drawn as seen along the view)")
+
     def cut(self, loop3d, component: int | None = None, holes3d=()) -> MeshPiece:
         """The piece inside a closed loop of 3D points drawn on the mesh, less the
         loops ``holes3d`` drawn inside it (:func:`flatweave.geometry.meshcut.cut_mesh`),
         on part ``component`` (default: the part the loop is drawn on)."""
-        if component is None and self.n_parts > 1:  # the part the loop is drawn on
+        if component is None:  # the part the loop is drawn on
             try:
                 component = np.asarray(loop3d, dtype=float).reshape(-1, 3)[0]
             except (TypeError, ValueError, IndexError):
                 pass  # cut_mesh says what is wrong with the loop
-        V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
+        aside = []  # non-manifold edges: the piece must not reach them
+        V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component, aside=aside)
         V, F = cut_mesh(V, F, loop3d, self.path.name, holes3d)
+        if aside:
+            _, _, _, dist = closest_on_mesh(V, F, np.asarray(aside))
+            touched = np.flatnonzero(dist <= 1e-6 * float(np.linalg.norm(np.ptp(V, axis=0))))
+            if len(touched):
+                x, y, z = aside[touched[0]]
+                raise SettingsError(f"the loop drawn on {self.path.name} encloses or touches a non-manifold part "
+                                    f"of it (edges of more than two triangles, one near "
+                                    f"({x:.4g}, {y:.4g}, {z:.4g})); draw the loop clear of it or repair the mesh")
         return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name,
                             repairs=repairs + ("cut along a drawn loop",))
 
@@ -223,6 +269,9 @@ def open_mesh(path):
         V2, F2, repairs = clean_mesh(V, F, p.name)
     except SeveralParts as exc:
         return Opened(mesh=MeshFile(p, V, F, exc.n_parts), units_guess=guess)
+    except NonManifold as exc:  # a panel drawn clear of those edges can still be cut
+        return Opened(mesh=MeshFile(p, V, F, 1, f"{exc}, or draw a panel clear of them (--region)"),
+                      units_guess=guess)
     try:
         piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
     except NeedsRegion as exc:  # closed, or handles: a loop drawn on it (--region) says which piece
