@@ -30,7 +30,9 @@ from flatweave.reading.registry import dialog_filter, open_path, reader_for
 from flatweave.app.actions import view_choices
 from flatweave.app.facepicker import FacePicker
 from flatweave.app.meshpicker import MeshLoopPicker
-from flatweave.app.unitsdialog import UnitsDialog
+from flatweave.app.meshdialog import MeshDialog
+from flatweave.geometry.meshfit import mesh_surface
+from flatweave.reading.meshes import fit_mesh
 from flatweave.app.worker import one_line
 from flatweave.reading.cadjoin import join_faces
 
@@ -72,7 +74,7 @@ class Files(QObject):
         self.session: Session | None = None
         self.recovery_box: QMessageBox | None = None
         self.face_picker: FacePicker | MeshLoopPicker | None = None  # open while a face or a mesh's piece is chosen
-        self.units_dialog: UnitsDialog | None = None  # the last question of a mesh's units
+        self.mesh_dialog: MeshDialog | None = None  # the last question of a mesh's units and fit
         self.recovery_problem: str | None = None
         if recovery:
             try:
@@ -109,7 +111,7 @@ class Files(QObject):
                 return True
             else:  # a surface, or a CAD file's only face (its region and units with it)
                 self.window.set_project(opened.as_project())
-                self.ask_units(opened)
+                self.ask_mesh(opened)
         except (FlatweaveError, OSError) as exc:
             reader = reader_for(path)
             self.window.show_error(f"Cannot open {'project' if reader and reader.project else 'surface'}: {exc}")
@@ -163,7 +165,7 @@ class Files(QObject):
             return False
         self.window.set_project(opened.as_project())
         self._status(f"Opened {opened.path} whole", 5000)
-        self.ask_units(opened)
+        self.ask_mesh(opened)
         return True
 
     def open_mesh_region(self, opened, loop3d, asked_at: int | None = None) -> bool:
@@ -180,17 +182,18 @@ class Files(QObject):
             return False
         self.window.set_project(project)
         self._status(f"Opened the piece drawn on {opened.path}: {piece.fit.describe()}", 10000)
-        self.ask_units(opened)
+        self.ask_mesh(opened)
         return True
 
-    def ask_units(self, opened) -> UnitsDialog | None:
-        """For a file that carries no units (a mesh): the project took the unit its size suggests;
-        ask (non-modal) whether that is right. The answer is one display edit."""
+    def ask_mesh(self, opened) -> MeshDialog | None:
+        """For a mesh (a file that carries no units): the project took the unit its size suggests;
+        ask (non-modal) whether that is right, and show the fit with a tolerance to refit to. Each
+        answer is one edit (:meth:`refit_mesh`)."""
         project = self.window.project
         fit = getattr(project.surface, "fit", None) if project is not None else None
         if opened.units_guess is None or fit is None:
             return None
-        dialog = UnitsDialog(Path(fit.source).name or project.name, fit.size, project.units, self.window)
+        dialog = MeshDialog(Path(fit.source).name or project.name, fit, project.units, self.window)
         doc = self.window.document
 
         def chosen(unit):
@@ -198,9 +201,32 @@ class Files(QObject):
                 self.window.edit_display("Units", {"units": unit})
 
         dialog.chosen.connect(chosen)
-        self.units_dialog = dialog
+        dialog.refit.connect(lambda tolerance: self.refit_mesh(doc, tolerance))
+        self.mesh_dialog = dialog
         dialog.show()
         return dialog
+
+    def refit_mesh(self, doc, tolerance: float) -> bool:
+        """Refit the document's surface (fitted to a mesh) to ``tolerance`` (model units) as one
+        undoable edit: the same mesh and the same flat map, so the region and what is drawn on it
+        stay. A tolerance the mesh cannot meet is shown, and nothing changes."""
+        if doc is None or self.window.document is not doc:
+            return False
+        surface = doc.project.surface
+        fit = getattr(surface, "fit", None)
+        if fit is None:
+            self.window.show_error("Fit tolerance: this surface was not fitted to a mesh")
+            return False
+        try:
+            mesh = surface.mesh if surface.mesh is not None else fit_mesh(surface)  # a reopened project reads it
+            piece = mesh_surface(mesh.vertices, mesh.triangles, source=fit.source, name=Path(fit.source).name,
+                                 repairs=fit.repairs, faces=fit.faces, tolerance=tolerance)
+        except (FlatweaveError, OSError) as exc:
+            self.window.show_error(f"Fit tolerance: {exc}")
+            return False
+        doc.refit_surface("Fit tolerance", piece.surface)
+        self._status(f"Refitted: {piece.fit.describe()}", 10000)
+        return True
 
     def open_face(self, opened, index: int, asked_at: int | None = None) -> bool:
         """Open face ``index`` of a CAD file (``opened``, :func:`flatweave.reading.registry.open_path`'s)

@@ -922,6 +922,14 @@ class MeshLoopView(FaceView):
     def set_mesh(self, vertices, triangles) -> None:
         self.set_faces([(vertices, triangles)])
         self.select(0)
+        # a click on a scan of 10^5-10^6 triangles: a cell locator makes the pick logarithmic, not linear
+        from vtkmodules.vtkCommonDataModel import vtkStaticCellLocator
+
+        locator = vtkStaticCellLocator()
+        locator.SetDataSet(self._actors[0].GetMapper().GetInput())
+        locator.BuildLocator()
+        self._face_picker.RemoveAllLocators()
+        self._face_picker.AddLocator(locator)
 
     def point_at(self, x: float, y: float) -> np.ndarray | None:
         """(3,) the mesh's point under display point (x, y), or None off it."""

@@ -304,6 +304,26 @@ def mesh_fit(triangles: int) -> dict:
     return measure(triangles)
 
 
+def _scan_fit(name: str):
+    def run(triangles: int) -> dict:
+        from benchmarks.scan_fit import measure
+
+        return measure(name)
+    return run
+
+
+def scan_open_cut_fit(triangles: int) -> dict:
+    from benchmarks.scan_fit import measure_large
+
+    return measure_large(triangles)
+
+
+def scan_click(triangles: int) -> dict:
+    from benchmarks.scan_click import measure
+
+    return measure(triangles)
+
+
 def faces_join(faces: int) -> dict:
     from benchmarks.faces_join import measure
 
@@ -362,6 +382,25 @@ CASES: tuple[Case, ...] = (
          "(read, repair, LSCM, fit), the slower of the two", Target("seconds", "<", {100_000: 10.0}, "s"),
          mesh_fit, (2_000, 10_000, 100_000), size_unit="triangles",
          keys=("seconds", "panel_s", "cap_s", "max_dev_pct", "triangles")),
+    *(Case(f"scan_fit_{name}", f"a panel drawn on a real scan ({about}) cut out and fitted by default: the "
+           f"largest deviation from its vertices (% of the panel's size), the mean, the largest between them "
+           f"(centroids, edge midpoints: the facets' sagitta with it), the open + cut + fit seconds, the "
+           f"solver's iterations over a smooth stand-in's",
+           Target("max_dev_pct", "<=", 0.2, "%"), _scan_fit(name), (triangles,), size_unit="triangles",
+           repeats=1, keys=("max_dev_pct", "mean_dev_pct", "between_dev_pct", "seconds", "iterations",
+                            "iterations_ratio",
+                            "boundary_error_pct", "panel_triangles"))
+      for name, about, triangles in (
+          ("face000", "pymeshlab's face000.ply, a range scan of a carved head", 166_259),
+          ("bunny", "pymeshlab's bunny.obj, the Stanford bunny", 56_172),
+          ("head", "tvb-data's face_surface.obj, a head's skin from MRI", 17_224))),
+    Case("scan_open_cut_fit", "a panel drawn on a scan (face000, triangles split in four, the ones nearest its "
+         "centre kept) read, cut out and fitted as flatten --region does", Target("seconds", "<", {200_000: 15.0}, "s"),
+         scan_open_cut_fit, (50_000, 200_000), size_unit="triangles", keys=("seconds", "max_dev_pct",
+                                                                              "panel_triangles")),
+    Case("scan_click", "the panel picker on a raw scan (face000 split to 200,000 triangles): a click to its point "
+         "drawn, median of twelve", Target("click_ms", "<", 50.0, "ms"), scan_click, (200_000,),
+         size_unit="triangles", keys=("click_ms", "max_ms", "triangles"), gui=True),
     Case("faces_join", "CAD faces (a STEP file) read and joined into one surface: 3 faces (plate, fillet, plate) "
          "or 9 (a rounded box's lid)", Target("seconds", "<", 10.0, "s"), faces_join, (3, 9), size_unit="faces",
          keys=("seconds", "read_s", "join_s", "max_dev_pct", "triangles")),

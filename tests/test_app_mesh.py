@@ -292,15 +292,15 @@ def test_a_mesh_far_from_developable_on_the_command_line_opens_the_panel_picker(
 def test_a_mesh_takes_the_units_its_size_suggests_and_asks(make_window, qtbot, tmp_path):
     """A cap 300 units across: the project takes mm (never silently metres) and a non-modal question
     shows its size in each unit; choosing cm is one undoable edit."""
-    from flatweave.app.unitsdialog import UnitsDialog
+    from flatweave.app.meshdialog import MeshDialog
 
     V, F = sphere_cap_mesh()
     path = tmp_path / "cap_mm.stl"
     path.write_bytes(trimesh.Trimesh(V * 250.0, F, process=False).export(file_type="stl"))
     win = make_window(example=None)
     assert win.open_file(path) and win.project.units == "mm"
-    dialog = win.files.units_dialog
-    assert isinstance(dialog, UnitsDialog) and dialog.isVisible()
+    dialog = win.files.mesh_dialog
+    assert isinstance(dialog, MeshDialog) and dialog.isVisible()
     assert dialog.units.currentData() == "mm" and "carries no units" in dialog.label.text()
     texts = [dialog.units.itemText(k) for k in range(dialog.units.count())]
     size = win.project.surface.fit.size
@@ -308,3 +308,31 @@ def test_a_mesh_takes_the_units_its_size_suggests_and_asks(make_window, qtbot, t
     dialog.units.setCurrentIndex(dialog.units.findData("cm"))
     dialog.accept()
     assert win.project.units == "cm" and win.document.undo_label == "Units"
+
+
+def test_a_fit_tolerance_given_in_the_window_refits_the_piece_as_one_undoable_edit(make_window, qtbot, tmp_path):
+    """The dialog's fit tolerance refits the surface (the same map, so the region and anything drawn on it
+    stay); Undo brings the first fit back; a tolerance the mesh cannot meet, or not a number, changes nothing."""
+    V, F = sphere_cap_mesh()
+    path = tmp_path / "cap_mm.stl"
+    path.write_bytes(trimesh.Trimesh(V * 250.0, F, process=False).export(file_type="stl"))
+    win = make_window(example=None)
+    assert win.open_file(path)
+    first = win.project.surface
+    assert first.fit.tolerance is None
+    tol = 0.5 * first.fit.max_deviation
+    dialog = win.files.mesh_dialog
+    dialog.tolerance.setText("-1")
+    dialog.accept()
+    assert dialog.isVisible() and "positive length" in dialog.error.text() and win.project.surface is first
+    dialog.tolerance.setText(f"{tol:g}")
+    dialog.accept()
+    fit = win.project.surface.fit
+    assert fit.tolerance == pytest.approx(tol, rel=1e-5) and fit.max_deviation <= fit.tolerance
+    assert win.project.settings.region is not None and win.document.undo_label == "Fit tolerance"
+    win.undo()
+    assert win.project.surface is first
+    errors = []
+    win.show_error = errors.append
+    assert not win.files.refit_mesh(win.document, 1e-12)
+    assert win.project.surface is first and "over the fit tolerance" in errors[-1]

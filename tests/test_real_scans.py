@@ -25,7 +25,7 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def head(tmp_path_factory):
-    return package_file("pymeshlab", "2025.7.post1", "rangemaps/face000.ply", tmp_path_factory.mktemp("scans"))
+    return package_file("pymeshlab", "2025.7.post1", "rangemaps/face000.ply")
 
 
 def front_loop(V, centre_xy, radius, n=80):

@@ -200,6 +200,11 @@ class Document:
                 project = project.with_result(with_shear_angles(self._project.result, w, lock))
         return self.apply(label, project, answers_solve=False)
 
+    def refit_surface(self, label: str, surface) -> Edit | None:
+        """The surface refitted (a mesh's, to another tolerance: the same (u, v) map, so the
+        settings, region and drawings stay) as one undoable edit; the result it had is dropped."""
+        return self.apply(label, replace(self._project, surface=surface, result=None), answers_solve=False)
+
     # ------------------------------------------------------------------ darts and yarns
     def _dart_index(self, index: int) -> int:
         n = len(self._project.settings.darts)

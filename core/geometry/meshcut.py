@@ -28,7 +28,7 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
 from flatweave.errors import SettingsError
-from flatweave.geometry.meshfit import boundary_loops, edge_table, lscm
+from flatweave.geometry.meshfit import boundary_loops, edge_table, lscm, split_pinched
 
 __all__ = ["cut_mesh", "closest_on_mesh", "project_to_mesh", "drawn_loop_on_mesh", "RINGS", "WELD"]
 
@@ -259,7 +259,7 @@ def cut_mesh(V: np.ndarray, F: np.ndarray, loop3d, name: str = "the mesh", holes
     disc = _grow(F, _inside_side(V, F, P, name), RINGS)
     used, Fd = np.unique(F[disc], return_inverse=True)
     Fd = Fd.reshape(-1, 3)
-    Vd = V[used]
+    Vd, Fd, _ = split_pinched(V[used], Fd)  # the disc's rim may touch a hole of the scan at a vertex
     loops = boundary_loops(Fd, name)
     chi = len(Vd) - len(edge_table(Fd)[0]) + len(Fd)
     if (2 - chi - len(loops)) // 2 > 0:
@@ -322,4 +322,7 @@ def cut_mesh(V: np.ndarray, F: np.ndarray, loop3d, name: str = "the mesh", holes
     if not len(out_F):
         raise SettingsError(f"the loop drawn on {name} encloses none of it")
     keep_v, out_F = np.unique(out_F, return_inverse=True)
-    return all_xyz[keep_v], out_F.reshape(-1, 3)
+    # where the piece's outline passes through a vertex twice (a hole of the scan touching the cut), the
+    # fans meeting there become separate vertices, as clean_mesh does for the whole mesh
+    Vp, Fp, _ = split_pinched(all_xyz[keep_v], out_F.reshape(-1, 3))
+    return Vp, Fp

@@ -63,7 +63,7 @@ def _joined_pieces(faces: list[dict], edges_of) -> list[list[int]]:
 
 def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
                angular_deflection: float = JOIN_ANGULAR_DEFLECTION,
-               linear_deflection: float = JOIN_LINEAR_DEFLECTION):
+               linear_deflection: float = JOIN_LINEAR_DEFLECTION, tolerance: float | None = None):
     """Faces ``indices`` of ``cad_file`` joined into one surface by the mesh
     route: tessellated by Open CASCADE (in a child process), welded along
     the edges they share, densified, then :func:`flatweave.geometry.meshfit.mesh_surface`
@@ -111,7 +111,8 @@ def join_faces(cad_file: CadFile, indices, *, timeout: float | None = None,
         raise SettingsError(f"{label} could not be welded into one piece: their tessellations do not meet "
                             f"along the edges they share") from None
     try:
-        return mesh_surface(V, F, source=os.fspath(path), name=label, repairs=repairs, faces=indices)
+        return mesh_surface(V, F, source=os.fspath(path), name=label, repairs=repairs, faces=indices,
+                            tolerance=tolerance)
     except NeedsRegion:  # its own advice (a drawn region) is not for joined faces
         raise SettingsError(f"{label} make a closed surface, or one with handles: it cannot be flattened "
                             f"whole; leave some faces out") from None

@@ -188,15 +188,20 @@ class MeshFile:
     path: Path
     vertices: np.ndarray
     triangles: np.ndarray
-    n_parts: int
+    n_parts: int  # 0: not counted (read only to cut a drawn piece from, mesh_to_cut)
     needs_region: str = ""
     advice: str = ""
 
-    def piece(self, component: int) -> MeshPiece:
+    def piece(self, component: int, tolerance: float | None = None) -> MeshPiece:
+        """Part ``component`` (0 = the largest) whole, fitted to ``tolerance``
+        (model units; None: the default, :func:`flatweave.geometry.meshfit.mesh_surface`)."""
+        if self.needs_region:
+            raise SettingsError(self.needs_region)
         V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
-        return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name, repairs=repairs)
+        return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name, repairs=repairs,
+                            tolerance=tolerance)
 
-    def cut_spec(self, spec, component: int | None = None) -> MeshPiece:
+    def cut_spec(self, spec, component: int | None = None, tolerance: float | None = None) -> MeshPiece:
         """The piece a ``--region`` spec draws on the mesh: ``{"loop3d": [[x, y, z],
         ...], "holes3d": [loop, ...]}`` (points on it), or ``{"points": [[x, y, z],
         ...], "view_direction": [dx, dy, dz], "holes": [points, ...]}`` (drawn
@@ -207,7 +212,7 @@ class MeshFile:
             holes = spec.get("holes3d", [])
             if not isinstance(holes, list):
                 raise SettingsError('a mesh region\'s "holes3d" must be a list of loops of [x, y, z] points')
-            return self.cut(spec["loop3d"], component, holes)
+            return self.cut(spec["loop3d"], component, holes, tolerance)
         if isinstance(spec, dict) and "points" in spec and "loop3d" not in spec:
             view = spec.get("view_direction")
             try:
@@ -224,15 +229,16 @@ class MeshFile:
             loop = drawn_loop_on_mesh(V, F[ok], spec["points"], view, name)
             holes3d = [drawn_loop_on_mesh(V, F[ok], h, view, name, f"hole {k + 1} of the region")
                        for k, h in enumerate(holes)]
-            return self.cut(loop, component, holes3d)
+            return self.cut(loop, component, holes3d, tolerance)
         raise SettingsError(f"a region on {name} (a mesh) is {{\"loop3d\": [[x, y, z], ...]}} (a closed loop on it, "
                             f"\"holes3d\" inside it if any) or {{\"points\": [[x, y, z], ...], \"view_direction\": "
                             f"[dx, dy, dz]}} (drawn as seen along the view)")
 
-    def cut(self, loop3d, component: int | None = None, holes3d=()) -> MeshPiece:
+    def cut(self, loop3d, component: int | None = None, holes3d=(), tolerance: float | None = None) -> MeshPiece:
         """The piece inside a closed loop of 3D points drawn on the mesh, less the
         loops ``holes3d`` drawn inside it (:func:`flatweave.geometry.meshcut.cut_mesh`),
-        on part ``component`` (default: the part the loop is drawn on)."""
+        on part ``component`` (default: the part the loop is drawn on), fitted
+        to ``tolerance`` (as :meth:`piece`)."""
         if component is None:  # the part the loop is drawn on
             try:
                 component = np.asarray(loop3d, dtype=float).reshape(-1, 3)[0]
@@ -250,7 +256,33 @@ class MeshFile:
                                     f"of it (edges of more than two triangles, one near "
                                     f"({x:.4g}, {y:.4g}, {z:.4g})); draw the loop clear of it or repair the mesh")
         return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name,
-                            repairs=repairs + ("cut along a drawn loop",))
+                            repairs=repairs + ("cut along a drawn loop",), tolerance=tolerance)
+
+
+MESH_SUFFIXES = {".stl": "STL mesh", ".obj": "OBJ mesh", ".ply": "PLY mesh", ".off": "OFF mesh"}
+"""The mesh formats (trimesh reads them), each a reader of :mod:`flatweave.reading.registry`."""
+
+
+def is_mesh_path(path) -> bool:
+    """Whether ``path`` is a mesh file by its suffix."""
+    return Path(path).suffix.lower() in MESH_SUFFIXES
+
+
+def mesh_to_cut(path) -> Opened:
+    """A mesh file read to cut a drawn piece from (``--region`` on a mesh): its
+    :class:`MeshFile` (``n_parts`` not counted: the cut takes the part under
+    the loop) and units guess, without the whole mesh's map and fit, which
+    :func:`open_mesh` makes and a drawn piece does not need."""
+    p = Path(path)
+    V, F = read_mesh(p)
+    return Opened(mesh=MeshFile(p, V, F, 0), units_guess=_units_guess(V, F), path=p, source=str(p),
+                  reader=p.suffix.lower().lstrip("."))
+
+
+def _units_guess(V, F) -> str | None:
+    used = V[np.unique(F)]
+    sane = np.isfinite(used).all() and np.abs(used).max() <= MAX_COORDINATE  # else clean_mesh refuses it
+    return guess_units(float(np.linalg.norm(np.ptp(used, axis=0)))) if sane else None
 
 
 def open_mesh(path):
@@ -262,9 +294,7 @@ def open_mesh(path):
 
     p = Path(path)
     V, F = read_mesh(p)
-    used = V[np.unique(F)]
-    sane = np.isfinite(used).all() and np.abs(used).max() <= MAX_COORDINATE  # else clean_mesh refuses it
-    guess = guess_units(float(np.linalg.norm(np.ptp(used, axis=0)))) if sane else None
+    guess = _units_guess(V, F)
     try:
         V2, F2, repairs = clean_mesh(V, F, p.name)
     except SeveralParts as exc:

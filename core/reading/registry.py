@@ -33,7 +33,7 @@ from flatweave.reading.examples import list_examples
 from flatweave.document.project import load_project
 from flatweave.geometry.surface_json import load_trimmed_surface
 from flatweave.reading.cad import read_cad_faces
-from flatweave.reading.meshes import open_mesh
+from flatweave.reading.meshes import MESH_SUFFIXES, open_mesh
 
 if TYPE_CHECKING:
     pass
@@ -229,7 +229,5 @@ def _load_mesh(path: Path) -> Opened:
     return open_mesh(path)
 
 
-register_reader("stl", (".stl",), _load_mesh, "STL mesh")
-register_reader("obj", (".obj",), _load_mesh, "OBJ mesh")
-register_reader("ply", (".ply",), _load_mesh, "PLY mesh")
-register_reader("off", (".off",), _load_mesh, "OFF mesh")
+for _mesh_suffix, _description in MESH_SUFFIXES.items():
+    register_reader(_mesh_suffix.lstrip("."), (_mesh_suffix,), _load_mesh, _description)
