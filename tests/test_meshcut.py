@@ -249,3 +249,17 @@ def test_the_cli_cuts_a_region_drawn_as_points_seen_along_a_view(tmp_path):
     region.write_text(json.dumps({"points": drawn.tolist()}))
     p = _cli("flatten", path, "--spacing", "5", "--region", region, "--out", out, "--quiet")
     assert p.returncode == 2 and "view_direction" in p.stderr and p.stderr.count("\n") == 1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("vertex, says", [("1e308 1e308 0", "coordinates up to 1e+308"),
+                                          ("nan 1 0", "1 vertices with NaN")])
+def test_a_region_drawn_on_a_broken_mesh_is_refused_in_one_line_and_nothing_else(tmp_path, vertex, says):
+    path = tmp_path / "broken.obj"
+    path.write_text(f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv {vertex}\nf 1 2 3\nf 2 4 3\n")
+    for spec in ({"points": [[0, 0, 1], [1, 0, 1], [0, 1, 1]], "view_direction": [0, 0, -1]},
+                 {"loop3d": [[0, 0, 0], [1, 0, 0], [0, 1, 0]]}):
+        region = tmp_path / "region.json"
+        region.write_text(json.dumps(spec))
+        p = _cli("flatten", path, "--spacing", "1", "--region", region, "--out", tmp_path / "r.json")
+        assert p.returncode == 2 and p.stderr.count("\n") == 1 and says in p.stderr, p.stderr

@@ -47,7 +47,7 @@ __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MAX_TRIANGLES", "clean_mesh
            "FitTolerance",
            "edge_table",
            "map_distortion", "MAP_DISTORTION_LIMIT", "MAX_COORDINATE", "with_fit", "FitMesh", "vertex_deviation",
-           "weld_parts", "densify", "split_pinched"]
+           "weld_parts", "densify", "split_pinched", "check_coordinates"]
 
 
 MAX_TRIANGLES = 2_000_000
@@ -276,6 +276,18 @@ def _orient(F: np.ndarray, name: str) -> tuple[np.ndarray, int]:
     return F, int(flip.sum())
 
 
+def check_coordinates(V: np.ndarray, name: str = "the mesh") -> None:
+    """A one-line SurfaceError when vertices ``V`` (the ones triangles use) have NaN or infinite
+    coordinates, or any beyond MAX_COORDINATE (their squares would overflow)."""
+    finite = np.isfinite(V).all(axis=1)
+    if not finite.all():
+        raise SurfaceError(f"{name} has {int((~finite).sum())} vertices with NaN or infinite coordinates")
+    big = float(np.abs(V).max(initial=0.0))
+    if big > MAX_COORDINATE:  # its squares overflow long before a model gets there
+        raise SurfaceError(f"{name} has coordinates up to {big:.3g}: no model is that large (the limit is "
+                           f"{MAX_COORDINATE:g} units)")
+
+
 def clean_mesh(V, F, name: str = "the mesh", component: int | None = None, aside: list | None = None):
     """Repair and check a mesh; returns (V, F, repairs).
 
@@ -297,15 +309,9 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None, aside
     if len(F) == 0:
         raise SurfaceError(f"{name} has no triangles")
     used = np.unique(F)
-    if not np.isfinite(V[used]).all():
-        bad = int((~np.isfinite(V[used]).all(axis=1)).sum())
-        raise SurfaceError(f"{name} has {bad} vertices with NaN or infinite coordinates")
+    check_coordinates(V[used], name)
     V = V[used]
     F = np.searchsorted(used, F)
-    big = float(np.abs(V).max())
-    if big > MAX_COORDINATE:  # its squares overflow long before a model gets there
-        raise SurfaceError(f"{name} has coordinates up to {big:.3g}: no model is that large (the limit is "
-                           f"{MAX_COORDINATE:g} units)")
     size = float(np.linalg.norm(np.ptp(V, axis=0)))
     if not size > 0:
         raise SurfaceError(f"{name}: all its vertices are at one point")

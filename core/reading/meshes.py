@@ -32,6 +32,7 @@ from flatweave.geometry.meshfit import SeveralParts
 from flatweave.geometry.meshcut import closest_on_mesh
 from flatweave.geometry.meshcut import cut_mesh
 from flatweave.geometry.meshcut import drawn_loop_on_mesh
+from flatweave.geometry.meshfit import check_coordinates
 from flatweave.geometry.meshfit import clean_mesh
 from flatweave.geometry.meshfit import mesh_surface
 from flatweave.document.project import UNITS
@@ -225,9 +226,9 @@ class MeshFile:
             if not isinstance(holes, list):
                 raise SettingsError("a region's holes must be a list of loops")
             V, F = self.vertices, self.triangles
-            ok = np.isfinite(V).all(axis=1)[F].all(axis=1)  # a broken vertex is clean_mesh's to refuse, later
-            loop = drawn_loop_on_mesh(V, F[ok], spec["points"], view, name)
-            holes3d = [drawn_loop_on_mesh(V, F[ok], h, view, name, f"hole {k + 1} of the region")
+            check_coordinates(V[np.unique(F)], name)  # before any arithmetic on them
+            loop = drawn_loop_on_mesh(V, F, spec["points"], view, name)
+            holes3d = [drawn_loop_on_mesh(V, F, h, view, name, f"hole {k + 1} of the region")
                        for k, h in enumerate(holes)]
             return self.cut(loop, component, holes3d, tolerance)
         raise SettingsError(f"a region on {name} (a mesh) is {{\"loop3d\": [[x, y, z], ...]}} (a closed loop on it, "
