@@ -6,7 +6,8 @@ warned about.
 The scan: ``tests/sample_meshes/rangemaps/face000.ply`` shipped in the
 pymeshlab 2025.7.post1 wheel (PyPI; GPL-3), a single-view range scan of a
 stone head in millimetres: 166,259 triangles in 22 parts, the largest 161,606
-triangles with 22 holes and a vertex where two holes touch."""
+triangles with 22 holes and a vertex where two holes touch. And the Stanford
+bunny as scanned (pymeshfix's example, below), with non-manifold edges."""
 
 from __future__ import annotations
 
@@ -108,3 +109,26 @@ def test_a_panel_drawn_on_the_head_scan_in_the_window_is_cut_and_solved(head, ma
     run_to_end(qtbot, win)
     r = win.project.result
     assert r.usable and not shown and r.metrics["boundary_error_pct"] < 5.0
+
+
+def test_a_raw_scan_with_non_manifold_edges_gives_panels_clear_of_them_and_refuses_one_reaching_them(tmp_path):
+    """The Stanford bunny as scanned (``examples/StanfordBunny.ply`` in the pymeshfix 0.18.1 wheel, PyPI, MIT;
+    the Stanford 3D Scanning Repository's bun_zipper): 132 edges of more than two triangles and holes. It
+    cannot be covered whole, but a panel drawn on its side (seen along y) is cut; one drawn on its front
+    (seen along x) reaches a fin and is refused in one line, exit 2."""
+    from benchmarks.scan_fit import drawn_panel
+    from flatweave.reading.meshes import mesh_to_cut
+
+    bunny = package_file("pymeshfix", "0.18.1", "examples/StanfordBunny.ply")
+    opened = mesh_to_cut(bunny)
+    V = opened.mesh.vertices
+    piece = opened.mesh.cut_spec(drawn_panel(V, (0, 1, 0), 0.05))
+    assert "set aside 329 triangles at 132 non-manifold edges" in piece.fit.repairs
+    assert piece.fit.max_deviation < 2e-3 * piece.fit.size
+    region = tmp_path / "front.json"
+    region.write_text(json.dumps(drawn_panel(V, (1, 0, 0), 0.05)))
+    p = _cli("flatten", bunny, "--spacing", "1", "--region", region, "--out", tmp_path / "r.json")
+    assert p.returncode == 2 and p.stderr.count("\n") == 1
+    assert "encloses or touches a non-manifold part" in p.stderr
+    p = _cli("flatten", bunny, "--spacing", "1", "--out", tmp_path / "r.json")  # whole: a region is needed
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "non-manifold edges" in p.stderr

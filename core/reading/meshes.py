@@ -301,8 +301,9 @@ def open_mesh(path):
     except SeveralParts as exc:
         return Opened(mesh=MeshFile(p, V, F, exc.n_parts), units_guess=guess)
     except NonManifold as exc:  # a panel drawn clear of those edges can still be cut
-        return Opened(mesh=MeshFile(p, V, F, 1, f"{exc}, or draw a panel clear of them (--region)"),
-                      units_guess=guess)
+        n = str(exc).split(";")[0]  # "NAME has N non-manifold edges (shared by more than two triangles)"
+        return Opened(mesh=MeshFile(p, V, F, 1, f"{n}: it cannot be covered whole, but a panel drawn clear of them "
+                                                f"can be cut (--region); or repair the mesh"), units_guess=guess)
     try:
         piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
     except NeedsRegion as exc:  # closed, or handles: a loop drawn on it (--region) says which piece
