@@ -16,9 +16,12 @@ The engine works on a parametric surface; a mesh becomes one in four steps:
    squares problem solved with scipy; a developable mesh maps isometrically,
    up to one scale;
 4. **fit** (:func:`fit_bspline`): a bicubic B-spline surface (C2) over the
-   map's bounding box, by least squares through the vertices with a small
-   thin-plate smoothing term (it also extends the surface smoothly over the
-   parts of the box the map does not reach).
+   map's bounding box, by least squares through the vertices (and, at a
+   small share of the weight, the triangles' centroids and the edges'
+   midpoints, which keep a fine net from swinging between vertices) with a
+   small thin-plate smoothing term (it also extends the surface smoothly
+   over the parts of the box the map does not reach), refined to a
+   tolerance (:func:`mesh_surface`).
 
 The region (:class:`flatweave.geometry.region.Region`) is the map's boundary: the outer
 loop and the holes of the mesh, in the surface's (u, v). The distance from
@@ -595,13 +598,16 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     """A repaired, consistently wound, one-part mesh (:func:`clean_mesh`)
     made a :class:`MeshPiece`: surface, region, map and deviations.
 
-    The control net is refined (1.5 times per direction, knots at the
-    vertices' quantiles) until the largest vertex deviation is at most
-    ``tolerance`` (model units; default :data:`FIT_TOL` of the mesh's size)
-    or the net reaches its limits. A stated tolerance that is not met is a
-    one-line :class:`FitTolerance` error saying why (a fold of the map,
-    noise, or detail finer than the net); the default one, not met, leaves
-    the deviation to be judged with the result.
+    The control net is refined (1.5 times per direction) until the largest
+    vertex deviation is at most ``tolerance`` (model units; default
+    :data:`FIT_TOL` of the mesh's size) or the net reaches its limits
+    (:data:`MAX_CTRL` a side, :data:`VERTICES_PER_CTRL`; the ``_STATED``
+    ones with a stated tolerance); of the nets tried that do not swing
+    between the vertices (:data:`SWING`), the one nearest the vertices is
+    kept. A stated tolerance that is not met is a one-line
+    :class:`FitTolerance` error saying why (a fold of the map, a swing
+    between too few vertices, noise, or detail finer than the net); the
+    default one, not met, leaves the deviation to be judged with the result.
 
     A closed mesh, or one of higher genus, is refused (it needs a region).
     """
