@@ -16,6 +16,7 @@ user can cause print one line, ``flatweave: error: ...``, and exit with status 2
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -104,20 +105,16 @@ def resolve_piece(args):
             raise
         except SettingsError as exc:
             raise SettingsError(f"{args.region}: {exc}") from None
-        import dataclasses
         return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=args.face)
     if faces is not None:
         opened = _join_faces(args, opened, faces)
     else:
         opened = opened.choose_face(args.face)
     if opened.mesh is not None and tolerance is not None:  # refitted to the tolerance stated
-        import dataclasses
-        piece = opened.mesh.piece(opened.face or 0, tolerance)
-        opened = dataclasses.replace(opened, surface=piece.surface, region=piece.region)
+        opened = opened.refitted(tolerance)
     if opened.mesh is not None:  # a mesh (or one part of it) flattened whole, as asked, if badly
         advice = panel_advice(Path(args.surface).name, getattr(opened.surface, "fit", None))
         if advice:
-            import dataclasses
             opened = dataclasses.replace(
                 opened, notes=opened.notes + (f"{advice} (--region with a loop3d drawn on it cuts one out)",))
     offset = getattr(args, "region_offset", None)
@@ -131,11 +128,8 @@ def resolve_piece(args):
             region = region_from_spec(opened.surface, data, offset=offset)
         except SettingsError as exc:
             raise SettingsError(f"{args.region}: {exc}") from None
-        import dataclasses
         opened = dataclasses.replace(opened, region=region)
     elif offset:  # a trimmed face's region, or the whole domain, moved along the surface
-        import dataclasses
-
         opened = dataclasses.replace(opened, region=offset_region(opened.surface, opened.region, offset))
     return opened
 
@@ -167,8 +161,6 @@ def _face_list(args):
 def _join_faces(args, opened, indices):
     """``--faces 2,5,7``: those faces of a STEP or IGES file joined into one
     surface by the mesh route (:func:`flatweave.reading.cadjoin.join_faces`)."""
-    import dataclasses
-
     if opened.cad is None:
         raise SettingsError(f"{Path(args.surface).name}: --faces is for STEP and IGES files")
     piece = join_faces(opened.cad, indices, tolerance=_fit_tolerance(args))
@@ -428,8 +420,6 @@ def _cmd_flatten(args) -> int:
         initial = state_from_dict(_read_json(args.warm_start), surface, settings)
     swept = None
     if args.angle == "auto":
-        import dataclasses
-
         swept = sweep(surface, settings, refine=True, area=cover.area if cover.trimmed else None,
                       seeds=1)
         settings = dataclasses.replace(settings, angle_deg=swept.best["angle_deg"])
@@ -679,9 +669,7 @@ def _cmd_info(args) -> int:
             return _info_mesh(opened, None, args.json)
         opened = opened.choose_face(args.face)  # a mesh of several parts: part --face N, or how to choose one
     if opened.mesh is not None and tolerance is not None:
-        import dataclasses
-        piece = opened.mesh.piece(opened.face or 0, tolerance)
-        opened = dataclasses.replace(opened, surface=piece.surface, region=piece.region)
+        opened = opened.refitted(tolerance)
     surface, source = opened.surface, opened.source
     fit = getattr(surface, "fit", None)
     if fit is not None:  # a mesh: the piece is the map's region, and the fit's deviation is the news

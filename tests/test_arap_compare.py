@@ -25,10 +25,12 @@ from tests.test_real_scans import front_loop
 
 try:
     import igl
-except ImportError:  # a dev dependency: CI has it, so there a missing one fails
+except ImportError:
     igl = None
 
 pytestmark = [pytest.mark.slow,
+              # libigl is a dev dependency: an install without the dev extras skips this comparison, but
+              # CI installs them, so there (CI set) a missing libigl fails instead of skipping
               pytest.mark.skipif(igl is None and not os.environ.get("CI"),
                                  reason="libigl is not installed (pip install libigl)")]
 

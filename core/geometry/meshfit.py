@@ -618,8 +618,8 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     V = np.asarray(V, dtype=float)
     F = np.asarray(F, dtype=np.int64)
     loops = boundary_loops(F, name)
-    n_edges = len(edge_table(F)[0])
-    chi = len(V) - n_edges + len(F)
+    E = edge_table(F)[0]
+    chi = len(V) - len(E) + len(F)
     genus = (2 - chi - len(loops)) // 2
     if not loops:
         raise NeedsRegion(f"{name} is a closed mesh (no boundary): it needs a region to flatten; "
@@ -643,7 +643,6 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     # share of its weight (BETWEEN_SHARE: they lie on the flat facets, off a smooth shape by the facets' sagitta)
     # so that a net finer than the vertices pin cannot swing between them; a net whose largest distance there
     # grows past SWING times the coarsest net's is not taken
-    E = edge_table(F)[0]
     between_uv = np.concatenate([uv[F].mean(axis=1), 0.5 * (uv[E[:, 0]] + uv[E[:, 1]])])
     between_xyz = np.concatenate([V[F].mean(axis=1), 0.5 * (V[E[:, 0]] + V[E[:, 1]])])
     samples_uv, samples = np.concatenate([uv, between_uv]), np.concatenate([V, between_xyz])

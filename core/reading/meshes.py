@@ -23,7 +23,6 @@ from flatweave.errors import SurfaceError
 from flatweave.geometry.meshfit import FitMesh
 from flatweave.geometry.meshfit import FittedSurface
 from flatweave.geometry.meshfit import MAP_DISTORTION_LIMIT
-from flatweave.geometry.meshfit import MAX_COORDINATE
 from flatweave.geometry.meshfit import MAX_TRIANGLES
 from flatweave.geometry.meshfit import MeshPiece
 from flatweave.geometry.meshfit import NeedsRegion
@@ -36,6 +35,7 @@ from flatweave.geometry.meshfit import check_coordinates
 from flatweave.geometry.meshfit import clean_mesh
 from flatweave.geometry.meshfit import mesh_surface
 from flatweave.document.project import UNITS
+from flatweave.geometry.region import RegionDrawing
 from flatweave.reading.opened import Opened
 
 
@@ -215,21 +215,13 @@ class MeshFile:
                 raise SettingsError('a mesh region\'s "holes3d" must be a list of loops of [x, y, z] points')
             return self.cut(spec["loop3d"], component, holes, tolerance)
         if isinstance(spec, dict) and "points" in spec and "loop3d" not in spec:
-            view = spec.get("view_direction")
-            try:
-                view = np.asarray(view, dtype=float).reshape(3)
-            except (TypeError, ValueError):
-                view = np.zeros(3)
-            if not (np.isfinite(view).all() and np.linalg.norm(view) > 0):
-                raise SettingsError("a drawn region needs 'view_direction': a non-zero [dx, dy, dz]")
-            holes = spec.get("holes", [])
-            if not isinstance(holes, list):
-                raise SettingsError("a region's holes must be a list of loops")
+            drawing = RegionDrawing.from_dict(spec)  # validated as a drawn region on a surface is
             V, F = self.vertices, self.triangles
             check_coordinates(V[np.unique(F)], name)  # before any arithmetic on them
-            loop = drawn_loop_on_mesh(V, F, spec["points"], view, name)
+            view = drawing.view_direction
+            loop = drawn_loop_on_mesh(V, F, drawing.outer, view, name)
             holes3d = [drawn_loop_on_mesh(V, F, h, view, name, f"hole {k + 1} of the region")
-                       for k, h in enumerate(holes)]
+                       for k, h in enumerate(drawing.holes)]
             return self.cut(loop, component, holes3d, tolerance)
         raise SettingsError(f"a region on {name} (a mesh) is {{\"loop3d\": [[x, y, z], ...]}} (a closed loop on it, "
                             f"\"holes3d\" inside it if any) or {{\"points\": [[x, y, z], ...], \"view_direction\": "
@@ -282,8 +274,11 @@ def mesh_to_cut(path) -> Opened:
 
 def _units_guess(V, F) -> str | None:
     used = V[np.unique(F)]
-    sane = np.isfinite(used).all() and np.abs(used).max() <= MAX_COORDINATE  # else clean_mesh refuses it
-    return guess_units(float(np.linalg.norm(np.ptp(used, axis=0)))) if sane else None
+    try:
+        check_coordinates(used)
+    except SurfaceError:  # no guess: clean_mesh refuses the file in one line
+        return None
+    return guess_units(float(np.linalg.norm(np.ptp(used, axis=0))))
 
 
 def open_mesh(path):

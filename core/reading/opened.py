@@ -54,6 +54,12 @@ class Opened:
     units_guess: str | None = None
     notes: tuple[str, ...] = ()
 
+    def refitted(self, tolerance: float) -> "Opened":
+        """The mesh part chosen (``face``, 0 when None) fitted to ``tolerance`` in model
+        units (:meth:`flatweave.reading.meshes.MeshFile.piece`); a one-line error when not met."""
+        piece = self.mesh.piece(self.face or 0, tolerance)
+        return dataclasses.replace(self, surface=piece.surface, region=piece.region)
+
     def with_face(self, index) -> "Opened":
         """The CAD file's face ``index`` (its surface, region and units); a
         one-line SettingsError when there is no such face."""
