@@ -115,8 +115,11 @@ def test_stops_when_no_dart_helps():
     s = load_example("half_cylinder")
     r = flatten(s, FlattenSettings(0.1))
     assert suggest_darts(r, count=2, workers=1) == []
-    # asked by the paper's limits (its boundary error is 0.2 %), no dart tried lowers the energy
-    got = suggest_darts(r, count=2, workers=1, limits=paper_limits(r))
+    # asked by limits stricter than its boundary error (0.08 %, the chords' shortfall), no dart tried lowers
+    # the energy
+    limits = paper_limits(r)
+    limits["boundary_error_pct"] = (0.05, limits["boundary_error_pct"][1])
+    got = suggest_darts(r, count=2, workers=1, limits=limits)
     assert got == [] and got.reason.startswith("no dart tried helps: of ")
 
 
