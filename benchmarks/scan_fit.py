@@ -97,7 +97,7 @@ def open_cut_fit(path, view, radius_frac: float):
 def measure(name: str) -> dict:
     """One scan's panel: fit deviations (% of the panel's size), open + cut + fit seconds, and the
     solver's iterations on the fitted surface against a smooth stand-in's."""
-    from flatweave.geometry.meshfit import _clamped_knots, fit_bspline
+    from flatweave.geometry.meshfit import clamped_knots, fit_bspline
     from flatweave.geometry.nurbs import NurbsSurface
 
     s = SCANS[name]
@@ -105,7 +105,7 @@ def measure(name: str) -> dict:
     fit = piece.fit
     iterations, m = _iterations(piece.surface, piece.region)
     C = fit_bspline(piece.uv, piece.vertices, SMOOTH_NET, SMOOTH_NET)
-    smooth = NurbsSurface(3, 3, _clamped_knots(SMOOTH_NET), _clamped_knots(SMOOTH_NET), C)
+    smooth = NurbsSurface(3, 3, clamped_knots(SMOOTH_NET), clamped_knots(SMOOTH_NET), C)
     iterations_smooth, _ = _iterations(smooth, piece.region)
     return {"max_dev_pct": 100 * fit.max_deviation / fit.size, "mean_dev_pct": 100 * fit.mean_deviation / fit.size,
             "between_dev_pct": 100 * fit.between_deviation / fit.size,

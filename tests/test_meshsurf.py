@@ -462,7 +462,7 @@ def test_a_hole_in_a_doubly_curved_panel_costs_what_the_hole_costs(pieces, sourc
     those of the same panel without the hole (within a point), and the cloth never lies on itself.
     A net laid round the hole met behind it out of step and left a slit from the hole to the edge:
     its sides overlapped and the pattern opened there (boundary error 19-35 %, area 9-11 %)."""
-    from flatweave.geometry.meshfit import _clamped_knots, fit_bspline
+    from flatweave.geometry.meshfit import clamped_knots, fit_bspline
     from flatweave.geometry.nurbs import NurbsSurface
     from flatweave.geometry.region import Region
 
@@ -475,7 +475,7 @@ def test_a_hole_in_a_doubly_curved_panel_costs_what_the_hole_costs(pieces, sourc
     else:  # the panel's own (u, v): a bicubic interpolating it within 1e-7, the hole a circle in (u, v)
         g = np.linspace(0, 1, 81)
         uv = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
-        surface = NurbsSurface(3, 3, _clamped_knots(30), _clamped_knots(30),
+        surface = NurbsSurface(3, 3, clamped_knots(30), clamped_knots(30),
                                fit_bspline(uv, panel(uv[:, 0], uv[:, 1]), 30, 30, smooth=1e-9))
         assert np.abs(surface.points(uv) - panel(uv[:, 0], uv[:, 1])).max() < 1e-6
         t = np.linspace(0, 2 * np.pi, 200, endpoint=False)

@@ -47,7 +47,7 @@ from flatweave.geometry.region import Region
 
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MAX_TRIANGLES", "clean_mesh", "lscm", "fit_bspline",
            "mesh_surface", "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "NonManifold",
-           "FitTolerance",
+           "FitTolerance", "clamped_knots",
            "edge_table",
            "map_distortion", "MAP_DISTORTION_LIMIT", "MAX_COORDINATE", "with_fit", "FitMesh", "vertex_deviation",
            "weld_parts", "densify", "split_pinched", "check_coordinates"]
@@ -501,7 +501,9 @@ def lscm(V: np.ndarray, F: np.ndarray, pins: tuple[int, int] | None = None) -> n
 
 
 # --------------------------------------------------------------------------- the fit
-def _clamped_knots(n_ctrl: int, p: int = 3) -> np.ndarray:
+def clamped_knots(n_ctrl: int, p: int = 3) -> np.ndarray:
+    """The clamped, uniform knot vector on [0, 1] of a degree-``p`` B-spline with
+    ``n_ctrl`` control points (the fit's first net, refined from there)."""
     inner = np.linspace(0.0, 1.0, n_ctrl - p + 1)
     return np.r_[np.zeros(p), inner, np.ones(p)]
 
@@ -537,7 +539,7 @@ def fit_bspline(uv: np.ndarray, X: np.ndarray, nu: int, nv: int, smooth: float =
     minimises the (``weights``-)weighted mean of |S(uv_i) - X_i|^2 + smooth *
     (thin-plate energy), on the knot vectors ``knots`` = (ku, kv) (default
     uniform, clamped)."""
-    ku, kv = knots if knots is not None else (_clamped_knots(nu), _clamped_knots(nv))
+    ku, kv = knots if knots is not None else (clamped_knots(nu), clamped_knots(nv))
     iu, Nu = _design(ku, nu, uv[:, 0])
     iv, Nv = _design(kv, nv, uv[:, 1])
     n = len(uv)
@@ -649,7 +651,7 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     weights = np.r_[np.ones(len(V)), np.full(len(between_uv), BETWEEN_SHARE * len(V) / len(between_uv))]
     best, first_between, swung = None, None, False
     while True:
-        knots = (_clamped_knots(nu), _clamped_knots(nv))
+        knots = (clamped_knots(nu), clamped_knots(nv))
         C = fit_bspline(samples_uv, samples, nu, nv, knots=knots, weights=weights)
         surf = NurbsSurface(3, 3, *knots, C)
         every = fit_deviation(surf, samples_uv, samples)
