@@ -330,6 +330,12 @@ def faces_join(faces: int) -> dict:
     return measure(faces)
 
 
+def closed_cylinder(per_radius: int) -> dict:
+    from benchmarks.closed_faces import measure
+
+    return measure(per_radius)
+
+
 def gui_live_fps(nodes: int) -> dict:
     from benchmarks.gui_fps import measure
 
@@ -394,6 +400,10 @@ CASES: tuple[Case, ...] = (
           ("face000", "pymeshlab's face000.ply, a range scan of a carved head", 166_259),
           ("bunny", "pymeshlab's bunny.obj, the Stanford bunny", 56_172),
           ("head", "tvb-data's face_surface.obj, a head's skin from MRI", 17_224))),
+    Case("closed_cylinder", "a full cylinder face of a STEP file (periodic, one seam) against its development: "
+         "the larger of the area and boundary errors, at spacing radius / size", Target("error_pct", "<=", 0.02, "%"),
+         closed_cylinder, (4, 20), size_unit="spacings per radius", repeats=1,
+         keys=("error_pct", "area_signed_pct", "boundary_signed_pct", "chords_pct", "nodes", "seconds")),
     Case("scan_open_cut_fit", "a panel drawn on a scan (face000, triangles split in four, the ones nearest its "
          "centre kept) read, cut out and fitted as flatten --region does", Target("seconds", "<", {200_000: 15.0}, "s"),
          scan_open_cut_fit, (50_000, 200_000), size_unit="triangles", keys=("seconds", "max_dev_pct",
