@@ -34,7 +34,7 @@ from flatweave.export.registry import exporters
 from flatweave.method.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
 from flatweave.method.energy import parse_yarn
 from flatweave.method.darts import PlaneDart
-from flatweave.files import write_json
+from flatweave.files import parse_json, read_input, write_json
 from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten, state_from_dict
 from flatweave.method.result import result_to_dict
@@ -581,15 +581,8 @@ class _Progress:
 
 
 def _read_json(path: str, what: str = "result") -> dict:
-    import json
-
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return json.load(fh)
-    except OSError as exc:
-        raise SettingsError(f"cannot read {path}: {exc.strerror or exc}") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SettingsError(f"{path} is not a JSON {what} file: {exc}") from None
+    raw = read_input(path, "result" if what == "result" else "small", SettingsError)
+    return parse_json(raw, path, f"JSON {what} file", SettingsError)
 
 
 def _cmd_sweep(args) -> int:

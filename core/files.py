@@ -1,15 +1,119 @@
-"""Small file helpers shared by every writer: atomic writes, JSON encoding."""
+"""Small file helpers shared by every reader and writer: the one guarded way a
+file is read (``read_input``, ``parse_json``), atomic writes, JSON encoding."""
 
 from __future__ import annotations
 
 import json
 import os
+import re
+import stat
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from flatweave.errors import FlatweaveError
 
-__all__ = ["atomic_write_bytes", "atomic_write_many", "json_bytes", "write_json"]
+__all__ = ["atomic_write_bytes", "atomic_write_many", "json_bytes", "write_json", "check_input", "read_input",
+           "parse_json", "check_json_depth", "READ_LIMITS", "MAX_JSON_DEPTH"]
+
+MB = 1 << 20
+READ_LIMITS = {
+    "small": 16 * MB,       # a region, a curve dart: a few thousand points at most
+    "surface": 256 * MB,    # a geomdl JSON surface: a 1,000 x 1,000 rational net is about 60 MB
+    "result": 1024 * MB,    # a result or project: 160,000 nodes was 83 MB of JSON (issue 44)
+    "mesh": 2048 * MB,      # an ASCII STL of the 2,000,000 triangles meshes are allowed
+    "cad": 2048 * MB,       # a STEP or IGES file
+}
+"""The most bytes read from one input file, by kind: checked from the file's
+size before a byte is read, and again while reading (a file that grows)."""
+
+_KIND_NAMES = {"small": "region or curve dart file", "surface": "surface file", "result": "result or project file",
+               "mesh": "mesh file", "cad": "STEP or IGES file"}
+
+MAX_JSON_DEPTH = 64
+"""The deepest nesting of arrays and objects a JSON input may have (the deepest
+of ours, a trimmed surface's containers of curves, is under 10)."""
+
+_KINDS = ((stat.S_ISFIFO, "a pipe (FIFO)"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"), (stat.S_ISDIR, "a folder"))
+
+
+def check_input(path, limit: str, error=FlatweaveError) -> int:
+    """The size of the regular file ``path``, which may be read as a ``limit`` kind
+    of input (a key of :data:`READ_LIMITS`); else ``error`` (a FlatweaveError
+    type) in one line naming the file: missing, unreadable, not a regular file
+    (a pipe, a device, a folder: never opened, so nothing blocks or reads for
+    ever) or larger than the kind's limit. Symbolic links are followed."""
+    name = os.fspath(path) if not isinstance(path, str) else path
+    try:
+        st = os.stat(name)
+    except FileNotFoundError:
+        raise error(_line(f"{name}: no such file")) from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL in the name
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        raise error(_line(f"{name}: cannot read file: {reason}")) from None
+    for test, what in _KINDS:
+        if test(st.st_mode):
+            raise error(_line(f"{name} is {what}, not a file"))
+    cap = READ_LIMITS[limit]
+    if st.st_size > cap:
+        raise error(_line(f"{name} is {st.st_size / MB:,.0f} MB, more than the {cap / MB:,.0f} MB read from "
+                          f"a {_KIND_NAMES[limit]}"))
+    return st.st_size
+
+
+def read_input(path, limit: str, error=FlatweaveError) -> bytes:
+    """The bytes of the regular file ``path``, checked first by :func:`check_input`
+    and read to at most the kind's limit; ``error`` in one line otherwise."""
+    name = os.fspath(path) if not isinstance(path, str) else path
+    check_input(name, limit, error)
+    cap = READ_LIMITS[limit]
+    try:
+        with open(name, "rb") as fh:
+            raw = fh.read(cap + 1)
+    except OSError as exc:
+        raise error(_line(f"{name}: cannot read file: {exc.strerror or type(exc).__name__}")) from None
+    if len(raw) > cap:
+        raise error(_line(f"{name} grew past the {cap / MB:,.0f} MB read from a {_KIND_NAMES[limit]} while it "
+                          f"was read"))
+    return raw
+
+
+_JSON_STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
+
+
+def parse_json(raw: bytes, name: str, what: str, error=FlatweaveError):
+    """``raw`` parsed as JSON (UTF-8, a byte-order mark allowed); ``error`` in one
+    line naming ``name`` and ``what`` it should be on text that is not JSON or
+    nests deeper than :data:`MAX_JSON_DEPTH` (found by counting brackets
+    outside strings before parsing, so no parser recursion is reached)."""
+    check_json_depth(raw, name, what, error)
+    try:
+        return json.loads(raw.decode("utf-8-sig"))
+    except UnicodeDecodeError:
+        raise error(_line(f"{name}: not a {what} (binary data, not JSON text)")) from None
+    except json.JSONDecodeError as exc:
+        raise error(_line(f"{name}: not a {what} (invalid JSON at line {exc.lineno}, column {exc.colno}: "
+                          f"{exc.msg})")) from None
+    except (RecursionError, ValueError) as exc:
+        raise error(_line(f"{name}: not a {what} ({type(exc).__name__})")) from None
+
+
+def check_json_depth(raw: bytes, name: str, what: str, error=FlatweaveError) -> None:
+    """``error`` in one line if the JSON text ``raw`` nests arrays and objects more
+    than :data:`MAX_JSON_DEPTH` deep (brackets counted outside strings)."""
+    bare = _JSON_STRING.sub(b'""', raw)
+    codes = np.frombuffer(bare, dtype=np.uint8)
+    step = np.isin(codes, (0x5B, 0x7B)).astype(np.int32) - np.isin(codes, (0x5D, 0x7D)).astype(np.int32)
+    if len(step) and int(np.cumsum(step).max()) > MAX_JSON_DEPTH:
+        raise error(_line(f"{name}: not a {what}: JSON nested more than {MAX_JSON_DEPTH} levels deep"))
+
+
+def _line(text: str, limit: int = 400) -> str:
+    """One line, at most ``limit`` characters (a 300-character file name stays readable)."""
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def atomic_write_bytes(path, data: bytes, before_replace=None) -> None:

@@ -139,8 +139,8 @@ def test_geomdl_reads_the_curve_and_volume_we_refuse(name):
 
 
 def test_missing_file_and_directory(tmp_path):
-    for path in (tmp_path / "nope.json", tmp_path):
-        with pytest.raises(SurfaceError, match="cannot read") as info:
+    for path, words in ((tmp_path / "nope.json", "no such file"), (tmp_path, "is a folder, not a file")):
+        with pytest.raises(SurfaceError, match=words) as info:
             load_surface(path)
         assert_one_line(str(info.value))
 

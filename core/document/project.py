@@ -67,7 +67,7 @@ from flatweave.version import __version__
 from flatweave.method.darts import CUT_DART_KEYS, dart_from_dict
 from flatweave.method.energy import YarnConstraint
 from flatweave.errors import FlatweaveError, SettingsError
-from flatweave.files import write_json
+from flatweave.files import check_json_depth, read_input, write_json
 from flatweave.method.lattice import MATERIALS, Material
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.method.settings import SETTINGS_KEYS as _SETTINGS_KEYS
@@ -583,12 +583,10 @@ def save_project(project: Project, path: str | os.PathLike) -> Path:
 def load_project(path: str | os.PathLike) -> Project:
     """Read a ``.flatweave`` file; one-line ProjectError naming the file on any problem."""
     name = os.fspath(path)
-    try:
-        raw = Path(name).read_bytes()
-    except OSError as exc:
-        raise ProjectError(f"{name}: cannot read file: {exc.strerror or type(exc).__name__}") from None
+    raw = read_input(name, "result", ProjectError)
     if not raw.strip():
         raise ProjectError(f"{name}: file is empty")
+    check_json_depth(raw, name, "flatweave project", ProjectError)
     try:
         doc = json.loads(raw.decode("utf-8-sig"))
     except UnicodeDecodeError:

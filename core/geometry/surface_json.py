@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from flatweave.errors import SurfaceError
+from flatweave.files import check_json_depth, read_input
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.errors import SettingsError
 from flatweave.geometry.region import Region
@@ -316,6 +317,7 @@ def _parse(data, reader: "_Reader") -> NurbsSurface:
     nul = text.find("\x00")
     if nul >= 0:
         raise reader.fail(f"file is binary (NUL byte at offset {nul}), not JSON text")
+    check_json_depth(text.encode("utf-8", "surrogatepass"), reader.source, "NURBS surface file", SurfaceError)
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
@@ -350,13 +352,7 @@ def load_surface(path: str | os.PathLike) -> NurbsSurface:
 def _read_bytes(path) -> tuple[str, bytes]:
     """(the path as given, the file's bytes); a one-line SurfaceError when it cannot be read."""
     name = os.fspath(path)
-    try:
-        return name, Path(name).read_bytes()
-    except OSError as exc:
-        reason = exc.strerror or type(exc).__name__
-        raise SurfaceError(_one_line(f"{name}: cannot read file: {reason}", 400)) from None
-    except ValueError as exc:  # e.g. a NUL character in the path
-        raise SurfaceError(_one_line(f"{name!r}: cannot read file: {exc}", 400)) from None
+    return name, read_input(name, "surface", SurfaceError)
 
 
 def load_trimmed_surface(path: str | os.PathLike):

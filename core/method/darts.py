@@ -34,6 +34,7 @@ string of files to the class; a new kind is a class and an entry there.
 
 from __future__ import annotations
 
+import os
 import weakref
 from dataclasses import dataclass, field
 from typing import Any
@@ -41,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from flatweave.errors import SettingsError
+from flatweave.files import parse_json, read_input
 from flatweave.geometry.numerics import cumulative_length, interp_rows, nearest_segment, polyline_distance
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.geometry.nurbs import boundary_distance
@@ -677,11 +679,8 @@ def dart_handles(surface: NurbsSurface, dart: CurveDart, count: int = 5) -> np.n
 def curve_dart_from_file(surface: NurbsSurface, path, name: str = "curve dart") -> CurveDart:
     """Read a curve dart file: JSON ``{"points": [[x, y, z], ...], "view_direction":
     [dx, dy, dz], "tolerance": T (optional, parameter units)}``."""
-    import json
-
+    d = parse_json(read_input(path, "small", SettingsError), os.fspath(path), "curve dart file", SettingsError)
     try:
-        with open(path, encoding="utf-8") as fh:
-            d = json.load(fh)
         points = np.asarray(d["points"], dtype=float)
         view = np.asarray(d["view_direction"], dtype=float)
         tol = d.get("tolerance")

@@ -97,6 +97,7 @@ from pathlib import Path
 import numpy as np
 
 from flatweave.errors import SettingsError, SurfaceError
+from flatweave.files import check_input
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.geometry.uvregion import region_bbox
 from flatweave.geometry.numerics import polygon_area
@@ -276,6 +277,8 @@ def _one_line(text, limit: int = 300) -> str:
 def _sniff(path: Path, fmt: str) -> None:
     """Cheap checks before a child is started: empty, binary, truncated, not STEP/IGES."""
     name = path.name
+    if path.exists() and not path.is_dir():
+        check_input(path, "cad", CadFileError)  # a pipe or a device is refused before it is opened
     try:
         size = path.stat().st_size
         with open(path, "rb") as fh:

@@ -20,6 +20,7 @@ import numpy as np
 
 from flatweave.errors import SettingsError
 from flatweave.errors import SurfaceError
+from flatweave.files import check_input
 from flatweave.geometry.meshfit import FitMesh
 from flatweave.geometry.meshfit import FittedSurface
 from flatweave.geometry.meshfit import MAP_DISTORTION_LIMIT
@@ -62,6 +63,7 @@ def check_mesh_file(path) -> str:
     trimesh file type. One-line SurfaceError on a file that cannot be right."""
     p = Path(path)
     name = p.name
+    check_input(p, "mesh", SurfaceError)
     try:
         size = p.stat().st_size
         with open(p, "rb") as fh:
