@@ -22,7 +22,10 @@ import os
 import sys
 import time
 import traceback
+import warnings
 from pathlib import Path
+
+import numpy as np
 
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.reading.registry import open_path
@@ -222,8 +225,18 @@ def _export_help() -> str:
     return _help(f"write the pattern to PATH, the suffix picks the format: {formats}; repeatable")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser whose refusals are one line naming the option, not the
+    usage block (subcommands' parsers are of this class too)."""
+
+    def error(self, message):
+        command = self.prog.removeprefix("python -m flatweave").strip()
+        where = f"{command}: " if command else ""
+        self.exit(2, f"flatweave: error: {where}{message}; see {self.prog} --help\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="python -m flatweave",
         description="flatweave: flat patterns of woven fabric or isotropic sheets covering NURBS surfaces.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
@@ -747,7 +760,11 @@ def main(argv=None) -> int:
         return 2
     handler = {"flatten": _cmd_flatten, "sweep": _cmd_sweep, "info": _cmd_info, "examples": _cmd_examples}[args.command]
     try:
-        return handler(args)
+        # numbers that overflow become infinities the checks refuse in one line: numpy's warnings about
+        # them would only be printed above it
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return handler(args)
     except FlatweaveError as exc:
         print(f"flatweave: error: {exc}", file=sys.stderr)
         return 2

@@ -3,7 +3,9 @@
 a device is refused before it is opened (it would block or read for ever), a
 file over its kind's limit before a byte is read, JSON nested deeper than
 ``MAX_JSON_DEPTH`` before it is parsed: one line, exit 2, nothing written.
-(Issue 45, item 1; the suite's fuzz test is still to come.)
+A bad option value is one line naming the option, and numbers that overflow
+print no numpy warning above their refusal. (Issue 45, items 1 and 3; the
+suite's fuzz test is still to come.)
 """
 
 from __future__ import annotations
@@ -105,3 +107,27 @@ def test_brackets_inside_strings_do_not_count_and_a_long_name_stays_one_short_li
     with pytest.raises(FlatweaveError) as e:
         read_input(long_name, "small")
     assert "\n" not in str(e.value) and len(str(e.value)) <= 400 and "no such file" in str(e.value)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["flatten", "octant", "--spacing", "abc"], "flatten: argument --spacing: invalid float value: 'abc'"),
+    (["flatten", "octant"], "flatten: the following arguments are required: --spacing"),
+    (["frobnicate"], "invalid choice: 'frobnicate'"),
+])
+def test_a_bad_option_is_one_line_naming_it_not_the_usage_block(capsys, argv, words):
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith("flatweave: error: ") and words in line and line.endswith("--help")
+
+
+def test_numbers_that_overflow_print_nothing_above_the_one_line(tmp_path):
+    """Run in a child, where Python shows numpy's RuntimeWarnings as a user would see them."""
+    out = tmp_path / "r.json"
+    p = subprocess.run([sys.executable, "-m", "flatweave", "flatten", "octant", "--spacing", "1e308", "--out",
+                        str(out)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2
+    (line,) = p.stderr.splitlines()
+    assert line.startswith("flatweave: error: ") and "spacing 1e+308 is too large" in line
+    assert not out.exists()
