@@ -45,7 +45,7 @@ def check_input(path, limit: str, error=FlatweaveError) -> int:
     type) in one line naming the file: missing, unreadable, not a regular file
     (a pipe, a device, a folder: never opened, so nothing blocks or reads for
     ever) or larger than the kind's limit. Symbolic links are followed."""
-    name = os.fspath(path) if not isinstance(path, str) else path
+    name = os.fspath(path)
     try:
         st = os.stat(name)
     except FileNotFoundError:
@@ -66,7 +66,7 @@ def check_input(path, limit: str, error=FlatweaveError) -> int:
 def read_input(path, limit: str, error=FlatweaveError) -> bytes:
     """The bytes of the regular file ``path``, checked first by :func:`check_input`
     and read to at most the kind's limit; ``error`` in one line otherwise."""
-    name = os.fspath(path) if not isinstance(path, str) else path
+    name = os.fspath(path)
     check_input(name, limit, error)
     cap = READ_LIMITS[limit]
     try:

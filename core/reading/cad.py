@@ -277,18 +277,12 @@ def _one_line(text, limit: int = 300) -> str:
 def _sniff(path: Path, fmt: str) -> None:
     """Cheap checks before a child is started: empty, binary, truncated, not STEP/IGES."""
     name = path.name
-    if path.exists() and not path.is_dir():
-        check_input(path, "cad", CadFileError)  # a pipe or a device is refused before it is opened
+    size = check_input(path, "cad", CadFileError)  # missing, a folder, a pipe or a device: refused unopened
     try:
-        size = path.stat().st_size
         with open(path, "rb") as fh:
             head = fh.read(4096)
             fh.seek(max(0, size - 4096))
             tail = fh.read()
-    except FileNotFoundError:
-        raise CadFileError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise CadFileError(f"{path}: is a folder, not a file") from None
     except OSError as exc:
         raise CadFileError(f"{path}: cannot be read: {_one_line(exc.strerror or exc)}") from None
     if size == 0:
