@@ -10,6 +10,8 @@ from flatweave.app.colours import GREEN, STRAIN_NOISE_PCT, ramp, strain_range, s
 from flatweave.app.plot import NO_SOLVE
 from flatweave.app.viewbase import DIAGONAL, SCALE_TITLES, THREAD
 from flatweave.reading.examples import example_path
+from flatweave.document.project import new_project
+from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.method.metrics import spring_strain
 from tests.test_app_recovery import click, write_orphan
 from tests.test_app_run import run_to_end, small_project
@@ -64,13 +66,13 @@ def test_a_strain_scale_does_not_stretch_below_the_noise_floor():
 
 
 def test_a_developable_piece_is_painted_green(make_window, qtbot):
-    """The half cylinder converges with strains of 1e-12 % (rounding): every spring green, each colour
-    bar over the noise floor, not over the noise."""
+    """The half cylinder converges with strains of 4e-5 % (the bent springs' precision, decision 0057):
+    every spring green, each colour bar over the noise floor, not over the noise."""
     win = make_window(example="half_cylinder")
     run_to_end(qtbot, win)
     r = win.project.result
     pct = 100 * spring_strain(r.xyz, r.mesh)
-    assert np.abs(pct).max() < 1e-6 * STRAIN_NOISE_PCT  # the case in point: noise only
+    assert np.abs(pct).max() < 1e-2 * STRAIN_NOISE_PCT  # the case in point: noise only
     _, rgb = win.view.layer.spring_colours()
     assert np.abs(rgb.astype(int) - [0, 255, 0]).max() <= 1
     bars = dict(win.view.colour_bars)
@@ -91,7 +93,10 @@ def _plot_texts(win) -> list[str]:
 def test_the_energy_plot_says_a_solve_converged_at_its_start(make_window, qtbot, tmp_path):
     win = make_window(example=None)
     assert NO_SOLVE in _plot_texts(win)
-    assert win.open_example("half_cylinder")
+    # a flat sheet: its drape is its minimum (a curved developable piece's drape lays chords, which its
+    # solve bends into arcs in a few iterations)
+    P = np.array([[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]], dtype=float)
+    win.set_project(new_project(NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], P), "flat sheet", "flat", 0.1))
     run_to_end(qtbot, win)
     r = win.project.result
     assert r.metrics["iterations"] == 0 and r.metrics["solver_status"] == "converged" and len(r.history) == 0

@@ -73,9 +73,11 @@ def test_half_cylinder_along_its_rulings_deviates_nowhere(angle):
     r = flatten(load_example("half_cylinder"), FlattenSettings(0.1, angle_deg=angle))
     f = result_fibres(r)
     assert len(f.shear_deg) > 50 and np.isfinite(f.deviation_deg).all()
-    assert np.abs(f.deviation_deg).max() < 1e-6
-    assert np.abs(f.warp_deviation_deg).max() < 1e-6
-    assert np.abs(f.shear_deg).max() < 1e-6
+    # the solve stops at the bent springs' precision (EN floor sum k r^2 (f - 1)^4 / 2, decision 0057),
+    # which leaves an edge cell off by up to 1.6e-6 deg
+    assert np.abs(f.deviation_deg).max() < 1e-5
+    assert np.abs(f.warp_deviation_deg).max() < 1e-5
+    assert np.abs(f.shear_deg).max() < 1e-5
     assert r.metrics["area_beyond_lock_pct"] == 0.0
 
 

@@ -208,15 +208,21 @@ def test_the_paper_solver_and_warm_starts_never_start_coarse():
 
 
 @pytest.mark.slow
-def test_a_developable_piece_whose_coarse_drape_is_exact_is_draped_on_its_own_lattice():
+def test_a_developable_piece_whose_coarse_drape_holds_is_draped_on_its_own_lattice():
     s, settings = _settings("half_cylinder", 8_000)
     auto = flatten(s, settings)
     plain = flatten(s, settings, multilevel=0)
-    # the coarse level needed no iteration, so the fine drape (exact too) is the start, not a refined net
-    assert plain.metrics["iterations"] == 0
-    assert auto.metrics["coarse_levels"] == 0 and auto.metrics["iterations"] == 0
+    # the coarse level kept its population (its few iterations bend the drape's chords into arcs),
+    # so the fine drape is the start, not a refined net
+    (dropped,) = auto.drape_stats["dropped"]
+    assert dropped["converged"] and dropped["deleted"] == dropped["added"] == 0
+    assert auto.metrics["coarse_levels"] == 0
+    assert auto.metrics["iterations"] == plain.metrics["iterations"] + dropped["iterations"]
     assert auto.metrics["energy"] == plain.metrics["energy"]
     assert np.array_equal(auto.uv, plain.uv)
+    # and it is the development: no strain, the outline and area exact
+    for key in ("max_thread_strain_pct", "boundary_error_pct", "area_error_pct"):
+        assert abs(auto.metrics[key]) < 1e-5
 
 
 @pytest.mark.slow
@@ -239,7 +245,9 @@ def test_a_piece_whose_coarse_drape_keeps_its_population_is_draped_on_its_own_la
     its = [sn.iteration for sn in snaps]
     assert its == sorted(its) and its[-1] == auto.metrics["iterations"]
     assert auto.metrics["iterations"] == plain.metrics["iterations"] + dropped["iterations"]
-    assert list(auto.history) == [sn.energy for sn in snaps]
+    # then the result's EN, with the springs bent where the nodes ended, where it differs from the last
+    assert list(auto.history)[:len(snaps)] == [sn.energy for sn in snaps]
+    assert auto.history[-1] == auto.metrics["energy"] and len(auto.history) - len(snaps) in (0, 1)
 
 
 @pytest.mark.slow
@@ -297,7 +305,10 @@ def test_a_trimmed_piece_with_a_hole_starts_coarse_and_reaches_the_same_result()
     # the way, positions deleted twice never refilled) keeps fewer edge nodes than the coarse start
     # (a handful more, the surface as covered); EN then counts their springs too
     fuller = f["nodes"] > r["nodes"] and f["uncovered_pct"] <= r["uncovered_pct"]
-    assert f["energy"] <= r["energy"] * (1 + 1e-3) or fuller
+    # or as many nodes on another edge population: with bent springs (decision 0057) both keep 3,009
+    # nodes, the coarse start's EN 0.25 % higher, its outline within 0.005 points
+    other = f["nodes"] == r["nodes"] and f["energy"] <= r["energy"] * (1 + 5e-3)
+    assert f["energy"] <= r["energy"] * (1 + 1e-3) or fuller or other
     assert abs(f["boundary_error_pct"] - r["boundary_error_pct"]) <= 0.02
     assert abs(f["area_error_pct"] - r["area_error_pct"]) <= 0.02
     assert abs(f["nodes"] - r["nodes"]) <= 0.01 * r["nodes"]

@@ -71,7 +71,9 @@ def test_the_window_dart_skips_a_refill_and_agrees(monkeypatch):
     fast, n_fast = _solve(s, with_dart, base.state(), monkeypatch)
     before, n_before = _solve(s, with_dart, base.state(), monkeypatch, all_dead=lambda self, ij: False)
     ref, _ = _solve(s, with_dart, base.state(), monkeypatch, reuse=False)
-    assert n_fast < n_before  # the policy saved a refill here
+    # the policy never costs a refill (under chord springs it saved one here: 4 against 5; with bent
+    # springs the re-solve after a re-bend refills on both paths and the saving is gone, 5 and 5)
+    assert n_fast <= n_before
     _agree(fast, ref)
     _agree(fast, before)
     assert fast.metrics["nodes"] == before.metrics["nodes"]

@@ -110,7 +110,9 @@ def test_both_newton_models_reach_the_same_minimum(name, angle):
     new = _fixed_population_solve(name, angle, 700, True)
     old = _fixed_population_solve(name, angle, 700, False)
     assert new.success and old.success
-    assert new.fun == pytest.approx(old.fun, rel=1e-8)
+    # each EN is measured with the springs bent where its own nodes ended: rest lengths within 1e-10
+    # (ARC_DRIFT) of the ones minimised move an EN at strain ~1e-2 by ~1e-8 (saddle 30: 1.8e-8 apart)
+    assert new.fun == pytest.approx(old.fun, rel=1e-7)
     # the same nodes to a thousandth of the spacing (the shear mode is soft: EN hardly sees less)
     spacing = float(np.median(new.mesh.rest))
     assert np.abs(new.xyz - old.xyz).max() < 1e-3 * spacing

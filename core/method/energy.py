@@ -261,6 +261,14 @@ class Energy:
         self.dir_planes = np.concatenate(planes) if planes else np.zeros((0, 4))
         self.dir_k = np.concatenate(weights) if weights else np.zeros(0)
 
+    def rebent(self, mesh: SpringMesh) -> "Energy":
+        """The same energy with the rest lengths and constants of ``mesh``, a mesh
+        with this one's springs (:func:`flatweave.method.lattice.bent` again)."""
+        out = object.__new__(Energy)
+        out.__dict__.update(self.__dict__)
+        out.mesh, out.k, out.rest = mesh, mesh.k, mesh.rest
+        return out
+
     def masked(self, spring_on: np.ndarray, node_on: np.ndarray) -> "Energy":
         """The same energy with springs ``~spring_on`` and the yarn terms of
         nodes ``~node_on`` switched off (constants set to zero); topology and

@@ -24,7 +24,7 @@ import numpy as np
 from flatweave.errors import SettingsError
 
 __all__ = ["Material", "MATERIALS", "parse_material", "SpringMesh", "build_mesh", "only_springs",
-           "WEFT", "WARP", "DIAG", "KIND_NAMES"]
+           "arc_over_chord", "bent", "BEND_SINE_MAX", "WEFT", "WARP", "DIAG", "KIND_NAMES"]
 
 WEFT, WARP, DIAG = 0, 1, 2
 KIND_NAMES = ("weft", "warp", "diag")
@@ -126,6 +126,13 @@ class SpringMesh:
     def n_springs(self) -> int:
         return int(self.ends.shape[0])
 
+    def thread_rest(self) -> np.ndarray:
+        """(m,) the threads' own lengths between nodes: r_weft, r_warp or the cell's
+        diagonal by kind (the rest lengths of arcs on the surface; ``rest`` holds
+        the chords' after :func:`bent`)."""
+        r_diag = float(np.hypot(self.r_weft, self.r_warp))
+        return np.array([self.r_weft, self.r_warp, r_diag])[self.kind]
+
     def lattice_xy(self) -> np.ndarray:
         """(n, 2) relaxed 2D positions: M[i, j] at (j r_weft, i r_warp)."""
         return np.column_stack([self.ij[:, 1] * self.r_weft, self.ij[:, 0] * self.r_warp]).astype(float)
@@ -139,6 +146,48 @@ class SpringMesh:
         thread = self.kind != DIAG
         deg = np.bincount(self.ends[thread].ravel(), minlength=self.n_nodes)
         return deg < 4
+
+
+# Where the normals turn by more than 60 degrees across one spring (sine of half the turn 0.5)
+# the mesh is folded, not bent: a circle through its ends says nothing then, and the arc is
+# taken as that of a 60-degree turn (4.7 % longer than its chord).
+BEND_SINE_MAX = 0.5
+
+
+def arc_over_chord(d: np.ndarray, na: np.ndarray, nb: np.ndarray) -> np.ndarray:
+    """(m,) the ratio arc / chord of the surface curves under chords ``d`` (m, 3)
+    whose ends have unit normals ``na``, ``nb`` (m, 3).
+
+    The curve is taken as the circle in the normal section along the chord:
+    its normals turn by 2 asin(x), x = |(nb - na) . t| / 2 with t the chord's
+    direction, so arc / chord = asin(x) / x (exact on a circle; on any curve
+    of the surface to the change of its curvature along the chord). A missing
+    normal (NaN, a pole) gives 1."""
+    d = np.asarray(d, dtype=float)
+    length = np.linalg.norm(d, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = 0.5 * np.abs(np.einsum("ij,ij->i", np.asarray(nb) - np.asarray(na), d)) / length
+    x = np.minimum(np.where(np.isfinite(x), x, 0.0), BEND_SINE_MAX)
+    small = x < 1e-3  # asin(x)/x by its series where the quotient loses digits
+    xs = np.where(small, 1.0, x)
+    return np.where(small, 1.0 + x * x / 6.0 + 0.075 * x ** 4, np.arcsin(xs) / xs)
+
+
+def bent(mesh: SpringMesh, xyz: np.ndarray, normals: np.ndarray) -> SpringMesh:
+    """``mesh`` with every spring's rest length and constant set for the arc of
+    the surface it spans, at nodes ``xyz`` (n, 3) with unit normals ``normals``.
+
+    A spring is a chord; the thread between its nodes lies on the surface,
+    longer by f = :func:`arc_over_chord`. A chord at its lattice length leaves
+    the thread stretched by (r kappa)^2 / 24 and the pattern that much short
+    of a development (decision 0057). The bent spring has rest r / f and
+    constant k f^2: its energy k f^2 (l - r / f)^2 / 2 is the arc's,
+    k (f l - r)^2 / 2, for f held where the mesh was bent (the solver bends
+    again where the nodes have moved since)."""
+    a, b = mesh.ends[:, 0], mesh.ends[:, 1]
+    f = arc_over_chord(xyz[b] - xyz[a], normals[a], normals[b])
+    k = mesh.material.constants()[mesh.kind]
+    return replace(mesh, rest=mesh.thread_rest() / f, k=k * f * f)
 
 
 def lattice_index(ij: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

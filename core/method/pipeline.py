@@ -23,7 +23,7 @@ from flatweave.method.drape import DrapeResult, DrapeSettings, check_node_count,
 from flatweave.method.energy import resolve_yarns
 from flatweave.geometry.numerics import require_finite
 from flatweave.errors import SettingsError, SolverError
-from flatweave.method.lattice import Material, SpringMesh, build_mesh, only_springs
+from flatweave.method.lattice import Material, SpringMesh, bent, build_mesh, only_springs
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.method.pattern import Pattern, make_pattern, node_frames
 from flatweave.geometry.quadrature import boundary_polyline, domain_gauss_rule, region_area
@@ -80,7 +80,9 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
 
     def build(ij, uv):
         keep = darts.keep_springs(np.asarray(uv)) if len(darts) else None
-        return build_mesh(ij, ds.r_weft, ds.r_warp, material, keep=keep)
+        mesh = build_mesh(ij, ds.r_weft, ds.r_warp, material, keep=keep)
+        ev = surface.evaluate(uv)
+        return bent(mesh, ev.xyz, ev.normal)
 
     def refill_nodes(mesh, uv, dead, at=None):
         ij, new = refill(surface, ds, mesh.ij, uv, dead, separated=darts.crossing if len(darts) else None,
@@ -424,7 +426,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     if solver_entry(settings.solver).iterative:
         solve = yield from _counted_from(iterate(problem, state, _carried(settings.solver_options(), stats)),
                                          _coarse_iterations(stats))
-        state = State(solve.mesh, solve.uv)
+        state = State(solve.mesh, solve.uv)  # its springs bent where the nodes ended (iterate)
     xyz = surface.points(state.uv)
     check_result_finite(state.uv, xyz)
     if not node_frames(state.mesh, xyz)[2].any():
@@ -462,8 +464,9 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         metrics.update(surface.fit.metrics())
     check_result_finite(state.uv, xyz, pattern, metrics)
     history = tuple(float(e) for lv in _solved_before(stats) for e in lv.pop("history"))
-    result = FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve,
-                           history + (tuple(float(e) for e in solve.history) if solve else ()))
+    if solve:
+        history = _ended(history + tuple(solve.history), metrics["energy"])
+    result = FlattenResult(surface, settings, state.mesh, state.uv, xyz, pattern, metrics, stats, solve, history)
     return judged(result)
 
 
@@ -514,7 +517,15 @@ def stopped_result(surface: NurbsSurface, settings: FlattenSettings, snap, area:
                     "solve_seconds": solve.seconds,
                     "seconds": time.perf_counter() - t0 if seconds is None else float(seconds)})
     return judged(replace(result, settings=settings, metrics=metrics, solve=solve,
-                          history=tuple(float(e) for e in history)))
+                          history=_ended(history, metrics["energy"])))
+
+
+def _ended(history, energy: float) -> tuple[float, ...]:
+    """A solve's energy trace ending at the result's energy: the last iterate's with the
+    springs bent where its nodes are, one more entry where that differs from the last
+    (none where the trace is empty: the solve converged at its start)."""
+    history = tuple(float(e) for e in history)
+    return history if not history or history[-1] == energy else history + (float(energy),)
 
 
 def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:

@@ -70,7 +70,7 @@ except ImportError:  # pragma: no cover - a listed dependency
 
 from flatweave.method.energy import Energy
 from flatweave.errors import SettingsError, SolverError
-from flatweave.method.lattice import DIAG, SpringMesh, lattice_index
+from flatweave.method.lattice import DIAG, SpringMesh, bent, lattice_index
 from flatweave.geometry.numerics import nan_word, nonfinite_rows
 from flatweave.geometry.numerics import rowdot as _dot
 from flatweave.method.metrics import spring_strain
@@ -196,6 +196,11 @@ class SolveResult:
         return self.status == 0
 
 
+# How far out of the domain (relative to its width) a node still counts as on its edge
+# (:meth:`Problem.onto_domain`).
+EDGE_SLACK = 1e-7
+
+
 class Problem:
     """What the solvers need beyond a state: the surface, how a population's
     topology is built, which nodes must be deleted, and how to refill.
@@ -228,6 +233,20 @@ class Problem:
             else:
                 bad |= self._invalid(uv_old, uv_new, xyz_old, xyz_new)
         return bad
+
+    def onto_domain(self, uv: np.ndarray) -> np.ndarray:
+        """``uv`` (n, 2), changed in place, with the nodes outside the domain by less than
+        EDGE_SLACK of its width put back on its edge; returns it. A node row laid on the
+        domain's edge (a cylinder's rims, from a seed halfway) otherwise leaves it by round-off
+        and the arcs' precision (3e-9 of the width) and is deleted, a row of the piece lost."""
+        d = self.surface.domain
+        slack = EDGE_SLACK * (d[:, 1] - d[:, 0])
+        lo, hi = d[:, 0], d[:, 1]
+        below = (uv < lo) & (uv >= lo - slack)
+        above = (uv > hi) & (uv <= hi + slack)
+        if below.any() or above.any():
+            uv[:] = np.where(below, lo, np.where(above, hi, uv))
+        return uv
 
     def refill(self, mesh, uv, dead_ij, at=None):
         if self._refill is None:
@@ -714,8 +733,20 @@ def _gathered_residuals(energy: Energy, S, Su, Sv, at: _Gathered | None = None):
 
 
 def _energy_floor(mesh: SpringMesh) -> float:
-    """An energy below which the mesh is at rest to round-off (strain ~ 1e-13)."""
-    return 1e-26 * 0.5 * float(np.dot(mesh.k, mesh.rest ** 2))
+    """An energy below which the mesh is at rest: to round-off (strain ~ 1e-13), or
+    to the precision of its bent springs' arcs (strain ~ (f - 1)^2, f = arc / chord,
+    :func:`~flatweave.method.lattice.bent`), whichever is coarser."""
+    f = mesh.thread_rest() / mesh.rest
+    return 0.5 * float(np.dot(mesh.k, mesh.rest ** 2 * (1e-26 + (f - 1.0) ** 4)))
+
+
+# A solve ends with its springs bent where the nodes are: where a converged population's rest
+# lengths, bent again at its nodes, move by more than ARC_DRIFT (relative) it is solved again with
+# them, at most ARC_ROUNDS times per population; while the fast solver's population is not settled
+# (converged loosely), by more than ARC_LOOSE_DRIFT (decision 0057).
+ARC_DRIFT = 1e-10
+ARC_LOOSE_DRIFT = 1e-4
+ARC_ROUNDS = 6
 
 
 class Run:
@@ -747,6 +778,7 @@ class Run:
         self.terms = problem.yarns
         self.fixed_ij, self.pin = _anchors(problem, self.mesh, self.uv, options)
         self.refills: set[tuple[bytes, bytes]] = set()  # (population, positions added) of every refill made
+        self.bends = 0  # populations bent again where they converged (:meth:`bend`)
 
     def budget_left(self) -> bool:
         if self.nit >= self.options.max_iter:
@@ -798,6 +830,20 @@ class Run:
         self.uv = all_uv[order]
         self.pop.added += len(ij)
         return True
+
+    def bend(self) -> bool:
+        """Bend the springs again where the live nodes are now (``mesh`` is replaced,
+        so a solve ends with the springs a build at its (u, v) makes, as a result
+        file reopens them); True if a rest length moved by over ARC_DRIFT and fewer
+        than ARC_ROUNDS bends were made: the solver then minimises again."""
+        ev = self.problem.surface.evaluate(self.uv)
+        again = bent(self.mesh, ev.xyz, ev.normal)
+        drift = np.max(np.abs(again.rest / self.mesh.rest - 1.0), initial=0.0)
+        self.mesh = again
+        if drift > ARC_DRIFT and self.bends < ARC_ROUNDS:
+            self.bends += 1
+            return True
+        return False
 
     def result(self, energy: float) -> SolveResult:
         xyz = self.problem.surface.points(self.uv)
@@ -900,6 +946,7 @@ class _Round:
         self.spring_on = np.ones(self.mesh.n_springs, dtype=bool)
         self._corners, self._cell_edges = _round_topology(self.mesh)
         self._ldl = None  # the round's QDLDL factorisation (quick path)
+        self.bends = 0  # times its springs were bent again (:meth:`bend`)
 
     def switch_off(self, bad: np.ndarray, xyz: np.ndarray) -> np.ndarray:
         """Delete nodes ``bad`` (and nodes left without springs); xyz : (n, 3)
@@ -950,6 +997,28 @@ class _Round:
                                        rest=mesh.rest[on], k=mesh.k[on], cells=num[cells])
         run.uv = self.uv[idx]
         return gone
+
+    def bend(self, ev, loose: bool = False) -> bool:
+        """Bend the round's springs again where its nodes are (``ev``: the surface at
+        ``self.uv``): True if a live spring's rest length moved by over ARC_DRIFT
+        (ARC_LOOSE_DRIFT when ``loose``: converged loosely, the round to settle yet)
+        and the round has bends left; the energy (and ``run.mesh``) then has the new
+        ones. The population, its pattern and its last factorisation stay."""
+        run = self.run
+        if self.bends >= ARC_ROUNDS:
+            return False
+        again = bent(self.mesh, ev.xyz, run.problem.surface.normals(self.uv, ev.su, ev.sv))
+        on = self.spring_on
+        drift = np.max(np.abs(again.rest[on] / self.mesh.rest[on] - 1.0), initial=0.0)
+        if not drift > (ARC_LOOSE_DRIFT if loose else ARC_DRIFT):
+            return False
+        self.bends += 1
+        self.mesh = again
+        self.full = self.full.rebent(again)
+        self.energy = self.full if on.all() and self.alive.all() else self.full.masked(on, self.alive)
+        self.floor = _energy_floor(again)
+        run.mesh = dataclasses.replace(run.mesh, rest=again.rest[on], k=again.k[on])
+        return True
 
     def surface_at(self, ev) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(xyz, su, sv) of the live nodes (``run.uv``), from the round's evaluation ``ev``."""
@@ -1179,6 +1248,7 @@ def iterate_fast(run: Run):
             uv_try = rnd.uv + dstep
             if opts.surface_newton:
                 uv_try += _geodesic_correction(ev, dstep)
+            run.problem.onto_domain(uv_try)
             if pinned is not None:
                 before = uv_try[pinned].copy()
                 run.pin.retract(uv_try, pinned)
@@ -1252,6 +1322,16 @@ def iterate_fast(run: Run):
                     quiet = True  # found nothing, and no node has left since
                 kept, (rs, Q, rd, Jd) = _gathered_residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=kept)
                 E = 0.5 * (rs @ rs + rd @ rd)
+                yield run.snapshot(E, ev.xyz[rnd.alive], True, kept.length[rnd.spring_on])
+                continue
+            # the nodes moved the arcs under the springs: minimise again with them (loosely bent while the
+            # round has yet to settle; at the energy floor it will not)
+            if rnd.bend(ev, loose=not rnd.settled and E > rnd.floor):
+                kept, (rs, Q, rd, Jd) = _gathered_residuals(rnd.energy, ev.xyz, ev.su, ev.sv, at=kept)
+                E = 0.5 * (rs @ rs + rd @ rd)
+                # the last factorisation models the slightly changed energy: chord steps judge it
+                stale = held if quick else None
+                last_decrease = math.inf
                 yield run.snapshot(E, ev.xyz[rnd.alive], True, kept.length[rnd.spring_on])
                 continue
             # a refill that found nothing finds nothing again while no node has left since
@@ -1361,7 +1441,7 @@ def iterate_paper(run: Run):
             uv0 = run.uv
 
             def moved(t):
-                uv_t = uv0 + t * D
+                uv_t = run.problem.onto_domain(uv0 + t * D)
                 if pinned is not None:
                     before = uv_t[pinned].copy()
                     run.pin.retract(uv_t, pinned)
@@ -1417,6 +1497,10 @@ def iterate_paper(run: Run):
                 S = surface.points(run.uv)
                 yield run.snapshot(Energy(surface, run.mesh, run.terms).value_xyz(S), S, True)
                 continue
+            if run.bend():
+                S = surface.points(run.uv)
+                yield run.snapshot(Energy(surface, run.mesh, run.terms).value_xyz(S), S, True)
+                continue
             run.status, run.message = 0, "converged"
             return
 
@@ -1440,7 +1524,11 @@ def iterate(problem: Problem, state: State, options: SolverOptions = SolverOptio
     except GeneratorExit:
         inner.close()
         raise
-    S = problem.surface.points(run.uv)
+    # the springs bent where the nodes ended, as a build at this (u, v) bends them: the energy is the
+    # one a result file reopens to, the same function for every solver
+    ev = problem.surface.evaluate(run.uv)
+    run.mesh = bent(run.mesh, ev.xyz, ev.normal)
+    S = ev.xyz
     E = Energy(problem.surface, run.mesh, problem.yarns).value_xyz(S)
     if not (math.isfinite(E) and np.isfinite(S).all()):
         raise _not_finite("the energy", E, run.nit, _cause(problem.surface, run.uv))
