@@ -6,8 +6,9 @@ cylinder face of a STEP file made with Open CASCADE (tests/cadfiles.py's
 the CLI reads it and flattened woven at ``radius / size`` spacing (size 4:
 spacing / radius 0.25; 20: 0.05). The development is the 2 pi R x h
 rectangle; the errors are the larger of the area's and the boundary's,
-signed values alongside, with the chords' own shortfall (r / R)^2 / 24 for
-comparison (docs/decisions/0056).
+signed values alongside, with the shortfall (r / R)^2 / 24 that springs as
+chords at their lattice length left (docs/decisions/0056) for comparison; the
+springs are bent to their arcs since docs/decisions/0057.
 """
 
 from __future__ import annotations
