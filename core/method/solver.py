@@ -778,7 +778,7 @@ class Run:
         self.terms = problem.yarns
         self.fixed_ij, self.pin = _anchors(problem, self.mesh, self.uv, options)
         self.refills: set[tuple[bytes, bytes]] = set()  # (population, positions added) of every refill made
-        self.bends = 0  # populations bent again where they converged (:meth:`bend`)
+        self.bends = 0  # times :meth:`bend` asked the paper's solver to minimise again (the fast one counts per round)
 
     def budget_left(self) -> bool:
         if self.nit >= self.options.max_iter:
