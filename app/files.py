@@ -150,12 +150,15 @@ class Files(QObject):
         asked_at = None if doc is None else doc.revision
         picker = MeshLoopPicker(opened, self.window)
         picker.chosen.connect(lambda loop: self.open_mesh_region(opened, loop, asked_at))
+        picker.seamed.connect(lambda seam: self.open_mesh_seam(opened, seam, asked_at))
         picker.whole.connect(lambda: self.open_mesh_whole(opened, asked_at))
         picker.finished.connect(lambda _result: self._picker_closed(picker))
         self.face_picker = picker
         picker.show()
         reason = picker.reason.split(":")[0]
-        self._status(f"{reason}: draw the piece on it (click points round it, then OK)", 15000)
+        how = ("draw a seam on it (click points from one open end to another, then OK)" if picker.seam
+               else "draw the piece on it (click points round it, then OK)")
+        self._status(f"{reason}: {how}", 15000)
         return picker
 
     def open_mesh_whole(self, opened, asked_at: int | None = None) -> bool:
@@ -171,17 +174,31 @@ class Files(QObject):
     def open_mesh_region(self, opened, loop3d, asked_at: int | None = None) -> bool:
         """Open the piece of a mesh inside ``loop3d`` ((k, 3) points drawn on it) as a
         new document (:meth:`flatweave.reading.meshes.MeshFile.cut`: the inside of the loop)."""
+        return self._open_mesh_piece(opened, lambda: opened.mesh.cut(loop3d), asked_at,
+                                     f"Cannot cut the piece out of {opened.path.name}",
+                                     f"Opened the piece drawn on {opened.path}")
+
+    def open_mesh_seam(self, opened, seam3d, asked_at: int | None = None) -> bool:
+        """Open a tube-shaped mesh along ``seam3d`` ((k, 3) points drawn on it from one
+        open end to another) as a new document (:meth:`flatweave.reading.meshes.MeshFile.cut_along`)."""
+        return self._open_mesh_piece(opened, lambda: opened.mesh.cut_along(seam3d), asked_at,
+                                     f"Cannot open {opened.path.name} along the seam",
+                                     f"Opened {opened.path} along the seam drawn on it")
+
+    def _open_mesh_piece(self, opened, cut, asked_at: int | None, failed: str, done: str) -> bool:
+        """The piece ``cut()`` makes of a mesh as a new document (unsaved work asked about
+        first, unless at revision ``asked_at``); its error shown after ``failed``."""
         doc = self.window.document
         if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
             return False
         try:
-            piece = opened.mesh.cut(loop3d)
+            piece = cut()
             project = replace(opened, surface=piece.surface, region=piece.region).as_project()
         except (FlatweaveError, OSError) as exc:
-            self.window.show_error(f"Cannot cut the piece out of {opened.path.name}: {exc}")
+            self.window.show_error(f"{failed}: {exc}")
             return False
         self.window.set_project(project)
-        self._status(f"Opened the piece drawn on {opened.path}: {piece.fit.describe()}", 10000)
+        self._status(f"{done}: {piece.fit.describe()}", 10000)
         self.ask_mesh(opened)
         return True
 

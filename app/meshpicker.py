@@ -7,7 +7,11 @@ piece's outline: clicks on the mesh place points, the loop through them is
 drawn, Backspace takes one back, and OK emits ``chosen(loop3d)``; the window
 then cuts the piece out (:meth:`flatweave.reading.meshes.MeshFile.cut`, the
 inside of the loop, as ``--region {"loop3d": ...}`` does) and opens it. An open
-mesh can still be opened whole (``whole``).
+mesh can still be opened whole (``whole``). A mesh open at two ends or more (a
+tube: a sleeve, a leg) can instead be opened along a seam: with "Draw a seam"
+on (the picker starts so for a tube), the clicks make an open line from one
+end to another, and OK emits ``seamed(seam3d)``, which the window cuts along
+(:meth:`flatweave.reading.meshes.MeshFile.cut_along`, as ``--seam`` does).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ class MeshLoopPicker(ViewDialog):
     when it closes."""
 
     chosen = Signal(object)  # (k, 3) float: the loop drawn
+    seamed = Signal(object)  # (k, 3) float: the seam drawn, from one open end to another
     whole = Signal()  # open the mesh as one piece after all
 
     def __init__(self, opened, parent=None):
@@ -57,8 +62,17 @@ class MeshLoopPicker(ViewDialog):
             self.reason, on = f"{name} has {mesh.n_parts} separate parts", "one of them"
         else:
             self.reason = mesh.advice.split(":")[0]
-        self.label = QLabel(f"{self.reason}. Draw the piece on {on}: click points round it (a drag turns the "
-                            f"view); OK cuts out the inside of the loop.")
+        self.on = on
+        self.label = QLabel()
+        self.seam_button = None
+        if mesh.n_ends >= 2:  # a tube: opened along a seam, or a panel drawn on it
+            self.seam_button = QPushButton("Draw a &seam")
+            self.seam_button.setCheckable(True)
+            self.seam_button.setChecked(True)
+            self.seam_button.setToolTip("On: the clicks draw a seam from one open end to another, and OK opens "
+                                        "the mesh along it. Off: they draw a panel's outline.")
+            self.buttons.addButton(self.seam_button, QDialogButtonBox.ButtonRole.ActionRole)
+            self.seam_button.toggled.connect(lambda _on: self._update())
         self.whole_button = None
         if opened.surface is not None:  # open: it can be covered whole, if badly
             self.whole_button = QPushButton("Open it &whole")
@@ -83,9 +97,20 @@ class MeshLoopPicker(ViewDialog):
             self.points.pop()
             self._update()
 
+    @property
+    def seam(self) -> bool:
+        """Whether the clicks draw a seam (an open line) rather than a panel's outline."""
+        return self.seam_button is not None and self.seam_button.isChecked()
+
     def _update(self) -> None:
-        self.view.set_loop(self.points)
-        self.ok_button.setEnabled(len(self.points) >= 3)
+        if self.seam:
+            self.label.setText(f"{self.reason}. Draw a seam on it: click points along it from one open end to "
+                               f"another (a drag turns the view); OK opens it along the seam into one piece.")
+        else:
+            self.label.setText(f"{self.reason}. Draw the piece on {self.on}: click points round it (a drag turns "
+                               f"the view); OK cuts out the inside of the loop.")
+        self.view.set_loop(self.points, closed=not self.seam)
+        self.ok_button.setEnabled(len(self.points) >= (2 if self.seam else 3))
         self.back_button.setEnabled(bool(self.points))
 
     def open_whole(self) -> None:
@@ -93,8 +118,9 @@ class MeshLoopPicker(ViewDialog):
         self.whole.emit()
 
     def accept(self) -> None:
-        if len(self.points) < 3:
+        seam = self.seam
+        if len(self.points) < (2 if seam else 3):
             return
-        loop = np.array(self.points)
+        drawn = np.array(self.points)
         super().accept()
-        self.chosen.emit(loop)
+        (self.seamed if seam else self.chosen).emit(drawn)

@@ -871,7 +871,10 @@ class FaceView(ViewBase):
         picker.InitializePickList()
         for actor in self._actors:
             picker.AddPickList(actor)
-        if not picker.Pick(float(x), float(y), 0.0, self._plotter.renderer):
+        # a ray exactly along an edge of the mesh (a regular mesh seen square on) can slip between its two
+        # triangles in the cell locator: a quarter pixel aside, it meets one
+        if not any(picker.Pick(float(x) + dx, float(y) + dy, 0.0, self._plotter.renderer)
+                   for dx, dy in ((0.0, 0.0), (0.25, 0.25), (-0.25, -0.25))):
             return None
         actor = picker.GetActor()
         for k, a in enumerate(self._actors):
@@ -937,11 +940,12 @@ class MeshLoopView(FaceView):
             return None
         return np.array(self._face_picker.GetPickPosition(), dtype=float)
 
-    def set_loop(self, points) -> None:
-        """Draw the loop's points and the polyline through them (closed from 3 points)."""
+    def set_loop(self, points, closed: bool = True) -> None:
+        """Draw the loop's points and the polyline through them (closed from 3 points, unless not ``closed``:
+        a seam)."""
         P = np.asarray(points, dtype=float).reshape(-1, 3)
         self.loop = P.copy()
-        pts, cells = polyline_cells([P], closed=len(P) >= 3) if len(P) >= 2 else (np.zeros((0, 3)), None)
+        pts, cells = polyline_cells([P], closed=closed and len(P) >= 3) if len(P) >= 2 else (np.zeros((0, 3)), None)
         replace_geometry(self._loop, pts, lines=cells)
         replace_geometry(self._loop_points, P, verts=True)
         self.render()

@@ -336,6 +336,12 @@ def closed_cylinder(per_radius: int) -> dict:
     return measure(per_radius)
 
 
+def tube_seam(triangles: int) -> dict:
+    from benchmarks.closed_faces import measure_tube
+
+    return measure_tube(triangles)
+
+
 def gui_live_fps(nodes: int) -> dict:
     from benchmarks.gui_fps import measure
 
@@ -404,6 +410,11 @@ CASES: tuple[Case, ...] = (
          "the larger of the area and boundary errors, at spacing radius / size", Target("error_pct", "<=", 0.02, "%"),
          closed_cylinder, (4, 20), size_unit="spacings per radius", repeats=1,
          keys=("error_pct", "area_signed_pct", "boundary_signed_pct", "chords_pct", "nodes", "seconds")),
+    Case("tube_seam", "a tube-shaped mesh (an open cylinder, irregular triangles) opened along a drawn seam "
+         "against its development: the larger of the area and boundary errors at 5 mm spacing (radius 50); the "
+         "read + cut + fit seconds alongside", Target("error_pct", "<=", 0.02, "%"), tube_seam, (12_000, 200_000),
+         size_unit="triangles", repeats=1, keys=("error_pct", "area_signed_pct", "boundary_signed_pct",
+                                                 "area_vs_cylinder_pct", "open_cut_fit_s", "solve_s", "triangles")),
     Case("scan_open_cut_fit", "a panel drawn on a scan (face000, triangles split in four, the ones nearest its "
          "centre kept) read, cut out and fitted as flatten --region does", Target("seconds", "<", {200_000: 15.0}, "s"),
          scan_open_cut_fit, (50_000, 200_000), size_unit="triangles", keys=("seconds", "max_dev_pct",

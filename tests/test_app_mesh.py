@@ -336,3 +336,46 @@ def test_a_fit_tolerance_given_in_the_window_refits_the_piece_as_one_undoable_ed
     win.show_error = errors.append
     assert not win.files.refit_mesh(win.document, 1e-12)
     assert win.project.surface is first and "over the fit tolerance" in errors[-1]
+
+
+def test_a_tube_opens_its_picker_for_a_seam_and_is_opened_along_the_seam_drawn(make_window, qtbot, tmp_path):
+    """A mesh open at two ends (an open cylinder, ``tests.test_meshseam.tube``): File > Open shows the
+    picker drawing a seam; two clicks on its near side, from end to end, and OK open it along that line
+    into one piece, which solves to the cylinder's development (issue 40 item 4)."""
+    from flatweave.app.meshpicker import MeshLoopPicker
+    from tests.test_app_run import run_to_end
+    from tests.test_meshseam import H, R, tube
+
+    path = tmp_path / "sleeve.stl"
+    path.write_bytes(trimesh.Trimesh(*tube(), process=False).export(file_type="stl"))
+    win = make_window(example=None)
+    shown = []
+    win.show_error = shown.append
+    assert win.open_file(path) and not shown and win.project is None
+    assert "open at 2 ends" in win.statusBar().currentMessage() and "draw a seam" in win.statusBar().currentMessage()
+    picker = win.files.face_picker
+    assert isinstance(picker, MeshLoopPicker) and picker.seam and "Draw a seam" in picker.label.text()
+    qtbot.waitExposed(picker)
+    qtbot.waitUntil(picker.view.is_ready, timeout=10000)
+    view = picker.view
+    view.plotter.camera_position = "yz"  # seen from +x: the side at x = R in front
+    view.plotter.reset_camera()
+    view.render_now()
+    ends = np.array([[R, 0.0, 4.0], [R, 0.0, H - 4.0]])  # on an edge of the mesh, seen square on
+    for p in ends:  # each exactly over an edge of the mesh: the pick still meets a triangle
+        click_world(qtbot, view, p)
+    assert len(picker.points) == 2 and np.abs(np.array(picker.points) - ends).max() < 1.0
+    assert picker.ok_button.isEnabled()
+    picker.seam_button.click()  # a panel's outline needs 3 points: OK waits
+    assert not picker.ok_button.isEnabled() and "round it" in picker.label.text()
+    picker.seam_button.click()
+    picker.ok_button.click()
+    qtbot.waitUntil(lambda: win.project is not None, timeout=60000)
+    surface = win.project.surface
+    assert "cut along a drawn seam" in surface.fit.repairs and surface.fit.map_distortion < 1e-3
+    run_to_end(qtbot, win)
+    r = win.project.result
+    m = r.metrics
+    assert r.status == "converged" and not shown, r.warnings
+    assert abs(m["area_error_signed_pct"]) < 0.02 and abs(m["boundary_error_signed_pct"]) < 0.02
+    assert m["area_3d"] == pytest.approx(2 * np.pi * R * H, rel=1e-4)

@@ -46,7 +46,7 @@ from flatweave.geometry.numerics import polygon_area
 from flatweave.geometry.region import Region
 
 __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MAX_TRIANGLES", "clean_mesh", "lscm", "fit_bspline",
-           "mesh_surface", "boundary_loops", "fit_deviation", "SeveralParts", "NeedsRegion", "NonManifold",
+           "mesh_surface", "boundary_loops", "open_ends", "fit_deviation", "SeveralParts", "NeedsRegion", "NonManifold",
            "FitTolerance", "clamped_knots",
            "edge_table",
            "map_distortion", "MAP_DISTORTION_LIMIT", "MAX_COORDINATE", "with_fit", "FitMesh", "vertex_deviation",
@@ -390,15 +390,19 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None, aside
     return V, F, tuple(repairs)
 
 
-def split_pinched(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+def split_pinched(V: np.ndarray, F: np.ndarray, cut: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """A vertex whose triangles form several fans (joined through it alone, as
     where two holes of a scan touch) becomes one vertex per fan, at the same
-    place. Returns (V, F, how many vertices were split)."""
+    place. ``cut`` (e,) bool, over :func:`edge_table`'s edges: edges the
+    triangles do not meet across (a seam), so the mesh opens along them.
+    Returns (V, F, how many vertices were split)."""
     m = len(F)
     corner_vertex = F.ravel()
     _, inv, count = edge_table(F)
     order = np.argsort(inv, kind="stable")
     inner = count[inv[order]] == 2
+    if cut is not None:
+        inner &= ~np.asarray(cut, dtype=bool)[inv[order]]
     d = order[inner].reshape(-1, 2)  # the two directed-edge rows (3 t + k) of each interior edge
     nxt = lambda r: 3 * (r // 3) + (r % 3 + 1) % 3  # noqa: E731  (the corner at the edge's end)
     a1, b1, a2, b2 = d[:, 0], nxt(d[:, 0]), d[:, 1], nxt(d[:, 1])
@@ -407,12 +411,14 @@ def split_pinched(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     i = np.r_[a1, b1]
     j = np.r_[np.where(same, a2, b2), np.where(same, b2, a2)]
     G = sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(3 * m, 3 * m))
-    _, fan = connected_components(G, directed=False)
-    pairs, new_id = np.unique(np.column_stack([corner_vertex, fan]), axis=0, return_inverse=True)
-    if len(pairs) == len(V):
+    n_fans, fan = connected_components(G, directed=False)
+    # (vertex, fan) pairs as one int64 key, in the order of the vertex, then the fan (a 1-D unique is fast)
+    keys, new_id = np.unique(corner_vertex.astype(np.int64) * n_fans + fan, return_inverse=True)
+    if len(keys) == len(V):
         return V, F, 0
-    n_split = int(len(pairs) - len(np.unique(pairs[:, 0])))
-    return V[pairs[:, 0]], new_id.reshape(-1).reshape(m, 3), n_split
+    vertex = keys // n_fans
+    n_split = int(len(keys) - len(np.unique(vertex)))
+    return V[vertex], new_id.reshape(-1).reshape(m, 3), n_split
 
 
 def boundary_loops(F: np.ndarray, name: str = "the mesh") -> list[np.ndarray]:
@@ -682,6 +688,20 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     holes = [p for i, p in enumerate(loops_uv) if i != k and areas[i] > 1e-12]
     region = Region.from_loops(outer, holes)
     return MeshPiece(surface, region, V, F, uv, dev)
+
+
+END_SHARE = 0.25  # a boundary loop at least this share of the longest one's length is an open end, not a hole
+
+
+def open_ends(V: np.ndarray, F: np.ndarray) -> int:
+    """How many open ends a manifold mesh has: its boundary loops at least
+    END_SHARE of the longest one's length (a tube has two; a scan with small
+    holes, one). 0 for a closed mesh."""
+    loops = boundary_loops(F)
+    if not loops:
+        return 0
+    lengths = np.array([np.linalg.norm(V[lp] - V[np.roll(lp, -1)], axis=1).sum() for lp in loops])
+    return int((lengths >= END_SHARE * lengths.max()).sum())
 
 
 def _why_not_met(V, F, uv, residual, between, ctrl: tuple, pinned: bool) -> str:

@@ -31,10 +31,11 @@ from flatweave.geometry.meshfit import NonManifold
 from flatweave.geometry.meshfit import SeveralParts
 from flatweave.geometry.meshcut import closest_on_mesh
 from flatweave.geometry.meshcut import cut_mesh
-from flatweave.geometry.meshcut import drawn_loop_on_mesh
+from flatweave.geometry.meshcut import cut_seam, drawn_loop_on_mesh
 from flatweave.geometry.meshfit import check_coordinates
 from flatweave.geometry.meshfit import clean_mesh
 from flatweave.geometry.meshfit import mesh_surface
+from flatweave.geometry.meshfit import open_ends
 from flatweave.document.project import UNITS
 from flatweave.geometry.region import RegionDrawing
 from flatweave.reading.opened import Opened
@@ -194,6 +195,7 @@ class MeshFile:
     n_parts: int  # 0: not counted (read only to cut a drawn piece from, mesh_to_cut)
     needs_region: str = ""
     advice: str = ""
+    n_ends: int = 0  # open ends (2 or more: a seam can open it, meshfit.open_ends); 0: not counted
 
     def piece(self, component: int, tolerance: float | None = None) -> MeshPiece:
         """Part ``component`` (0 = the largest) whole, fitted to ``tolerance``
@@ -229,16 +231,47 @@ class MeshFile:
                             f"\"holes3d\" inside it if any) or {{\"points\": [[x, y, z], ...], \"view_direction\": "
                             f"[dx, dy, dz]}} (drawn as seen along the view)")
 
+    def seam_spec(self, spec, component: int | None = None, tolerance: float | None = None) -> MeshPiece:
+        """The mesh opened along the seam a ``--seam`` spec draws on it:
+        ``{"seam3d": [[x, y, z], ...]}`` (points on it, in order, from one open
+        end to another), or ``{"points": [[x, y, z], ...], "view_direction":
+        [dx, dy, dz]}`` (drawn points seen along the view, each side projected
+        onto the mesh); see :func:`flatweave.geometry.meshcut.cut_seam`."""
+        name = self.path.name
+        if isinstance(spec, dict) and "seam3d" in spec and "points" not in spec:
+            return self.cut_along(spec["seam3d"], component, tolerance)
+        if isinstance(spec, dict) and "points" in spec and "seam3d" not in spec:
+            view = np.asarray(spec.get("view_direction", np.nan), dtype=float) \
+                if isinstance(spec.get("view_direction"), list) else None
+            if view is None or view.shape != (3,) or not np.isfinite(view).all() or not np.linalg.norm(view) > 0:
+                raise SettingsError('a drawn seam\'s "view_direction" must be a nonzero [dx, dy, dz]')
+            V, F = self.vertices, self.triangles
+            check_coordinates(V[np.unique(F)], name)  # before any arithmetic on them
+            seam = drawn_loop_on_mesh(V, F, spec["points"], view, name, "the seam", closed=False)
+            return self.cut_along(seam, component, tolerance)
+        raise SettingsError(f"a seam on {name} (a mesh) is {{\"seam3d\": [[x, y, z], ...]}} (points on it from one "
+                            f"open end to another) or {{\"points\": [[x, y, z], ...], \"view_direction\": "
+                            f"[dx, dy, dz]}} (drawn as seen along the view)")
+
+    def cut_along(self, seam3d, component: int | None = None, tolerance: float | None = None) -> MeshPiece:
+        """The mesh opened along a seam of 3D points drawn on it from one open
+        end to another (:func:`flatweave.geometry.meshcut.cut_seam`), on part
+        ``component`` (default: the part the seam is drawn on), fitted to
+        ``tolerance`` (as :meth:`piece`)."""
+        if component is None:
+            component = _first_point(seam3d)
+        V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component)
+        V, F = cut_seam(V, F, seam3d, self.path.name)
+        return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name,
+                            repairs=repairs + ("cut along a drawn seam",), tolerance=tolerance)
+
     def cut(self, loop3d, component: int | None = None, holes3d=(), tolerance: float | None = None) -> MeshPiece:
         """The piece inside a closed loop of 3D points drawn on the mesh, less the
         loops ``holes3d`` drawn inside it (:func:`flatweave.geometry.meshcut.cut_mesh`),
         on part ``component`` (default: the part the loop is drawn on), fitted
         to ``tolerance`` (as :meth:`piece`)."""
         if component is None:  # the part the loop is drawn on
-            try:
-                component = np.asarray(loop3d, dtype=float).reshape(-1, 3)[0]
-            except (TypeError, ValueError, IndexError):
-                pass  # cut_mesh says what is wrong with the loop
+            component = _first_point(loop3d)
         aside = []  # non-manifold edges: the piece must not reach them
         V, F, repairs = clean_mesh(self.vertices, self.triangles, self.path.name, component, aside=aside)
         V, F = cut_mesh(V, F, loop3d, self.path.name, holes3d)
@@ -252,6 +285,15 @@ class MeshFile:
                                     f"({x:.4g}, {y:.4g}, {z:.4g})); draw the loop clear of it or repair the mesh")
         return mesh_surface(V, F, source=os.fspath(self.path), name=self.path.name,
                             repairs=repairs + ("cut along a drawn loop",), tolerance=tolerance)
+
+
+def _first_point(points):
+    """The first of drawn ``points`` (the part of the mesh they are drawn on), or None when they
+    are not points (the cut says what is wrong with them)."""
+    try:
+        return np.asarray(points, dtype=float).reshape(-1, 3)[0]
+    except (TypeError, ValueError, IndexError):
+        return None
 
 
 MESH_SUFFIXES = {".stl": "STL mesh", ".obj": "OBJ mesh", ".ply": "PLY mesh", ".off": "OFF mesh"}
@@ -305,8 +347,9 @@ def open_mesh(path):
         piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
     except NeedsRegion as exc:  # closed, or handles: a loop drawn on it (--region) says which piece
         return Opened(mesh=MeshFile(p, V, F, 1, str(exc)), units_guess=guess)
-    advice = panel_advice(p.name, piece.fit)
-    return Opened(surface=piece.surface, region=piece.region, mesh=MeshFile(p, V, F, 1, advice=advice),
+    ends = open_ends(V2, F2)
+    advice = panel_advice(p.name, piece.fit, ends)
+    return Opened(surface=piece.surface, region=piece.region, mesh=MeshFile(p, V, F, 1, advice=advice, n_ends=ends),
                   units_guess=guess)
 
 
@@ -331,10 +374,16 @@ def units_note(name: str, size: float, units: str) -> str:
             f"(a {size * UNITS[units]:.3g} m piece)")
 
 
-def panel_advice(name: str, fit) -> str:
-    """Why a panel should be drawn on the mesh ``fit`` (a MeshFit) records, or "" (see MAP_DISTORTION_LIMIT)."""
+def panel_advice(name: str, fit, n_ends: int = 1) -> str:
+    """Why a panel (or, with ``n_ends`` open ends, 2 or more, a seam) should
+    be drawn on the mesh ``fit`` (a MeshFit) records, or "" (see
+    MAP_DISTORTION_LIMIT)."""
     if fit is None or fit.map_distortion <= MAP_DISTORTION_LIMIT:
         return ""
+    if n_ends >= 2:  # a tube: whole, its map is a ring, squeezed towards one end; cut open, it may lie flat
+        return (f"{name} is open at {n_ends} ends, like a tube (its flat map changes areas by "
+                f"{100 * fit.map_distortion:.0f} %): one piece covers it only cut open; draw a seam on it from "
+                f"one end to another, or a panel")
     return (f"{name} is far from developable (its flat map changes areas by {100 * fit.map_distortion:.0f} %): "
             f"one piece covers it badly; draw a panel on it")
 
