@@ -24,10 +24,11 @@ class Aspect(enum.Flag):
     DISPLAY = enum.auto()   # units and shear angles
     RESULT = enum.auto()
     NAME = enum.auto()
+    PIECES = enum.auto()    # the list of pieces: which is active, names, order, quantities, the others
 
 
 _FROM_CORE = {"surface": Aspect.SURFACE, "settings": Aspect.SETTINGS, "labels": Aspect.LABELS,
-              "display": Aspect.DISPLAY, "result": Aspect.RESULT, "name": Aspect.NAME}
+              "display": Aspect.DISPLAY, "result": Aspect.RESULT, "name": Aspect.NAME, "pieces": Aspect.PIECES}
 
 HISTORY = frozenset({"undo", "redo"})  # causes that swap whole projects back
 WHOLE = HISTORY | {"reset"}  # causes after which every view is refreshed

@@ -90,7 +90,7 @@ def wait_for_solved_autosave(folder: Path, proc: subprocess.Popen, timeout: floa
         assert proc.poll() is None, f"the app ended early: {proc.stderr.read()}"
         for path in recovery_files(folder):
             try:
-                if json.loads(path.read_text()).get("result") is not None:
+                if (json.loads(path.read_text()).get("pieces") or [{}])[0].get("result") is not None:
                     return path
             except (OSError, ValueError):
                 pass  # a rename in flight
@@ -108,7 +108,7 @@ def test_work_survives_the_app_being_killed(make_window, qtbot, recovery_dir, tm
         saved_doc = json.loads(autosaved.read_text())
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=30)
-    assert autosaved.exists() and saved_doc["result"]["metrics"]["solver_status"] == "converged"
+    assert autosaved.exists() and saved_doc["pieces"][0]["result"]["metrics"]["solver_status"] == "converged"
 
     win = make_window(example="octant")
     offered = win.check_recovery(folder)
@@ -119,11 +119,11 @@ def test_work_survives_the_app_being_killed(make_window, qtbot, recovery_dir, tm
     click(box, "Recover")
     doc = win.document
     r = doc.project.result
-    assert r is not None and r.mesh.n_nodes == saved_doc["result"]["metrics"]["nodes"]
-    assert r.metrics["energy"] == saved_doc["result"]["metrics"]["energy"]
+    assert r is not None and r.mesh.n_nodes == saved_doc["pieces"][0]["result"]["metrics"]["nodes"]
+    assert r.metrics["energy"] == saved_doc["pieces"][0]["result"]["metrics"]["energy"]
     assert project_problems(doc.project) == []
     assert doc.unsaved_work and win.windowTitle().endswith("*")  # recovered work is not saved yet
-    assert len(win.energy_plot.iterations) == len(saved_doc["result"]["history"]) > 0
+    assert len(win.energy_plot.iterations) == len(saved_doc["pieces"][0]["result"]["history"]) > 0
     assert not autosaved.exists()  # the crashed session's file is gone...
     [own] = recovery_files(recovery_dir)  # ...because this session's autosave holds the work now
     assert project_to_dict(load_project(own)) == project_to_dict(win.files.as_saved(doc.project))

@@ -507,7 +507,7 @@ def test_undo_and_redo_restore_the_exact_documents(solved, qtbot):
     for k in range(len(states) - 1, 0, -1):
         qtbot.keyClick(win, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
         assert project_to_dict(win.project) == states[k - 1], k
-        assert win.dart_panel.dart_names() == [d["name"] for d in states[k - 1]["darts"]]
+        assert win.dart_panel.dart_names() == [d["name"] for d in states[k - 1]["pieces"][0]["darts"]]
     for k in range(1, len(states)):
         qtbot.keyClick(win, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
         assert project_to_dict(win.project) == states[k], k
@@ -529,7 +529,8 @@ def test_a_saved_project_with_darts_and_yarns_reopens_identically(solved, qtbot,
     with qtbot.waitSignal(win.run_finished, timeout=RUN_TIMEOUT_MS):
         win.finish_tool()
     saved = project_to_dict(win.files.as_saved(win.project))  # as the file keeps it (view choices too)
-    assert len(saved["darts"]) == 2 and len(saved["yarns"]) == 1 and saved["darts"][1]["visible"] is False
+    [piece] = saved["pieces"]
+    assert len(piece["darts"]) == 2 and len(piece["yarns"]) == 1 and piece["darts"][1]["visible"] is False
     assert win.save_to(tmp_path / "darts")
 
     other = make_window(example="saddle")

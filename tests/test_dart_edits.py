@@ -119,16 +119,16 @@ def test_darts_with_labels_round_trip_and_old_files_read(solved, octant, tmp_pat
     assert b[0].view_dir == darts[0].view_dir and b[2].handles is None and b[2].view_dir is None
     # a version-1 file written before darts had these keys still opens: visible, no drawn points
     doc = json.loads((tmp_path / "a.flatweave").read_text())
-    for item in doc["darts"]:
+    for item in doc["pieces"][0]["darts"]:
         for key in ("visible", "handles", "view_dir"):
             item.pop(key, None)
     (tmp_path / "old.flatweave").write_text(json.dumps(doc))
     old = load_project(tmp_path / "old.flatweave")
     assert all(d.visible for d in old.settings.darts) and old.settings.darts[0].handles is None
     assert settings_equal(old.settings, p.settings)
-    doc["darts"][0]["visible"] = "yes"
+    doc["pieces"][0]["darts"][0]["visible"] = "yes"
     (tmp_path / "bad.flatweave").write_text(json.dumps(doc))
-    with pytest.raises(ProjectError, match=r"bad.flatweave: darts\[0\].visible must be true or false"):
+    with pytest.raises(ProjectError, match=r"bad.flatweave: piece 'octant': darts\[0\].visible must be true or false"):
         load_project(tmp_path / "bad.flatweave")
 
 

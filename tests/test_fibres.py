@@ -214,7 +214,7 @@ def test_an_old_isotropic_project_opens_as_what_it_was(tmp_path):
     p = new_project(s, "octant")
     p = p.with_settings(material=MATERIALS["paper-isotropic"])
     d = project_to_dict(p)
-    d["settings"]["material"] = {"name": "isotropic", "k_weft": 100.0, "k_warp": 100.0, "k_diag": 100.0}
+    d["pieces"][0]["settings"]["material"] = {"name": "isotropic", "k_weft": 100.0, "k_warp": 100.0, "k_diag": 100.0}
     path = tmp_path / "old.flatweave"
     path.write_text(json.dumps(d))
     back = load_project(path)

@@ -115,7 +115,8 @@ def test_save_then_load_restores_the_same_project(solved, tmp_path):
     doc = json.loads(path.read_text())
     assert doc["format"] == "flatweave-project" and doc["version"] == PROJECT_VERSION
     assert doc["surface"]["shape"]["type"] == "surface"
-    assert [d["kind"] for d in doc["darts"]] == ["plane", "curve"] and len(doc["yarns"]) == 1
+    [piece] = doc["pieces"]  # one piece: the project's own
+    assert [d["kind"] for d in piece["darts"]] == ["plane", "curve"] and len(piece["yarns"]) == 1
 
     back = load_project(path)
     assert project_to_dict(back) == project_to_dict(solved)
@@ -207,7 +208,7 @@ def _corruptions(octant, solved):
         return json.dumps(d)
 
     def damage_nodes(d):
-        d["result"]["nodes"]["uv"][3] = [7.0, 7.0]
+        d["pieces"][0]["result"]["nodes"]["uv"][3] = [7.0, 7.0]
 
     result_doc = json.loads(full)
     return {
@@ -223,19 +224,20 @@ def _corruptions(octant, solved):
         "version_zero": edit(lambda d: d.update(version=0)),
         "no_surface": edit(lambda d: d.pop("surface")),
         "bad_surface": edit(lambda d: d["surface"]["shape"]["data"][0].update(degree_u=-1)),
-        "negative_spacing": edit(lambda d: d["settings"].update(spacing=-0.1)),
-        "spacing_string": edit(lambda d: d["settings"].update(spacing="0.1")),
-        "missing_solver": edit(lambda d: d["settings"].pop("solver")),
-        "unknown_solver": edit(lambda d: d["settings"].update(solver="magic")),
-        "bad_material": edit(lambda d: d["settings"].update(material={"name": "x", "k_weft": 1})),
-        "bad_dart": edit(lambda d: d.update(darts=[{"kind": "zigzag"}])),
-        "dart_plane_zero": edit(lambda d: d.update(darts=[{"kind": "plane", "plane": [0, 0, 0, 1]}])),
-        "curve_dart_one_point": edit(lambda d: d.update(darts=[{"kind": "curve", "uv": [[0.1, 0.2]]}])),
-        "bad_yarn": edit(lambda d: d.update(yarns=[{"kind": "bias", "index": 0, "plane": [1, 0, 0, 0], "k": 1}])),
+        "negative_spacing": edit(lambda d: d["pieces"][0]["settings"].update(spacing=-0.1)),
+        "spacing_string": edit(lambda d: d["pieces"][0]["settings"].update(spacing="0.1")),
+        "missing_solver": edit(lambda d: d["pieces"][0]["settings"].pop("solver")),
+        "unknown_solver": edit(lambda d: d["pieces"][0]["settings"].update(solver="magic")),
+        "bad_material": edit(lambda d: d["pieces"][0]["settings"].update(material={"name": "x", "k_weft": 1})),
+        "bad_dart": edit(lambda d: d["pieces"][0].update(darts=[{"kind": "zigzag"}])),
+        "dart_plane_zero": edit(lambda d: d["pieces"][0].update(darts=[{"kind": "plane", "plane": [0, 0, 0, 1]}])),
+        "curve_dart_one_point": edit(lambda d: d["pieces"][0].update(darts=[{"kind": "curve", "uv": [[0.1, 0.2]]}])),
+        "bad_yarn": edit(lambda d: d["pieces"][0].update(
+            yarns=[{"kind": "bias", "index": 0, "plane": [1, 0, 0, 0], "k": 1}])),
         "bad_units": edit(lambda d: d["display"].update(units="furlong")),
         "warning_above_limit": edit(lambda d: d["display"].update(shear_warning_deg=40)),
         "result_nodes_outside": (damage_nodes(result_doc), json.dumps(result_doc))[1],
-        "result_not_object": edit(lambda d: d.update(result=[1, 2])),
+        "result_not_object": edit(lambda d: d["pieces"][0].update(result=[1, 2])),
     }
 
 

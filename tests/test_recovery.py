@@ -75,7 +75,7 @@ def test_a_version_1_file_re_saves_as_the_current_version(tmp_path):
     p = load_project(OLD / "v1-octant-solved.flatweave")
     out = save_project(p, tmp_path / "again.flatweave")
     doc = json.loads(out.read_text())
-    assert doc["version"] == PROJECT_VERSION and doc["result"]["history"] == []
+    assert doc["version"] == PROJECT_VERSION and doc["pieces"][0]["result"]["history"] == []
     again = load_project(out)
     assert project_to_dict(again) == project_to_dict(p)
 
@@ -98,7 +98,7 @@ def test_the_energy_history_is_saved(solved, tmp_path):
 
 def test_a_damaged_history_is_named(solved, tmp_path):
     doc = project_to_dict(solved)
-    doc["result"]["history"] = [1.0, "x"]
+    doc["pieces"][0]["result"]["history"] = [1.0, "x"]
     (tmp_path / "bad.flatweave").write_text(json.dumps(doc))
     with pytest.raises(FlatweaveError, match="history") as info:
         load_project(tmp_path / "bad.flatweave")

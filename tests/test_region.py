@@ -163,14 +163,14 @@ def test_the_project_keeps_the_region(octant, holed, holed_result, tmp_path):
     path = save_project(p.with_settings(seed=holed_result.settings.seed, spacing=holed_result.settings.spacing),
                         tmp_path / "holed.flatweave")
     doc = json.loads(path.read_text())
-    assert doc["version"] == PROJECT_VERSION == 4 and doc["settings"]["region"]["loops"]
+    assert doc["version"] == PROJECT_VERSION == 5 and doc["pieces"][0]["settings"]["region"]["loops"]
     back = load_project(path)
     assert back.settings.region == holed and back.result is not None
     assert settings_equal(back.settings, back.result.settings) and back.result_is_current
     assert back.result.pattern.pieces[0].n_region_holes == 1
     # an untrimmed project has a null region
     plain = json.loads(save_project(new_project(octant.surface, "plain"), tmp_path / "plain.flatweave").read_text())
-    assert plain["settings"]["region"] is None
+    assert plain["pieces"][0]["settings"]["region"] is None
 
 
 @pytest.mark.slow

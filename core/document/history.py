@@ -19,7 +19,9 @@ own (:meth:`Document.add_dart`, :meth:`~Document.replace_dart`,
 :meth:`~Document.set_dart_visible`, :meth:`~Document.add_yarn`, ...), so the
 GUI's tools, the tests and a soak test make them the same way. Renaming and
 hiding a dart change only labels: the result stays current and no solve
-answers them.
+answers them. So do the pieces' (:meth:`Document.add_piece`,
+:meth:`~Document.duplicate_piece`, ...); choosing which piece is active
+(:meth:`Document.select_piece`) is a change ("select") but not an undo step.
 """
 
 from __future__ import annotations
@@ -30,14 +32,17 @@ from typing import Callable
 
 from flatweave.errors import SettingsError
 from flatweave.method.result import FlattenResult, with_shear_angles
+from flatweave.document import pieces
 from flatweave.document.project import Project, labels_equal, settings_equal
 
 __all__ = ["Document", "Edit", "Change", "ASPECTS", "unique_name"]
 
-ASPECTS = ("surface", "settings", "labels", "display", "result", "name")
+ASPECTS = ("surface", "settings", "labels", "display", "result", "name", "pieces")
 """What a change can touch: listeners get the set of aspects that differ.
 "labels" are what never changes a solve: the darts' names and visibility and
-a curve dart's drawn points (see :func:`flatweave.document.project.labels_equal`)."""
+a curve dart's drawn points (see :func:`flatweave.document.project.labels_equal`).
+"pieces" are the list of pieces (flatweave.document.pieces): which is active, their
+names, order, quantities and sequence, and the pieces not active."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +86,10 @@ def changed_aspects(old: Project | None, new: Project) -> frozenset:
         out.add("result")
     if (old.name, old.source) != (new.name, new.source):
         out.add("name")
+    if (old.piece_name, old.quantity, old.sequence, old.piece_index) != (
+            new.piece_name, new.quantity, new.sequence, new.piece_index) or len(old.others) != len(new.others) \
+            or any(a is not b for a, b in zip(old.others, new.others)):
+        out.add("pieces")
     return frozenset(out)
 
 
@@ -205,6 +214,45 @@ class Document:
         settings, region and drawings stay) as one undoable edit; the result it had is dropped."""
         return self.apply(label, replace(self._project, surface=surface, result=None), answers_solve=False)
 
+    # ------------------------------------------------------------------ pieces
+    def select_piece(self, k) -> Change | None:
+        """Make piece ``k`` (an index or a name) the active one. Not an undo step:
+        undo steps back through the edits, each with the piece it was made on active."""
+        project = pieces.select(self._project, k)
+        if project.piece_index == self._project.piece_index:
+            return None
+        return self._set(project, "select", f"Select {project.piece_name}")
+
+    def add_piece(self, name: str | None = None, settings=None) -> Edit | None:
+        """A new piece after the last, made active (:func:`flatweave.document.pieces.add`)."""
+        project = pieces.add(self._project, name, settings)
+        return self.apply(f"Add {project.piece_name}", project)
+
+    def duplicate_piece(self, k, name: str | None = None, angle_deg: float | None = None) -> Edit | None:
+        """A copy of piece ``k`` after it, at weft angle ``angle_deg`` if given, made active."""
+        project = pieces.duplicate(self._project, k, name, angle_deg)
+        return self.apply(f"Duplicate as {project.piece_name}", project)
+
+    def remove_piece(self, k) -> Edit | None:
+        """Delete piece ``k`` (not the only one)."""
+        name = self._project.pieces[pieces.index_of(self._project, k)].name
+        return self.apply(f"Delete {name}", pieces.remove(self._project, k), answers_solve=False)
+
+    def rename_piece(self, k, name: str) -> Edit | None:
+        """A new name for piece ``k`` (distinct from the others)."""
+        name = " ".join(str(name).split())
+        return self.apply("Rename piece", pieces.rename(self._project, k, name), answers_solve=False)
+
+    def move_piece(self, k, to: int) -> Edit | None:
+        """Piece ``k`` moved to position ``to`` in the list."""
+        return self.apply("Move piece", pieces.move(self._project, k, to), answers_solve=False)
+
+    def set_piece_quantity(self, k, quantity: int) -> Edit | None:
+        return self.apply("Set quantity", pieces.set_quantity(self._project, k, quantity), answers_solve=False)
+
+    def set_piece_sequence(self, k, sequence: int | None) -> Edit | None:
+        return self.apply("Set sequence", pieces.set_sequence(self._project, k, sequence), answers_solve=False)
+
     # ------------------------------------------------------------------ darts and yarns
     def _dart_index(self, index: int) -> int:
         n = len(self._project.settings.darts)
@@ -291,7 +339,8 @@ class Document:
         ``source`` and is waiting for its solve, or becomes an edit ``label``.
         """
         cur = self._project
-        if cur.surface is not source.surface or not settings_equal(cur.settings, source.settings):
+        if cur.surface is not source.surface or not settings_equal(cur.settings, source.settings) \
+                or cur.piece_name != source.piece_name:  # another piece active, even of the same settings
             return False
         new = cur.with_result(result)
         top = self._undo[-1] if self._undo else None

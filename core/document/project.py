@@ -9,23 +9,27 @@ them (:mod:`flatweave.document.history`) and an autosave writes one without lock
 
 The file (``.flatweave``) is JSON::
 
-    {"format": "flatweave-project", "version": 4, "flatweave": "0.1.0",
+    {"format": "flatweave-project", "version": 5, "flatweave": "0.1.0",
      "name": "octant", "source": "resources/surfaces/octant.json",
      "surface": {geomdl JSON document},
-     "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
-                  solver, tol, max_iter, max_seconds, max_nodes,
-                  region: null (the whole domain) or {"loops": [[[u, v], ...], ...]
-                          (outer loop first, then the holes), "corners": per loop
-                          [point indices] or null} (flatweave.geometry.region.Region)},
-     "darts": [{"kind": "plane", "name", "visible", "plane": [a, b, c, d], "box": [6] or null}
-               or {"kind": "curve", "name", "visible", "uv": [[u, v], ...],
-                   "handles": [[u, v], ...] (optional), "view_dir": [dx, dy, dz] (optional)}],
-     "yarns": [{"kind": "weft" or "warp", "index", "plane": [a, b, c, d], "k",
-                "point": [x, y, z] (optional: the picked point; index is then as resolved)}],
      "display": {"units": "m", "shear_warning_deg": 15.0, "shear_limit_deg": 30.0},
-     "result": a result document (flatweave.method.pipeline.result_to_dict, its
-               "warnings" included) with "history": [EN after each iteration, ...], or null,
-     "candidates": optional, the regions kept beside the active one (flatweave.document.candidates)}
+     "pieces": [
+       {"name": "octant", "quantity": 1, "sequence": null (or its place in a laminate, 1 first),
+        "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
+                     solver, tol, max_iter, max_seconds, max_nodes,
+                     region: null (the whole domain) or {"loops": [[[u, v], ...], ...]
+                             (outer loop first, then the holes), "corners": per loop
+                             [point indices] or null} (flatweave.geometry.region.Region)},
+        "darts": [{"kind": "plane", "name", "visible", "plane": [a, b, c, d], "box": [6] or null}
+                  or {"kind": "curve", "name", "visible", "uv": [[u, v], ...],
+                      "handles": [[u, v], ...] (optional), "view_dir": [dx, dy, dz] (optional)}],
+        "yarns": [{"kind": "weft" or "warp", "index", "plane": [a, b, c, d], "k",
+                   "point": [x, y, z] (optional: the picked point; index is then as resolved)}],
+        "result": a result document (flatweave.method.pipeline.result_to_dict, its
+                  "warnings" included) with "history": [EN after each iteration, ...], or null,
+        "candidates": optional, the regions kept beside the active one (flatweave.document.candidates)},
+       ...],
+     "current": the index of the active piece in "pieces"}
 
 Versions. Version 2 added the result's ``history`` (the energy trace, so the
 energy plot comes back with the project). Version 3 added the result's
@@ -34,7 +38,9 @@ result gets its warnings made from its saved metrics when read (its coverage
 measured on the rebuilt mesh, which is the saved one), an older yarn is an
 explicit index. Version 4 added ``settings.region`` (the piece's region of
 the surface's domain: a trimmed CAD face, or a region given in (u, v)); an
-older file's is null, the whole domain. A dart's ``visible``, ``handles``
+older file's is null, the whole domain. Version 5 holds a list of pieces
+(:mod:`flatweave.document.pieces`); an older file's settings, darts, yarns,
+result and candidates are its one piece, named after the project. A dart's ``visible``, ``handles``
 and ``view_dir`` came during version 1 and are optional (a dart without them
 is visible and has no drawn points). Older files are read by upgrading their
 document one version at a time (:data:`UPGRADES`) before it is read as the
@@ -84,6 +90,7 @@ from flatweave.document.candidates import candidates_to_dict
 from flatweave.geometry.meshfit import MeshFit, with_fit
 from flatweave.geometry.region import cover_for
 from flatweave.document.candidates import candidates_from_dict
+from flatweave.document.pieces import MAX_PIECES, Piece, check_piece, check_pieces, pieces_of, with_pieces
 
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
            "DRAPE_KEYS", "settings_from_dict", "settings_equal", "labels_equal",
@@ -91,7 +98,7 @@ __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSIO
            "load_project", "result_from_dict", "project_problems", "new_project", "UPGRADES"]
 
 PROJECT_FORMAT = "flatweave-project"
-PROJECT_VERSION = 4
+PROJECT_VERSION = 5
 PROJECT_SUFFIX = ".flatweave"
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
@@ -135,8 +142,25 @@ class Project:
     # regions kept beside it (labels)
     region_name: str = ""
     candidates: tuple = ()
+    # the pieces (flatweave.document.pieces): the active one's name, quantity and sequence (its settings,
+    # result and candidates are the fields above), the others in order, and where the active one sits
+    piece_name: str = ""  # "" when made: the project's name
+    quantity: int = 1
+    sequence: int | None = None
+    others: tuple = ()
+    piece_index: int = 0
 
     def __post_init__(self):
+        if not self.piece_name:  # a project made as one piece: the piece is named after it
+            object.__setattr__(self, "piece_name", self.name if isinstance(self.name, str) and self.name.strip()
+                               else "piece 1")
+        check_piece(self.piece_name, self.quantity, self.sequence)
+        if isinstance(self.piece_index, bool) or not isinstance(self.piece_index, int) \
+                or not 0 <= self.piece_index <= len(self.others):
+            raise SettingsError(f"the active piece's position {self.piece_index!r:.20} is not among the "
+                                f"{len(self.others) + 1} pieces")
+        if self.others:
+            check_pieces(pieces_of(self))
         if not isinstance(self.surface, NurbsSurface):
             raise TypeError(f"Project.surface must be a NurbsSurface, got {type(self.surface).__name__}")
         if self.units not in UNITS:
@@ -174,6 +198,11 @@ class Project:
     @property
     def metres_per_unit(self) -> float:
         return UNITS[self.units]
+
+    @property
+    def pieces(self) -> tuple[Piece, ...]:
+        """Every piece in order, the active one (this project's settings and result) at :attr:`piece_index`."""
+        return pieces_of(self)
 
 
 # ---------------------------------------------------------------------- settings <-> dict
@@ -396,19 +425,30 @@ def project_to_dict(project: Project) -> dict:
         "name": p.name,
         "source": p.source,
         "surface": surface_to_json_dict(p.surface),
-        "settings": settings_to_dict(p.settings, "project"),
-        "darts": _darts_to_list(p.settings.darts),
-        "yarns": _yarns_to_list(p.settings.yarns),
         "display": {"units": p.units, "shear_warning_deg": float(p.shear_warning_deg),
                     "shear_limit_deg": float(p.shear_limit_deg), **({"view": dict(p.view)} if p.view else {})},
-        "result": None if p.result is None else _result_doc(p.result, p.source),
         # a surface fitted to a mesh: which mesh and how closely (flatweave.geometry.meshfit.MeshFit); optional key
         **({"surface_fit": p.surface.fit.to_dict()} if getattr(p.surface, "fit", None) is not None else {}),
-        **_candidates_entry(p),
+        "pieces": [_piece_doc(piece, p.source) for piece in p.pieces],
+        "current": p.piece_index,
     }
 
 
-def _candidates_entry(p: Project) -> dict:
+def _piece_doc(piece: Piece, source: str | None) -> dict:
+    """One entry of the file's ``pieces``."""
+    return {
+        "name": piece.name,
+        "quantity": piece.quantity,
+        "sequence": piece.sequence,
+        "settings": settings_to_dict(piece.settings, "project"),
+        "darts": _darts_to_list(piece.settings.darts),
+        "yarns": _yarns_to_list(piece.settings.yarns),
+        "result": None if piece.result is None else _result_doc(piece.result, source),
+        **_candidates_entry(piece),
+    }
+
+
+def _candidates_entry(p) -> dict:
     """The optional ``candidates`` key (flatweave.document.candidates): absent when no region is kept or named."""
     entry = candidates_to_dict(p)
     return {} if entry is None else {"candidates": entry}
@@ -447,7 +487,19 @@ def _upgrade_3_to_4(d: dict) -> dict:
     return d
 
 
-UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3, 3: _upgrade_3_to_4}
+def _upgrade_4_to_5(d: dict) -> dict:
+    """Version 4 held one piece in the project itself: that piece, named after the project, one to cut."""
+    d = dict(d)
+    name = d.get("name")
+    piece = {"name": name if isinstance(name, str) and name.strip() else "piece 1", "quantity": 1, "sequence": None}
+    for key in ("settings", "darts", "yarns", "result", "candidates"):
+        if key in d:
+            piece[key] = d.pop(key)
+    d["pieces"], d["current"], d["version"] = [piece], 0, 5
+    return d
+
+
+UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3, 3: _upgrade_3_to_4, 4: _upgrade_4_to_5}
 """Version -> the function that turns a document of that version into one of the next."""
 
 
@@ -543,30 +595,48 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
             surface = with_fit(surface, MeshFit.from_dict(d["surface_fit"]))
         except FlatweaveError as exc:
             raise ProjectError(f"{where}: {exc}") from None
-    settings = settings_from_dict(f.get(d, "settings", "project"), d.get("darts", []), d.get("yarns", []), where)
     display = f.obj(d.get("display", {}), "display")
     view = f.obj(display.get("view", {}), "display.view")
     if not all(isinstance(k, str) and isinstance(v, (str, bool)) for k, v in view.items()):
         raise f.fail("display.view must map names to strings or true/false")
     name = d.get("name", "untitled")
     source = d.get("source")
+    docs = f.get(d, "pieces", "project")
+    if not isinstance(docs, list) or not 1 <= len(docs) <= MAX_PIECES:
+        raise f.fail(f"pieces must be a list of 1 to {MAX_PIECES} pieces")
+    current = f.integer(d.get("current", 0), "current")
+    if not 0 <= current < len(docs):
+        raise f.fail(f"current is {current}, but the project has {len(docs)} pieces")
     try:
+        pieces = [_piece_from(f, doc, k, surface, where) for k, doc in enumerate(docs)]
         project = Project(
-            surface, settings,
+            surface, pieces[current].settings,
             name=f.string(name, "name"),
             source=None if source is None else f.string(source, "source"),
             units=f.string(display.get("units", "m"), "display.units"),
             shear_warning_deg=f.number(display.get("shear_warning_deg", 15.0), "display.shear_warning_deg"),
             shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"),
-            view=tuple(sorted(view.items())))
-        if d.get("candidates") is not None:  # optional (flatweave.document.candidates)
-            region_name, kept = candidates_from_dict(d["candidates"])
-            project = replace(project, region_name=region_name, candidates=kept)
+            view=tuple(sorted(view.items())), piece_name=pieces[current].name)
+        project = with_pieces(project, pieces, current)
     except SettingsError as exc:
         raise ProjectError(f"{where}: {exc}") from None
-    if d.get("result") is not None:
-        project = project.with_result(result_from_dict(d["result"], surface, where))
     return project
+
+
+def _piece_from(f: _Fields, doc: Any, k: int, surface: NurbsSurface, where: str) -> Piece:
+    """Piece ``k`` of the file's ``pieces``."""
+    what = f"pieces[{k}]"
+    doc = f.obj(doc, what)
+    name = f.string(f.get(doc, "name", what), f"{what}.name")
+    here = f"{where}: piece {name!r}"
+    settings = settings_from_dict(f.get(doc, "settings", what), doc.get("darts", []), doc.get("yarns", []), here)
+    sequence = doc.get("sequence")
+    region_name, kept = candidates_from_dict(doc.get("candidates"))
+    piece = Piece(name, settings, None, region_name, kept, doc.get("quantity", 1),
+                  None if sequence is None else sequence)
+    if doc.get("result") is not None:
+        piece = replace(piece, result=result_from_dict(doc["result"], surface, here))
+    return piece
 
 
 # ---------------------------------------------------------------------- files

@@ -1,0 +1,213 @@
+"""The pieces of a project: the plies of a laminate, the panels of a product.
+
+A project holds one or more pieces on its surface (issue 41). One of them is
+active: the piece the window shows and its tools edit. The active piece lives
+in the project's own fields (``settings``, ``result``, ``region_name``,
+``candidates``, ``piece_name``, ``quantity``, ``sequence``), so every edit of a
+piece is the edit it was when a project held one piece, and a project of one
+piece is what a project always was; the other pieces ride in
+``Project.others``, in order, with the active one at ``Project.piece_index``
+among them (docs/decisions/0059). :func:`pieces_of` is the whole list; the
+functions here edit it, each returning a new project (one undoable step in a
+:class:`flatweave.document.history.Document`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+from flatweave.errors import SettingsError
+from flatweave.method.result import FlattenResult
+from flatweave.method.settings import FlattenSettings
+
+__all__ = ["Piece", "MAX_PIECES", "MAX_QUANTITY", "check_piece", "pieces_of", "with_pieces", "select", "add",
+           "duplicate", "remove", "rename", "move", "set_quantity", "set_sequence", "index_of"]
+
+MAX_PIECES = 1000  # a laminate has 10 to 200 plies, a product 5 to 30 panels
+MAX_QUANTITY = 100_000  # copies of one piece cut for a job
+MAX_NAME = 80  # characters of a piece's name
+
+
+@dataclass(frozen=True, eq=False)
+class Piece:
+    """One piece: its name, its settings (region, darts, yarns, material and
+    orientation as today), its last result (None: not solved; it may be
+    stale, as a project's), its kept candidate regions, how many are cut
+    (``quantity``) and, in a laminate, its place in the stack (``sequence``,
+    1 the first laid on the tool; None outside a laminate)."""
+
+    name: str
+    settings: FlattenSettings
+    result: FlattenResult | None = None
+    region_name: str = ""
+    candidates: tuple = ()
+    quantity: int = 1
+    sequence: int | None = None
+
+    def __post_init__(self):
+        check_piece(self.name, self.quantity, self.sequence)
+
+
+def check_piece(name: Any, quantity: Any, sequence: Any) -> None:
+    """A one-line SettingsError unless the name is a text of 1 to MAX_NAME
+    characters (not only spaces), ``quantity`` a whole number 1 to
+    MAX_QUANTITY and ``sequence`` None or a whole number 1 to MAX_PIECES."""
+    if not isinstance(name, str) or not name.strip() or len(name) > MAX_NAME or "\n" in name:
+        raise SettingsError(f"a piece's name must be a line of 1 to {MAX_NAME} characters, got {name!r:.60}")
+    if isinstance(quantity, bool) or not isinstance(quantity, int) or not 1 <= quantity <= MAX_QUANTITY:
+        raise SettingsError(f"piece {name!r}: the quantity must be a whole number from 1 to {MAX_QUANTITY}, "
+                            f"got {quantity!r:.40}")
+    if sequence is not None and (isinstance(sequence, bool) or not isinstance(sequence, int)
+                                 or not 1 <= sequence <= MAX_PIECES):
+        raise SettingsError(f"piece {name!r}: the sequence must be a whole number from 1 to {MAX_PIECES} "
+                            f"(or none), got {sequence!r:.40}")
+
+
+def check_pieces(pieces) -> None:
+    """A one-line SettingsError unless the pieces are 1 to MAX_PIECES with distinct names."""
+    if not 1 <= len(pieces) <= MAX_PIECES:
+        raise SettingsError(f"a project holds 1 to {MAX_PIECES} pieces, got {len(pieces)}")
+    seen = set()
+    for p in pieces:
+        if not isinstance(p, Piece):
+            raise TypeError(f"a project's other pieces must be Pieces, got {type(p).__name__}")
+        key = p.name.strip().casefold()
+        if key in seen:
+            raise SettingsError(f"two pieces are named {p.name!r}: each piece needs a name of its own")
+        seen.add(key)
+
+
+def active_piece(project) -> Piece:
+    """The project's active piece, from its own fields."""
+    return Piece(project.piece_name, project.settings, project.result, project.region_name, project.candidates,
+                 project.quantity, project.sequence)
+
+
+def pieces_of(project) -> tuple[Piece, ...]:
+    """Every piece of ``project`` in order, the active one at ``project.piece_index``."""
+    k = project.piece_index
+    return project.others[:k] + (active_piece(project),) + project.others[k:]
+
+
+def with_pieces(project, pieces, index: int):
+    """``project`` holding ``pieces`` (in that order) with ``pieces[index]`` active."""
+    pieces = tuple(pieces)
+    if not 0 <= index < len(pieces):
+        raise SettingsError(f"no piece {index + 1}: the project has {len(pieces)}")
+    p = pieces[index]
+    return replace(project, settings=p.settings, result=p.result, region_name=p.region_name,
+                   candidates=p.candidates, piece_name=p.name, quantity=p.quantity, sequence=p.sequence,
+                   others=pieces[:index] + pieces[index + 1:], piece_index=index)
+
+
+def index_of(project, k: Any) -> int:
+    """A piece's index from an index or a name; a one-line SettingsError when there is none."""
+    pieces = pieces_of(project)
+    if isinstance(k, str):
+        for i, p in enumerate(pieces):
+            if p.name == k:
+                return i
+        raise SettingsError(f"no piece is named {k!r} (the pieces: {', '.join(p.name for p in pieces)[:200]})")
+    if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < len(pieces):
+        raise SettingsError(f"no piece {k!r}: the project has {len(pieces)}")
+    return k
+
+
+def select(project, k):
+    """The project with piece ``k`` (an index or a name) active."""
+    return with_pieces(project, pieces_of(project), index_of(project, k))
+
+
+def _free_name(pieces, base: str) -> str:
+    taken = {p.name.strip().casefold() for p in pieces}
+    if base.strip().casefold() not in taken:
+        return base
+    n = 2
+    while f"{base} {n}".casefold() in taken:
+        n += 1
+    return f"{base} {n}"
+
+
+def add(project, name: str | None = None, settings: FlattenSettings | None = None, select_it: bool = True):
+    """The project with a new piece after the last: ``settings`` (default the
+    active piece's, less its darts and yarns: a new piece on the same
+    surface and material), named ``name`` (default "piece N"), unsolved."""
+    pieces = pieces_of(project)
+    if settings is None:
+        settings = replace(project.settings, darts=(), yarns=())
+    name = _free_name(pieces, f"piece {len(pieces) + 1}") if name is None else name
+    new = pieces + (Piece(name, settings),)
+    check_pieces(new)
+    return with_pieces(project, new, len(new) - 1 if select_it else project.piece_index)
+
+
+def duplicate(project, k, name: str | None = None, angle_deg: float | None = None):
+    """The project with a copy of piece ``k`` right after it (selected):
+    the same settings (with its weft angle ``angle_deg`` if given, so a ply
+    is repeated at another orientation), unsolved, named ``name`` (default
+    the original's with the angle, or "copy")."""
+    i = index_of(project, k)
+    pieces = pieces_of(project)
+    src = pieces[i]
+    settings = src.settings
+    if angle_deg is not None:
+        if isinstance(angle_deg, bool) or not isinstance(angle_deg, (int, float)) or not math.isfinite(angle_deg):
+            raise SettingsError(f"a piece's orientation must be a finite angle in degrees, got {angle_deg!r:.40}")
+        settings = replace(settings, angle_deg=float(angle_deg))
+    if name is None:
+        name = _free_name(pieces, f"{src.name} {angle_deg:+g}" if angle_deg is not None else f"{src.name} copy")
+    copy = replace(src, name=name, settings=settings, result=None)
+    new = pieces[:i + 1] + (copy,) + pieces[i + 1:]
+    check_pieces(new)
+    return with_pieces(project, new, i + 1)
+
+
+def remove(project, k):
+    """The project without piece ``k``; its neighbour (the next, or the last) active if it was."""
+    i = index_of(project, k)
+    pieces = pieces_of(project)
+    if len(pieces) == 1:
+        raise SettingsError("a project keeps at least one piece: this is its only one")
+    new = pieces[:i] + pieces[i + 1:]
+    active = project.piece_index
+    active = min(i, len(new) - 1) if active == i else active - (active > i)
+    return with_pieces(project, new, active)
+
+
+def rename(project, k, name: str):
+    """The project with piece ``k`` named ``name`` (distinct from the others)."""
+    i = index_of(project, k)
+    pieces = pieces_of(project)
+    new = pieces[:i] + (replace(pieces[i], name=name),) + pieces[i + 1:]
+    check_pieces(new)
+    return with_pieces(project, new, project.piece_index)
+
+
+def move(project, k, to: int):
+    """The project with piece ``k`` moved to position ``to`` (the others keep their order)."""
+    i = index_of(project, k)
+    pieces = list(pieces_of(project))
+    if isinstance(to, bool) or not isinstance(to, int) or not 0 <= to < len(pieces):
+        raise SettingsError(f"no position {to!r}: the project has {len(pieces)} pieces")
+    active = pieces[project.piece_index]
+    p = pieces.pop(i)
+    pieces.insert(to, p)
+    return with_pieces(project, pieces, next(j for j, q in enumerate(pieces) if q is active))
+
+
+def set_quantity(project, k, quantity: int):
+    """The project with ``quantity`` copies of piece ``k`` to cut."""
+    i = index_of(project, k)
+    pieces = pieces_of(project)
+    new = pieces[:i] + (replace(pieces[i], quantity=quantity),) + pieces[i + 1:]
+    return with_pieces(project, new, project.piece_index)
+
+
+def set_sequence(project, k, sequence: int | None):
+    """The project with piece ``k`` at ``sequence`` in the laminate's stack (None: outside one)."""
+    i = index_of(project, k)
+    pieces = pieces_of(project)
+    new = pieces[:i] + (replace(pieces[i], sequence=sequence),) + pieces[i + 1:]
+    return with_pieces(project, new, project.piece_index)
