@@ -50,6 +50,10 @@ from flatweave.method.lattice import parse_material
 from flatweave.studies.planar import PlanarSettings, flatten_planar, planar_result_to_dict
 from flatweave.method.solvers import solver_entry
 from flatweave.studies.sweep import sweep
+from flatweave.document.project import PROJECT_SUFFIX, load_project
+from flatweave.document.recovery import save_with_backups
+from flatweave.document.solving import solve_pieces
+from flatweave.document.pieces import index_of
 from flatweave.geometry.quadrature import boundary_length
 from flatweave.reading.examples import example_path, list_examples
 from flatweave.geometry.region import region_from_spec
@@ -382,6 +386,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="as for flatten: the fit refined until no vertex is farther than T from the surface")
 
     sub.add_parser("examples", help="list the bundled example surfaces")
+
+    v = sub.add_parser("solve", **exact, help="solve the pieces of a project (.flatweave) together, in worker "
+                                              "processes, and save it with their results")
+    v.add_argument("project", metavar="PROJECT.flatweave", help="a project saved by the window (or by solve)")
+    v.add_argument("--piece", action="append", default=[], metavar="NAME",
+                   help="solve this piece (repeatable; default every piece)")
+    v.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="worker processes (default one per core, at most 4; 1: one piece after another here)")
+    v.add_argument("--out", default=None, metavar="PROJECT.flatweave",
+                   help="write the solved project here (default: over PROJECT, its old file kept as a backup)")
+    v.add_argument("--quiet", action="store_true", help="no table on stdout, no progress on stderr")
     return p
 
 
@@ -770,6 +785,48 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
     return 0
 
 
+def _cmd_solve(args) -> int:
+    """``solve PROJECT.flatweave``: every piece (or the --piece ones) solved in worker processes
+    (flatweave.document.solving), the project saved with their results, a table of them on stdout.
+    Exit 0 when every piece was solved, 1 when one failed (its line on stderr; the others are saved)."""
+    src = Path(args.project)
+    if src.suffix.lower() != PROJECT_SUFFIX:
+        raise SettingsError(f"{src.name}: solve takes a project ({PROJECT_SUFFIX}, saved by the window)")
+    if args.workers is not None and not 1 <= args.workers <= 256:
+        raise SettingsError(f"--workers must be 1 to 256, got {args.workers}")
+    out = Path(args.out) if args.out else src
+    if out.parent and not out.parent.exists():
+        raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    project = load_project(src)
+    names = args.piece or None
+    if names is not None:
+        for name in names:  # a name that is not there: one line before anything is solved
+            index_of(project, name)
+
+    def progress(outcome):
+        if not args.quiet:
+            what = f"failed: {outcome.error}" if outcome.error else outcome.result.status
+            print(f"  {outcome.name}: {what} ({outcome.seconds:.1f} s)", file=sys.stderr)
+
+    project, outcomes = solve_pieces(project, names, args.workers, on_done=progress)
+    save_with_backups(project, out)
+    if not args.quiet:
+        print(f"{'piece':<24} {'status':<28} {'nodes':>7} {'boundary %':>10} {'area %':>8} {'shear deg':>9} "
+              f"{'seconds':>8}")
+        for o in outcomes:
+            if o.result is None:
+                print(f"{o.name[:24]:<24} {'failed':<28}")
+                continue
+            m = o.result.metrics
+            print(f"{o.name[:24]:<24} {o.result.status[:28]:<28} {m['nodes']:>7} {m['boundary_error_pct']:>10.3f} "
+                  f"{m['area_error_pct']:>8.3f} {m.get('max_shear_deg', float('nan')):>9.2f} {o.seconds:>8.2f}")
+        print(f"-> {out}")
+    failed = [o for o in outcomes if o.result is None]
+    for o in failed:
+        print(f"flatweave: piece {o.name!r} failed: {o.error}", file=sys.stderr)
+    return 1 if failed else 0
+
+
 def _cmd_examples(args) -> int:
     for e in list_examples():
         print(f"{e['name']:<14} {e.get('title', '')}  ({example_path(e['name'])})")
@@ -783,7 +840,8 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    handler = {"flatten": _cmd_flatten, "sweep": _cmd_sweep, "info": _cmd_info, "examples": _cmd_examples}[args.command]
+    handler = {"flatten": _cmd_flatten, "sweep": _cmd_sweep, "info": _cmd_info, "examples": _cmd_examples,
+               "solve": _cmd_solve}[args.command]
     try:
         # numbers that overflow become infinities the checks refuse in one line: numpy's warnings about
         # them would only be printed above it

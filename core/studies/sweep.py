@@ -38,7 +38,7 @@ from flatweave.method.pipeline import flatten
 from flatweave.method.result import judge_result
 
 __all__ = ["RANK_KEYS", "SweepResult", "angle_period", "sweep_seeds", "rank_rows", "sweep", "warm_pool",
-           "default_workers"]
+           "default_workers", "pool_context"]
 
 RANK_KEYS = ("area_beyond_lock_pct", "max_shear_deg", "boundary_error_pct")
 """The metrics a sweep ranks by after the rows' usability (:func:`rank_rows`), most important first;
@@ -153,7 +153,8 @@ def _solve_row(job) -> dict:
     return row
 
 
-def _context():
+def pool_context():
+    """The multiprocessing context worker pools use (fork where it is safe, else a fork server)."""
     # fork is quick and safe in a process with one thread (the CLI); a process
     # with threads (the window, a test runner with Qt) forks a server first
     if threading.active_count() == 1 and "fork" in multiprocessing.get_all_start_methods():
@@ -177,7 +178,7 @@ def warm_pool(workers: int | None = None) -> ProcessPoolExecutor | None:
     with _POOLS_LOCK:
         pool = _POOLS.get(workers)
         if pool is None:
-            pool = _POOLS[workers] = ProcessPoolExecutor(workers, mp_context=_context())
+            pool = _POOLS[workers] = ProcessPoolExecutor(workers, mp_context=pool_context())
             for _ in range(workers):  # each worker imports the solver now, not on its first row
                 pool.submit(_preload)
         return pool
