@@ -39,6 +39,7 @@ from flatweave.app.dartpanel import DartPanel
 from flatweave.app.exporting import Exports
 from flatweave.app.files import Files, stored_view
 from flatweave.app.panels import MetricsPanel, SettingsPanel
+from flatweave.app.piecespanel import PiecesPanel
 from flatweave.app.plot import EnergyPlot
 from flatweave.app.presenter import Presenter
 from flatweave.app.runcontrol import NO_DOCUMENT, RunControl
@@ -109,6 +110,7 @@ class MainWindow(QMainWindow):
         self.metrics = MetricsPanel(self)
         self.settings_panel = SettingsPanel(self)
         self.dart_panel = DartPanel(self)
+        self.pieces_panel = PiecesPanel(self)
         self.energy_plot = EnergyPlot(self)
         self.progress = QLabel(NO_DOCUMENT, self)
         self.progress.setWordWrap(True)
@@ -159,6 +161,7 @@ class MainWindow(QMainWindow):
         self.side_tabs = QTabWidget(side)
         self.side_tabs.addTab(self.settings_panel, "Settings")
         self.side_tabs.addTab(self.dart_panel, "Darts and yarns")
+        self.side_tabs.addTab(self.pieces_panel, "Pieces")
         col.addWidget(self.side_tabs)
         buttons = QHBoxLayout()
         for key in ("run", "pause", "stop"):
@@ -201,6 +204,8 @@ class MainWindow(QMainWindow):
         dp.yarn_edit.connect(tools.edit_yarn)
         dp.input_error.connect(self.show_error)
         dp.regions.region_edit.connect(tools.region_edit)
+        self.pieces_panel.piece_selected.connect(self.select_piece)
+        self.pieces_panel.piece_edit.connect(self.piece_edit)
 
     # ------------------------------------------------------------------ actions and title
     def update_actions(self) -> None:
@@ -210,6 +215,7 @@ class MainWindow(QMainWindow):
                        self.action_specs)
         self.settings_panel.setEnabled(has_doc)
         self.dart_panel.setEnabled(has_doc)
+        self.pieces_panel.setEnabled(has_doc)
 
     def _update_title(self) -> None:
         doc = self.document
@@ -291,6 +297,31 @@ class MainWindow(QMainWindow):
     def edit_display(self, label: str, changes: dict) -> bool:
         """One undoable edit of units or shear angles."""
         return self._edit("edit_display", label, changes)
+
+    def select_piece(self, k) -> bool:
+        """Make piece ``k`` (an index or a name) the active one: the views, settings and tools show it."""
+        if self.document is None:
+            return False
+        try:
+            self.document.select_piece(k)
+        except FlatweaveError as exc:
+            self.show_error(str(exc))
+            self.pieces_panel.set_project(self.document.project)
+            return False
+        return True
+
+    def piece_edit(self, label: str, change, solves: bool) -> bool:
+        """One edit of the pieces (the Pieces tab): ``change(project)`` made current as one undoable
+        edit; a refused one shows its message and the list as it was."""
+        if self.document is None:
+            return False
+        try:
+            self.document.apply(label, change(self.document.project), answers_solve=solves)
+        except FlatweaveError as exc:
+            self.show_error(f"{label}: {exc}")
+            self.pieces_panel.set_project(self.document.project)
+            return False
+        return True
 
     def undo(self) -> None:
         if self.document is not None:

@@ -226,6 +226,8 @@ class Presenter:
             w.tools.refresh_handles()
         if aspects & (Aspect.SETTINGS | Aspect.RESULT | Aspect.SURFACE) or whole:
             self.show_yarns(project)
+        if aspects & (Aspect.PIECES | Aspect.SETTINGS | Aspect.RESULT) or whole:
+            w.pieces_panel.set_project(project)
         if aspects & Aspect.RESULT:
             w.tools.result_changed()
         if aspects & (Aspect.SURFACE | Aspect.DISPLAY):

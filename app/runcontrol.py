@@ -307,9 +307,10 @@ class RunControl:
 
     # ------------------------------------------------------------------ the document
     def before_change(self, cause: str, aspects: Aspect) -> None:
-        """A run solving a project the document has left is cancelled (its result would be refused)."""
-        if self.runner.active and (cause in HISTORY or cause == "reset") \
-                and aspects & (Aspect.SURFACE | Aspect.SETTINGS):
+        """A run solving a project the document has left is cancelled (its result would be refused):
+        another document, an undo or redo to other settings, or another piece made active."""
+        left = (cause in HISTORY or cause == "reset") and aspects & (Aspect.SURFACE | Aspect.SETTINGS)
+        if self.runner.active and (left or cause == "select"):
             self.runner.cancel()
 
     def after_change(self, project: Project, cause: str, aspects: Aspect, label: str = "") -> None:

@@ -1,0 +1,203 @@
+"""The Pieces tab (issue 41): the project's pieces (:mod:`flatweave.document.pieces`),
+the plies of a laminate or the panels of a product on its surface. Each row
+names a piece with its weft angle and its boundary and area errors (coloured
+green when usable, orange with warnings, red when not usable), or says it is
+not solved, or stale (its settings changed since); its tip says more.
+Selecting a row makes that piece the active one (the views, the settings and
+the tools then show and edit it); Add, Duplicate at
++45, -45 or 90 degrees or at another angle, Delete, Up and Down edit the list,
+a double-click renames. The panel never changes the document: a selection is
+reported as ``piece_selected(index)`` and every edit as ``piece_edit(label,
+change, solves)``, ``change`` a function of the project giving the edited one,
+which the window makes one document edit."""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QSignalBlocker, Signal
+from PySide6.QtGui import QBrush, QColor, QFont
+from PySide6.QtWidgets import (QAbstractItemView, QHBoxLayout, QInputDialog, QLabel, QListWidgetItem, QMenu,
+                               QToolButton, QVBoxLayout, QWidget)
+
+from flatweave.document import pieces as P
+from flatweave.document.project import Project, settings_equal
+
+from flatweave.app.shortlist import ShortList
+
+__all__ = ["PiecesPanel", "piece_state"]
+
+ANGLES = (45.0, -45.0, 90.0)  # the duplicate menu's orientations, degrees added to the piece's weft angle
+COLOURS = {"usable": "#1b7a1b", "warnings": "#b86e00", "unusable": "#b00020", "unsolved": "#707070",
+           "stale": "#707070"}
+
+
+def piece_state(piece) -> str:
+    """"unsolved", "stale" (solved with other settings), "unusable", "warnings" or "usable"."""
+    r = piece.result
+    if r is None:
+        return "unsolved"
+    if not settings_equal(r.settings, piece.settings):
+        return "stale"
+    if not r.usable:
+        return "unusable"
+    return "warnings" if r.warnings else "usable"
+
+
+def _row_text(piece) -> str:
+    """One short line: sequence, name, count, weft angle, and the errors (boundary / area) or the state."""
+    state = piece_state(piece)
+    if state in ("unsolved", "stale"):
+        what = "not solved" if state == "unsolved" else "stale"
+    else:
+        m = piece.result.metrics
+        what = f"{m['boundary_error_pct']:.2f} % / {m['area_error_pct']:.2f} %"
+    count = f" x{piece.quantity}" if piece.quantity > 1 else ""
+    seq = f"{piece.sequence}. " if piece.sequence is not None else ""
+    return f"{seq}{piece.name}{count}   {piece.settings.angle_deg:+g} deg   {what}"
+
+
+def _row_tip(piece) -> str:
+    state = piece_state(piece)
+    if state == "unsolved":
+        return f"{piece.name}: not solved yet"
+    if state == "stale":
+        return f"{piece.name}: its settings changed since it was solved; run it again"
+    m = piece.result.metrics
+    return (f"{piece.name}: {piece.result.status}; boundary error {m['boundary_error_pct']:.3f} %, area error "
+            f"{m['area_error_pct']:.3f} %, {m['nodes']} nodes" + "".join(f"\n{w}" for w in piece.result.warnings))
+
+
+class PiecesPanel(QWidget):
+    piece_selected = Signal(int)
+    piece_edit = Signal(str, object, bool)  # label, change (project -> project), whether a solve answers it
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self._loading = False
+        self._project: Project | None = None
+        col = QVBoxLayout(self)
+        self.label = QLabel("The pieces on this surface: the plies of a laminate, the panels of a product. "
+                            "The selected one is shown and edited.")
+        self.label.setWordWrap(True)
+        col.addWidget(self.label)
+        self.list = ShortList(6)
+        self.list.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
+        self.list.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
+        self.list.setToolTip("Select a piece to show and edit it; double-click to rename it")
+        col.addWidget(self.list, 1)
+        row = QHBoxLayout()
+        self.add = QToolButton(text="Add")
+        self.add.setToolTip("A new piece on the surface, with the selected one's material and spacing")
+        self.duplicate = QToolButton(text="Duplicate")
+        self.duplicate.setToolTip("A copy of the selected piece at another orientation (its weft angle turned)")
+        self.duplicate.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        menu = QMenu(self.duplicate)
+        for a in ANGLES:
+            menu.addAction(f"at {a:+g} deg", lambda a=a: self._duplicate(a))
+        menu.addAction("at another angle...", self._duplicate_asked)
+        menu.addAction("as it is", lambda: self._duplicate(0.0))
+        self.duplicate.setMenu(menu)
+        self.delete = QToolButton(text="Delete")
+        self.up = QToolButton(text="Up")
+        self.down = QToolButton(text="Down")
+        for w in (self.add, self.duplicate, self.delete, self.up, self.down):
+            row.addWidget(w)
+        row.addStretch(1)
+        col.addLayout(row)
+        self.add.clicked.connect(lambda: self.piece_edit.emit("Add piece", P.add, True))
+        self.delete.clicked.connect(self._delete)
+        self.up.clicked.connect(lambda: self._move(-1))
+        self.down.clicked.connect(lambda: self._move(1))
+        self.list.currentRowChanged.connect(self._row_changed)
+        self.list.itemDoubleClicked.connect(self._rename_asked)
+
+    # ------------------------------------------------------------------ edits, reported
+    def _row(self) -> int | None:
+        r = self.list.currentRow()
+        return r if r >= 0 and self._project is not None else None
+
+    def _duplicate(self, turn: float) -> None:
+        k = self._row()
+        if k is None:
+            return
+        piece = self._project.pieces[k]
+        angle = piece.settings.angle_deg + turn
+        name = None if turn else f"{piece.name} copy"
+        self.piece_edit.emit(f"Duplicate {piece.name}", lambda p: P.duplicate(p, k, name, angle), True)
+
+    def _duplicate_asked(self) -> None:
+        k = self._row()
+        if k is None:
+            return
+        angle, ok = QInputDialog.getDouble(self, "Duplicate at an angle", "Weft angle of the copy, degrees:",
+                                           self._project.pieces[k].settings.angle_deg, -360.0, 360.0, 2)
+        if ok:
+            self.duplicate_at(k, angle)
+
+    def duplicate_at(self, k: int, angle: float) -> None:
+        """A copy of piece ``k`` with weft angle ``angle`` (what the menu's "another angle" asks)."""
+        self.piece_edit.emit(f"Duplicate {self._project.pieces[k].name}",
+                             lambda p: P.duplicate(p, k, None, angle), True)
+
+    def _delete(self) -> None:
+        k = self._row()
+        if k is not None:
+            self.piece_edit.emit(f"Delete {self._project.pieces[k].name}", lambda p: P.remove(p, k), False)
+
+    def _move(self, step: int) -> None:
+        k = self._row()
+        if k is not None and 0 <= k + step < len(self._project.pieces):
+            self.piece_edit.emit("Move piece", lambda p: P.move(p, k, k + step), False)
+
+    def _rename_asked(self, item: QListWidgetItem) -> None:
+        k = self.list.row(item)
+        old = self._project.pieces[k].name
+        name, ok = QInputDialog.getText(self, "Rename piece", "Name:", text=old)
+        if ok:
+            self.rename(k, name)
+
+    def rename(self, k: int, name: str) -> None:
+        """Rename piece ``k`` (what a double-click asks)."""
+        name = " ".join(str(name).split())
+        if self._project is not None and name != self._project.pieces[k].name:
+            self.piece_edit.emit("Rename piece", lambda p: P.rename(p, k, name), False)
+
+    def _row_changed(self, row: int) -> None:
+        if not self._loading and self._project is not None and row >= 0 and row != self._project.piece_index:
+            self.piece_selected.emit(row)
+        self._update_buttons()
+
+    # ------------------------------------------------------------------ shown
+    def set_project(self, project: Project | None) -> None:
+        """List ``project``'s pieces (without reporting a selection), the active one selected."""
+        self._project = project
+        self._loading = True
+        try:
+            with QSignalBlocker(self.list):
+                self.list.clear()
+                if project is not None:
+                    for k, piece in enumerate(project.pieces):
+                        item = QListWidgetItem(_row_text(piece))
+                        item.setToolTip(_row_tip(piece))
+                        item.setForeground(QBrush(QColor(COLOURS[piece_state(piece)])))
+                        if k == project.piece_index:
+                            font = QFont(item.font())
+                            font.setBold(True)
+                            item.setFont(font)
+                        self.list.addItem(item)
+                    self.list.setCurrentRow(project.piece_index)
+        finally:
+            self._loading = False
+        self._update_buttons()
+
+    def rows(self) -> list[str]:
+        return [self.list.item(k).text() for k in range(self.list.count())]
+
+    def _update_buttons(self) -> None:
+        p = self._project
+        k = self._row()
+        n = len(p.pieces) if p is not None else 0
+        self.add.setEnabled(p is not None)
+        self.duplicate.setEnabled(k is not None)
+        self.delete.setEnabled(k is not None and n > 1)
+        self.up.setEnabled(k is not None and k > 0)
+        self.down.setEnabled(k is not None and k < n - 1)

@@ -1,0 +1,70 @@
+"""The window's Pieces tab (issue 41, step 3; flatweave.app.piecespanel): the
+project's pieces listed with their state, a row selected makes that piece the
+active one (the settings, views and result are then its own), and Add,
+Duplicate at an angle, rename, Up, Down and Delete are undoable edits that
+save and reopen with the project."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.test_app_run import run_to_end
+
+pytestmark = pytest.mark.slow
+
+
+def test_plies_are_duplicated_at_angles_selected_renamed_moved_deleted_and_saved(make_window, qtbot, tmp_path):
+    win = make_window(example="octant")
+    shown = []
+    win.show_error = shown.append
+    panel = win.pieces_panel
+    assert panel.rows() == ["octant   +0 deg   not solved"] and not panel.delete.isEnabled()
+    run_to_end(qtbot, win)
+    m = win.project.result.metrics
+    assert win.project.result_is_current
+    assert panel.rows()[0].endswith(f"{m['boundary_error_pct']:.2f} % / {m['area_error_pct']:.2f} %")
+    assert "converged" in panel.list.item(0).toolTip()
+    first = win.project.result
+
+    menu = {a.text(): a for a in panel.duplicate.menu().actions()}
+    menu["at +45 deg"].trigger()  # a copy of the selected piece, its weft turned 45 degrees, made active
+    p = win.project
+    assert [x.name for x in p.pieces] == ["octant", "octant +45"] and p.piece_index == 1
+    assert p.settings.angle_deg == 45.0 and p.result is None
+    assert win.settings_panel.angle.value() == 45.0  # the settings shown are the active piece's
+    assert "not solved" in panel.rows()[1] and panel.list.currentRow() == 1
+    run_to_end(qtbot, win)  # the active piece solves: the +45 ply
+    assert win.project.result_is_current and win.project.result.settings.angle_deg == 45.0
+
+    panel.list.setCurrentRow(0)  # selecting a row makes that piece active: its own result again
+    p = win.project
+    assert p.piece_index == 0 and p.result is first and p.result_is_current and p.settings.angle_deg == 0.0
+    assert win.settings_panel.angle.value() == 0.0
+    panel.duplicate_at(0, 90.0)
+    panel.rename(1, "  ply   90 ")
+    assert [x.name for x in win.project.pieces] == ["octant", "ply 90", "octant +45"]
+    assert win.project.pieces[1].settings.angle_deg == 90.0
+    panel.list.setCurrentRow(1)
+    panel.down.click()
+    assert [x.name for x in win.project.pieces] == ["octant", "octant +45", "ply 90"]
+    assert win.project.piece_name == "ply 90" and panel.list.currentRow() == 2
+    panel.delete.click()
+    assert [x.name for x in win.project.pieces] == ["octant", "octant +45"]
+    win.undo()  # the delete undone: the piece back, active
+    assert [x.name for x in win.project.pieces] == ["octant", "octant +45", "ply 90"]
+    assert win.project.piece_name == "ply 90"
+
+    panel.rename(2, "Octant")  # the same name as another piece: refused in one line, nothing changed
+    assert shown and "two pieces are named" in shown[-1] and "\n" not in shown[-1]
+    assert [x.name for x in win.project.pieces] == ["octant", "octant +45", "ply 90"]
+
+    assert win.save_to(tmp_path / "plies")
+    other = make_window(example=None)
+    assert other.open_file(tmp_path / "plies.flatweave")
+    q = other.project
+    assert [x.name for x in q.pieces] == ["octant", "octant +45", "ply 90"] and q.piece_name == "ply 90"
+    assert [x.result is not None for x in q.pieces] == [True, True, False]
+    assert other.pieces_panel.rows()[1].startswith("octant +45   +45 deg   ") and "%" in other.pieces_panel.rows()[1]
+    assert other.pieces_panel.rows()[2] == "ply 90   +90 deg   not solved"
+    other.pieces_panel.list.setCurrentRow(1)
+    assert other.project.result_is_current and other.project.settings.angle_deg == 45.0
