@@ -40,6 +40,7 @@ from flatweave.app.exporting import Exports
 from flatweave.app.files import Files, stored_view
 from flatweave.app.panels import MetricsPanel, SettingsPanel
 from flatweave.app.piecespanel import PiecesPanel
+from flatweave.app.solveall import SolveAll
 from flatweave.app.plot import EnergyPlot
 from flatweave.app.presenter import Presenter
 from flatweave.app.runcontrol import NO_DOCUMENT, RunControl
@@ -111,6 +112,8 @@ class MainWindow(QMainWindow):
         self.settings_panel = SettingsPanel(self)
         self.dart_panel = DartPanel(self)
         self.pieces_panel = PiecesPanel(self)
+        self.solve_all = SolveAll(self)
+        self.last_solve_all: str | None = None  # what the last Solve all did, in one line
         self.energy_plot = EnergyPlot(self)
         self.progress = QLabel(NO_DOCUMENT, self)
         self.progress.setWordWrap(True)
@@ -206,6 +209,10 @@ class MainWindow(QMainWindow):
         dp.regions.region_edit.connect(tools.region_edit)
         self.pieces_panel.piece_selected.connect(self.select_piece)
         self.pieces_panel.piece_edit.connect(self.piece_edit)
+        self.pieces_panel.solve_all.connect(self.solve_all.start)
+        self.solve_all.piece_done.connect(lambda name, text: self.statusBar().showMessage(
+            f"Solve all: {name}: {text}", 10000))
+        self.solve_all.finished.connect(self._solve_all_finished)
 
     # ------------------------------------------------------------------ actions and title
     def update_actions(self) -> None:
@@ -216,6 +223,7 @@ class MainWindow(QMainWindow):
         self.settings_panel.setEnabled(has_doc)
         self.dart_panel.setEnabled(has_doc)
         self.pieces_panel.setEnabled(has_doc)
+        self.pieces_panel.set_solving(self.solve_all.busy)
 
     def _update_title(self) -> None:
         doc = self.document
@@ -323,6 +331,10 @@ class MainWindow(QMainWindow):
             return False
         return True
 
+    def _solve_all_finished(self, summary: str) -> None:
+        self.last_solve_all = summary
+        self.statusBar().showMessage(summary, 20000)
+
     def undo(self) -> None:
         if self.document is not None:
             self.document.undo()
@@ -394,6 +406,7 @@ class MainWindow(QMainWindow):
             event.ignore()
             return
         self.files.stop_autosaving()
+        self.solve_all.close()
         self.tools.tool = None
         self.view.mouse_handler = None
         self.runs.close()

@@ -69,6 +69,7 @@ def _row_tip(piece) -> str:
 class PiecesPanel(QWidget):
     piece_selected = Signal(int)
     piece_edit = Signal(str, object, bool)  # label, change (project -> project), whether a solve answers it
+    solve_all = Signal()  # Solve all pressed
 
     def __init__(self, parent=None):
         super().__init__(parent)
@@ -103,6 +104,12 @@ class PiecesPanel(QWidget):
             row.addWidget(w)
         row.addStretch(1)
         col.addLayout(row)
+        self.solve_button = QToolButton(text="Solve all")
+        self.solve_button.setToolTip("Solve every piece in worker processes, the window staying live; "
+                                     "each piece's result comes as it finishes")
+        self.solve_button.clicked.connect(self.solve_all.emit)
+        self._solving = False
+        col.addWidget(self.solve_button)
         self.add.clicked.connect(lambda: self.piece_edit.emit("Add piece", P.add, True))
         self.delete.clicked.connect(self._delete)
         self.up.clicked.connect(lambda: self._move(-1))
@@ -189,6 +196,12 @@ class PiecesPanel(QWidget):
             self._loading = False
         self._update_buttons()
 
+    def set_solving(self, solving: bool) -> None:
+        """While Solve all runs its button says so and waits."""
+        self._solving = bool(solving)
+        self.solve_button.setText("Solving all..." if solving else "Solve all")
+        self._update_buttons()
+
     def rows(self) -> list[str]:
         return [self.list.item(k).text() for k in range(self.list.count())]
 
@@ -197,6 +210,7 @@ class PiecesPanel(QWidget):
         k = self._row()
         n = len(p.pieces) if p is not None else 0
         self.add.setEnabled(p is not None)
+        self.solve_button.setEnabled(p is not None and not self._solving)
         self.duplicate.setEnabled(k is not None)
         self.delete.setEnabled(k is not None and n > 1)
         self.up.setEnabled(k is not None and k > 0)

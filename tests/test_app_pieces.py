@@ -58,13 +58,51 @@ def test_plies_are_duplicated_at_angles_selected_renamed_moved_deleted_and_saved
     assert shown and "two pieces are named" in shown[-1] and "\n" not in shown[-1]
     assert [x.name for x in win.project.pieces] == ["octant", "octant +45", "ply 90"]
 
+    # a run of one piece stops when another is selected: its result would answer nothing shown
+    with qtbot.waitSignal(win.runner.cancelled, timeout=30000):
+        win.run()  # "ply 90", unsolved
+        panel.list.setCurrentRow(0)
+    assert win.project.piece_name == "octant" and win.project.result is first
+    assert win.project.pieces[2].result is None
+
     assert win.save_to(tmp_path / "plies")
     other = make_window(example=None)
     assert other.open_file(tmp_path / "plies.flatweave")
     q = other.project
-    assert [x.name for x in q.pieces] == ["octant", "octant +45", "ply 90"] and q.piece_name == "ply 90"
+    assert [x.name for x in q.pieces] == ["octant", "octant +45", "ply 90"] and q.piece_name == "octant"
     assert [x.result is not None for x in q.pieces] == [True, True, False]
     assert other.pieces_panel.rows()[1].startswith("octant +45   +45 deg   ") and "%" in other.pieces_panel.rows()[1]
     assert other.pieces_panel.rows()[2] == "ply 90   +90 deg   not solved"
     other.pieces_panel.list.setCurrentRow(1)
     assert other.project.result_is_current and other.project.settings.angle_deg == 45.0
+
+
+def test_solve_all_solves_every_piece_in_workers_while_the_window_stays_live(make_window, qtbot):
+    """Three plies at 0, +45 and 90 degrees; Solve all: each is reported as it finishes, the results
+    come as one undoable edit, each the one the piece gets alone; a piece edited meanwhile keeps its state."""
+    from flatweave import flatten
+
+    win = make_window(example="octant")
+    panel = win.pieces_panel
+    panel.duplicate_at(0, 45.0)
+    panel.duplicate_at(1, 90.0)
+    panel.list.setCurrentRow(0)
+    assert [x.result for x in win.project.pieces] == [None, None, None]
+    reported = []
+    win.solve_all.piece_done.connect(lambda name, text: reported.append((name, text)))
+    with qtbot.waitSignal(win.solve_all.finished, timeout=120000):
+        panel.solve_button.click()
+        assert win.solve_all.busy and not panel.solve_button.isEnabled()  # the window is live meanwhile
+        assert panel.solve_button.text() == "Solving all..."
+        panel.rename(2, "ply 90")  # a label: the piece keeps its settings, so its result is taken
+    assert sorted(n for n, _ in reported) == ["octant", "octant +45", "octant +90"]
+    assert all(text == "converged" for _, text in reported)
+    assert win.last_solve_all == "Solve all: 3 of 3 pieces solved" and panel.solve_button.isEnabled()
+    p = win.project
+    assert p.result_is_current and [x.name for x in p.pieces] == ["octant", "octant +45", "ply 90"]
+    for piece in p.pieces:
+        alone = flatten(p.surface, piece.settings)
+        assert piece.result is not None and (piece.result.pattern.xy == alone.pattern.xy).all()
+    assert all(row.endswith("%") for row in panel.rows())
+    win.undo()  # Solve all is one step
+    assert [x.result for x in win.project.pieces] == [None, None, None]

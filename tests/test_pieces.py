@@ -205,3 +205,24 @@ def test_a_new_project_is_one_piece_named_after_it(octant):
     p = new_project(octant, "hood", spacing=0.1)
     assert p.piece_name == "hood" and p.pieces[0].settings is p.settings
     assert FlattenSettings is type(p.pieces[0].settings)
+
+
+def test_results_of_several_pieces_attach_as_one_edit_to_the_settings_they_were_made_from(octant):
+    doc = Document(new_project(octant, "tool", spacing=0.15))
+    doc.duplicate_piece(0, angle_deg=45.0)
+    doc.duplicate_piece(0, angle_deg=90.0)
+    source = doc.project
+    results = {p.name: flatten(octant, p.settings) for p in source.pieces}
+    doc.rename_piece("tool +90", "ninety")  # renamed meanwhile: its settings are the ones solved
+    doc.select_piece("tool +45")
+    doc.edit_settings("Spacing", spacing=0.2)  # edited meanwhile: its result answers nothing now
+    n = len(doc.history)
+    taken = doc.attach_results(results, source)
+    assert taken == ["tool", "ninety"] and len(doc.history) == n + 1
+    p = doc.project
+    assert [x.name for x in p.pieces] == ["tool", "ninety", "tool +45"]  # each copy after its original
+    assert [x.result is not None for x in p.pieces] == [True, True, False]
+    assert p.pieces[0].result is results["tool"] and p.pieces[1].result is results["tool +90"]
+    doc.undo()
+    assert [x.result for x in doc.project.pieces] == [None, None, None]
+    assert doc.attach_results({}, source) == [] and doc.attach_results(results, doc.project) == ["tool", "ninety"]

@@ -354,6 +354,34 @@ class Document:
             self._set(new, "result", label)
         return True
 
+    def attach_results(self, results: dict, source: Project, label: str = "Solve all") -> list[str]:
+        """Record finished solves of several pieces (``results``: piece name ->
+        FlattenResult) started from project ``source``, as one undoable edit.
+        A piece gets the result made from its settings as they are now (its
+        own, or, renamed meanwhile, the one its settings were solved under; a
+        piece whose settings changed since keeps its state); returns the names
+        of the pieces that got one."""
+        cur = self._project
+        if cur.surface is not source.surface:
+            return []
+        pieces_now = list(cur.pieces)
+        taken = []
+        for k, piece in enumerate(pieces_now):
+            mine = results.get(piece.name)
+            fits = [r for r in ([mine] if mine is not None else []) + list(results.values())
+                    if r.surface is cur.surface and settings_equal(r.settings, piece.settings)]
+            if fits:
+                pieces_now[k] = replace(piece, result=fits[0])
+                taken.append(piece.name)
+        if not taken:
+            return []
+        new = pieces.with_pieces(cur, pieces_now, cur.piece_index)
+        self._undo.append(Edit(label, cur, new, answers_solve=False))
+        del self._undo[:-self.limit]
+        self._redo.clear()
+        self._set(new, "result", label)
+        return taken
+
     # ------------------------------------------------------------------ documents
     def reset(self, project: Project, path: str | Path | None = None, saved: bool = True) -> None:
         """Start over with ``project`` (opened from ``path``, if given): history cleared.

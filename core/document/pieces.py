@@ -156,8 +156,12 @@ def duplicate(project, k, name: str | None = None, angle_deg: float | None = Non
         if isinstance(angle_deg, bool) or not isinstance(angle_deg, (int, float)) or not math.isfinite(angle_deg):
             raise SettingsError(f"a piece's orientation must be a finite angle in degrees, got {angle_deg!r:.40}")
         settings = replace(settings, angle_deg=float(angle_deg))
-    if name is None:
-        name = _free_name(pieces, f"{src.name} {angle_deg:+g}" if angle_deg is not None else f"{src.name} copy")
+    if name is None:  # named after the original, its own angle label (if it has one) replaced by the new angle
+        base = src.name
+        label = f" {src.settings.angle_deg:+g}"
+        if angle_deg is not None and base.endswith(label) and len(base) > len(label):
+            base = base[:-len(label)]
+        name = _free_name(pieces, f"{base} {angle_deg:+g}" if angle_deg is not None else f"{base} copy")
     copy = replace(src, name=name, settings=settings, result=None)
     new = pieces[:i + 1] + (copy,) + pieces[i + 1:]
     check_pieces(new)

@@ -14,7 +14,7 @@ whose worker dies again fails with one line. The others' results are kept.
 from __future__ import annotations
 
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, CancelledError, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -54,13 +54,15 @@ def solve_piece(job) -> tuple:
 
 
 def solve_pieces(project, pieces=None, workers: int | None = None,
-                 on_done: Callable[[PieceOutcome], None] | None = None, fn=solve_piece):
+                 on_done: Callable[[PieceOutcome], None] | None = None, fn=solve_piece, stop=None):
     """``project`` with ``pieces`` (indices or names; default every piece)
     solved, and the outcomes in the order given: (project, [PieceOutcome]).
 
     ``workers`` processes (None: :func:`flatweave.studies.sweep.default_workers`;
     1: here, one after another). ``on_done(outcome)`` is called in this thread
-    as each piece finishes. ``fn`` is the worker's function (tests replace it)."""
+    as each piece finishes. ``stop`` (a ``threading.Event``, optional): once set,
+    no piece starts (those already running finish); the pieces not solved are
+    left out of the outcomes. ``fn`` is the worker's function (tests replace it)."""
     all_pieces = list(project.pieces)
     chosen = range(len(all_pieces)) if pieces is None else [index_of(project, k) for k in pieces]
     chosen = list(dict.fromkeys(chosen))  # each piece once, in the order first given
@@ -75,36 +77,45 @@ def solve_pieces(project, pieces=None, workers: int | None = None,
         if on_done is not None:
             on_done(out)
 
+    stopped = (lambda: False) if stop is None else stop.is_set
     if workers == 1 or len(jobs) == 1:
         for job in jobs.values():
+            if stopped():
+                break
             done(*fn(job))
     else:
-        left = _run_pool(list(jobs.values()), min(workers, len(jobs)), fn, done)
+        left = _run_pool(list(jobs.values()), min(workers, len(jobs)), fn, done, stopped)
         for job in left:  # the pool broke: each piece not finished in a pool of its own
-            if _run_pool([job], 1, fn, done):
+            if not stopped() and _run_pool([job], 1, fn, done, stopped):
                 done(job[0], None, WORKER_DIED, 0.0)
     solved = [replace(p, result=outcomes[p.name].result) if p.name in outcomes and outcomes[p.name].result
               is not None else p for p in all_pieces]
-    return with_pieces(project, solved, project.piece_index), [outcomes[n] for n in jobs]
+    return with_pieces(project, solved, project.piece_index), [outcomes[n] for n in jobs if n in outcomes]
 
 
-def _run_pool(jobs, workers: int, fn, done) -> list:
+def _run_pool(jobs, workers: int, fn, done, stopped) -> list:
     """Run ``jobs`` in a pool of ``workers``; ``done(*fn(job))`` for each as it
-    finishes. Returns the jobs left unfinished when a worker died ([] when none)."""
+    finishes; once ``stopped()``, the jobs not started are cancelled. Returns
+    the jobs left unfinished when a worker died ([] when none)."""
     pool = ProcessPoolExecutor(workers, mp_context=pool_context())
     futures = {pool.submit(fn, job): job for job in jobs}
     left = []
     try:
         pending = set(futures)
         while pending:
-            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+            finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
             for f in finished:
                 try:
                     out = f.result()
                 except BrokenProcessPool:
                     left.append(futures[f])
                     continue
+                except CancelledError:
+                    continue
                 done(*out)
+            if stopped():
+                for f in pending:
+                    f.cancel()
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
     return left

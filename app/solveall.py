@@ -1,0 +1,85 @@
+"""Solve all, in the window (issue 41): every piece of the document solved in
+worker processes (:func:`flatweave.document.solving.solve_pieces`) from a
+thread of its own, so the window stays live; each piece is reported as it
+finishes (``piece_done(name, text)``), and at the end the results are attached
+to the pieces they were solved for as one undoable edit
+(:meth:`flatweave.document.history.Document.attach_results`: a piece edited
+meanwhile keeps its own state). ``finished(summary)`` says what happened in
+one line. Closing the window stops it: no piece starts after that, and the
+window waits for those running. No VTK here."""
+
+from __future__ import annotations
+
+import threading
+
+from PySide6.QtCore import QObject, Signal
+
+from flatweave.document.solving import solve_pieces
+
+__all__ = ["SolveAll"]
+
+
+class SolveAll(QObject):
+    piece_done = Signal(str, str)  # the piece's name, what became of it (one line)
+    finished = Signal(str)  # one line: how many were solved, which failed
+    _ended = Signal(object, object)  # (outcomes, the project solved): from the thread to this one
+
+    def __init__(self, window):
+        super().__init__(window)
+        self.window = window
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self.workers: int | None = None  # None: one per core, at most four
+        self._ended.connect(self._attach)
+
+    @property
+    def busy(self) -> bool:
+        return self._thread is not None
+
+    def start(self) -> bool:
+        """Solve every piece of the document's project; False when one is running already or there is none."""
+        doc = self.window.document
+        if self.busy or doc is None:
+            return False
+        source = doc.project
+        self._stop.clear()
+
+        def run():
+            try:
+                _, outcomes = solve_pieces(source, workers=self.workers, stop=self._stop,
+                                           on_done=lambda o: self.piece_done.emit(
+                                               o.name, f"failed: {o.error}" if o.error else o.result.status))
+            except Exception as exc:  # a bug must not end the thread silently: it is said in one line
+                outcomes = exc
+            self._ended.emit(outcomes, source)
+
+        self._thread = threading.Thread(target=run, name="flatweave-solve-all", daemon=True)
+        self._thread.start()
+        self.window.update_actions()
+        return True
+
+    def _attach(self, outcomes, source) -> None:
+        thread, self._thread = self._thread, None
+        if thread is not None:
+            thread.join()
+        doc = self.window.document
+        if isinstance(outcomes, Exception):
+            summary = f"Solve all failed: {type(outcomes).__name__}: {outcomes}"
+        else:
+            results = {o.name: o.result for o in outcomes if o.result is not None}
+            taken = doc.attach_results(results, source) if doc is not None and results else []
+            failed = [f"{o.name} ({o.error})" for o in outcomes if o.result is None]
+            summary = f"Solve all: {len(taken)} of {len(source.pieces)} pieces solved"
+            if len(results) > len(taken):
+                summary += f", {len(results) - len(taken)} edited meanwhile (their results not taken)"
+            if failed:
+                summary += "; failed: " + "; ".join(failed)
+        self.window.update_actions()
+        self.finished.emit(" ".join(summary.split()))
+
+    def close(self) -> None:
+        """No piece starts any more; wait for those running (the window is closing)."""
+        self._stop.set()
+        thread, self._thread = self._thread, None
+        if thread is not None:
+            thread.join()
