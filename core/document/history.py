@@ -253,6 +253,14 @@ class Document:
     def set_piece_sequence(self, k, sequence: int | None) -> Edit | None:
         return self.apply("Set sequence", pieces.set_sequence(self._project, k, sequence), answers_solve=False)
 
+    def use_material(self, k, name: str) -> Edit | None:
+        """Piece ``k`` cut from the table's material ``name``."""
+        return self.apply(f"Material {name}", pieces.use_material(self._project, k, name))
+
+    def set_materials(self, fabrics, label: str = "Edit materials") -> Edit | None:
+        """A new materials table; the pieces cut from a row take its values (one edit)."""
+        return self.apply(label, pieces.set_materials(self._project, fabrics))
+
     # ------------------------------------------------------------------ darts and yarns
     def _dart_index(self, index: int) -> int:
         n = len(self._project.settings.darts)

@@ -23,7 +23,8 @@ from flatweave.method.result import FlattenResult
 from flatweave.method.settings import FlattenSettings
 
 __all__ = ["Piece", "MAX_PIECES", "MAX_QUANTITY", "check_piece", "pieces_of", "with_pieces", "select", "add",
-           "duplicate", "remove", "rename", "move", "set_quantity", "set_sequence", "index_of"]
+           "duplicate", "remove", "rename", "move", "set_quantity", "set_sequence", "index_of", "use_material",
+           "set_materials"]
 
 MAX_PIECES = 1000  # a laminate has 10 to 200 plies, a product 5 to 30 panels
 MAX_QUANTITY = 100_000  # copies of one piece cut for a job
@@ -215,3 +216,28 @@ def set_sequence(project, k, sequence: int | None):
     pieces = pieces_of(project)
     new = pieces[:i] + (replace(pieces[i], sequence=sequence),) + pieces[i + 1:]
     return with_pieces(project, new, project.piece_index)
+
+
+def use_material(project, k, name: str):
+    """The project with piece ``k`` cut from the table's material ``name`` (its mechanics and shear
+    angles become the piece's; a solved piece's result goes stale if they differ)."""
+    i = index_of(project, k)
+    fabric = project.fabric(name)
+    if fabric is None:
+        raise SettingsError(f"no material is named {name!r} in the table "
+                            f"({', '.join(f.name for f in project.materials)[:200]})")
+    pieces = pieces_of(project)
+    p = pieces[i]
+    new = pieces[:i] + (replace(p, settings=replace(p.settings, material=fabric.material)),) + pieces[i + 1:]
+    return with_pieces(project, new, project.piece_index)
+
+
+def set_materials(project, fabrics):
+    """The project with the materials table ``fabrics``: every piece cut from a material of that
+    name takes the row's mechanics and shear angles (a row edited re-judges, or re-solves, its pieces)."""
+    fabrics = tuple(fabrics)
+    by_name = {f.name: f for f in fabrics}
+    pieces = tuple(replace(p, settings=replace(p.settings, material=by_name[p.settings.material.name].material))
+                   if p.settings.material.name in by_name and by_name[p.settings.material.name].material
+                   != p.settings.material else p for p in pieces_of(project))
+    return with_pieces(replace(project, materials=fabrics), pieces, project.piece_index)

@@ -29,7 +29,8 @@ The file (``.flatweave``) is JSON::
                   "warnings" included) with "history": [EN after each iteration, ...], or null,
         "candidates": optional, the regions kept beside the active one (flatweave.document.candidates)},
        ...],
-     "current": the index of the active piece in "pieces"}
+     "current": the index of the active piece in "pieces",
+     "materials": optional, the materials table (flatweave.method.materials.Fabric.to_dict each)}
 
 Versions. Version 2 added the result's ``history`` (the energy trace, so the
 energy plot comes back with the project). Version 3 added the result's
@@ -75,6 +76,7 @@ from flatweave.method.energy import YarnConstraint
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.files import check_json_depth, read_input, write_json
 from flatweave.method.lattice import MATERIALS, Material
+from flatweave.method.materials import FABRICS, Fabric, check_table
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.method.settings import SETTINGS_KEYS as _SETTINGS_KEYS
 from flatweave.method.result import FlattenResult, result_to_dict, judged
@@ -149,6 +151,8 @@ class Project:
     sequence: int | None = None
     others: tuple = ()
     piece_index: int = 0
+    # the materials table (flatweave.method.materials): () when made, the bundled presets and the pieces' own
+    materials: tuple = ()
 
     def __post_init__(self):
         if not self.piece_name:  # a project made as one piece: the piece is named after it
@@ -161,6 +165,11 @@ class Project:
                                 f"{len(self.others) + 1} pieces")
         if self.others:
             check_pieces(pieces_of(self))
+        if not self.materials:
+            object.__setattr__(self, "materials", table_for(pieces_of(self)))
+        elif not all(isinstance(f, Fabric) for f in self.materials):
+            raise TypeError("a project's materials must be Fabrics")
+        check_table(self.materials, "the materials table")
         if not isinstance(self.surface, NurbsSurface):
             raise TypeError(f"Project.surface must be a NurbsSurface, got {type(self.surface).__name__}")
         if self.units not in UNITS:
@@ -199,10 +208,27 @@ class Project:
     def metres_per_unit(self) -> float:
         return UNITS[self.units]
 
+    def fabric(self, name: str) -> Fabric | None:
+        """The materials table's row called ``name``, or None."""
+        return next((f for f in self.materials if f.name == name), None)
+
     @property
     def pieces(self) -> tuple[Piece, ...]:
         """Every piece in order, the active one (this project's settings and result) at :attr:`piece_index`."""
         return pieces_of(self)
+
+
+def table_for(pieces) -> tuple[Fabric, ...]:
+    """A materials table for ``pieces``: the bundled presets, then each material a piece uses that
+    is not among them (its mechanics only: no roll width, thickness or weight known)."""
+    table = list(FABRICS.values())
+    names = {f.name for f in table}
+    for p in pieces:
+        m = p.settings.material
+        if m.name not in names:
+            table.append(Fabric(m))
+            names.add(m.name)
+    return tuple(table)
 
 
 # ---------------------------------------------------------------------- settings <-> dict
@@ -431,6 +457,7 @@ def project_to_dict(project: Project) -> dict:
         **({"surface_fit": p.surface.fit.to_dict()} if getattr(p.surface, "fit", None) is not None else {}),
         "pieces": [_piece_doc(piece, p.source) for piece in p.pieces],
         "current": p.piece_index,
+        "materials": [f.to_dict() for f in p.materials],
     }
 
 
@@ -618,6 +645,12 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
             shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"),
             view=tuple(sorted(view.items())), piece_name=pieces[current].name)
         project = with_pieces(project, pieces, current)
+        rows = d.get("materials")  # optional: a file without a table gets the presets and the pieces' own
+        if rows is not None:
+            if not isinstance(rows, list) or not rows or len(rows) > 200:
+                raise f.fail("materials must be a list of 1 to 200 materials")
+            project = replace(project, materials=tuple(Fabric.from_dict(r, f"materials[{k}]")
+                                                       for k, r in enumerate(rows)))
     except SettingsError as exc:
         raise ProjectError(f"{where}: {exc}") from None
     return project
