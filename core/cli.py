@@ -54,6 +54,7 @@ from flatweave.document.project import PROJECT_SUFFIX, load_project
 from flatweave.document.recovery import save_with_backups
 from flatweave.document.solving import solve_pieces
 from flatweave.document.pieces import index_of
+from flatweave.reading.jobs import JOB_SUFFIX
 from flatweave.geometry.quadrature import boundary_length
 from flatweave.reading.examples import example_path, list_examples
 from flatweave.geometry.region import region_from_spec
@@ -389,13 +390,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("solve", **exact, help="solve the pieces of a project (.flatweave) together, in worker "
                                               "processes, and save it with their results")
-    v.add_argument("project", metavar="PROJECT.flatweave", help="a project saved by the window (or by solve)")
+    v.add_argument("project", metavar="PROJECT.flatweave|JOB.toml",
+                   help="a project saved by the window (or by solve), or a job file (TOML: a laminate's plies)")
     v.add_argument("--piece", action="append", default=[], metavar="NAME",
                    help="solve this piece (repeatable; default every piece)")
     v.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes (default one per core, at most 4; 1: one piece after another here)")
     v.add_argument("--out", default=None, metavar="PROJECT.flatweave",
-                   help="write the solved project here (default: over PROJECT, its old file kept as a backup)")
+                   help="write the solved project here (default: over PROJECT, its old file kept as a backup; "
+                        "a job's beside it, JOB.flatweave)")
     v.add_argument("--quiet", action="store_true", help="no table on stdout, no progress on stderr")
     return p
 
@@ -790,14 +793,18 @@ def _cmd_solve(args) -> int:
     (flatweave.document.solving), the project saved with their results, a table of them on stdout.
     Exit 0 when every piece was solved, 1 when one failed (its line on stderr; the others are saved)."""
     src = Path(args.project)
-    if src.suffix.lower() != PROJECT_SUFFIX:
-        raise SettingsError(f"{src.name}: solve takes a project ({PROJECT_SUFFIX}, saved by the window)")
+    job = src.suffix.lower() == JOB_SUFFIX
+    if src.suffix.lower() != PROJECT_SUFFIX and not job:
+        raise SettingsError(f"{src.name}: solve takes a project ({PROJECT_SUFFIX}, saved by the window) or a job "
+                            f"file ({JOB_SUFFIX})")
     if args.workers is not None and not 1 <= args.workers <= 256:
         raise SettingsError(f"--workers must be 1 to 256, got {args.workers}")
-    out = Path(args.out) if args.out else src
+    out = Path(args.out) if args.out else src.with_suffix(PROJECT_SUFFIX) if job else src
+    if out.suffix.lower() != PROJECT_SUFFIX:
+        raise SettingsError(f"--out {out.name}: the solved project is written as a {PROJECT_SUFFIX} file")
     if out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
-    project = load_project(src)
+    project = open_path(src, surface_only=False).project if job else load_project(src)
     names = args.piece or None
     if names is not None:
         for name in names:  # a name that is not there: one line before anything is solved

@@ -106,3 +106,17 @@ def test_solve_all_solves_every_piece_in_workers_while_the_window_stays_live(mak
     assert all(row.endswith("%") for row in panel.rows())
     win.undo()  # Solve all is one step
     assert [x.result for x in win.project.pieces] == [None, None, None]
+
+
+def test_a_job_file_opens_in_the_window_as_its_plies(make_window):
+    """File > Open on the bundled 24-ply job: the project of its plies, listed in the Pieces tab."""
+    from pathlib import Path
+
+    win = make_window(example=None)
+    shown = []
+    win.show_error = shown.append
+    job = Path(__file__).resolve().parent.parent / "resources" / "jobs" / "dome-laminate.toml"
+    assert win.open_file(job) and not shown
+    assert len(win.project.pieces) == 24 and win.project.piece_name == "P01"
+    rows = win.pieces_panel.rows()
+    assert rows[0] == "1. P01   +0 deg   not solved" and rows[23].startswith("24. P24   ")

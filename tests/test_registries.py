@@ -111,9 +111,11 @@ def test_toy_reader_through_the_cli(toy_formats, tmp_path, capsys):
 
 
 def test_dialog_filters_come_from_the_registries(toy_formats):
-    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.step *.stp *.iges *.igs "
+    assert readers.dialog_filter() == ("All supported (*.flatweave *.toml *.json *.step *.stp *.iges *.igs "
                                        "*.stl *.obj *.ply *.off *.toy);;"
-                                       "flatweave project (*.flatweave);;geomdl JSON surface (*.json);;"
+                                       "flatweave project (*.flatweave);;"
+                                       "flatweave job: a laminate's plies in TOML (*.toml);;"
+                                       "geomdl JSON surface (*.json);;"
                                        "STEP faces (*.step *.stp);;IGES faces (*.iges *.igs);;"
                                        "STL mesh (*.stl);;OBJ mesh (*.obj);;PLY mesh (*.ply);;OFF mesh (*.off);;"
                                        "toy surface (*.toy)")
@@ -130,14 +132,17 @@ def test_toy_formats_are_gone_after_the_fixture():
 
 # ---------------------------------------------------------------------- the reader registry
 def test_builtin_readers_and_filter():
-    assert readers.suffixes() == [PROJECT_SUFFIX, ".json", ".step", ".stp", ".iges", ".igs",
+    assert readers.suffixes() == [PROJECT_SUFFIX, ".toml", ".json", ".step", ".stp", ".iges", ".igs",
                                   ".stl", ".obj", ".ply", ".off"]
-    assert readers.dialog_filter() == ("All supported (*.flatweave *.json *.step *.stp *.iges *.igs "
+    assert readers.dialog_filter() == ("All supported (*.flatweave *.toml *.json *.step *.stp *.iges *.igs "
                                        "*.stl *.obj *.ply *.off);;"
-                                       "flatweave project (*.flatweave);;geomdl JSON surface (*.json);;"
+                                       "flatweave project (*.flatweave);;"
+                                       "flatweave job: a laminate's plies in TOML (*.toml);;"
+                                       "geomdl JSON surface (*.json);;"
                                        "STEP faces (*.step *.stp);;IGES faces (*.iges *.igs);;"
                                        "STL mesh (*.stl);;OBJ mesh (*.obj);;PLY mesh (*.ply);;OFF mesh (*.off)")
     assert reader_for("a" + PROJECT_SUFFIX.upper()).project and not reader_for("a.JSON").project
+    assert reader_for("laminate.TOML").project  # a job file opens as a project
     assert reader_for("a.step").name == "step" and reader_for("a.IGS").name == "iges" and reader_for("a.3dm") is None
 
 
@@ -200,7 +205,7 @@ def test_registration_is_checked():
         register_reader("bad", "json", _toy_reader, "no dot")
     with pytest.raises(ValueError, match="already have an exporter"):
         register_exporter(".DXF", _txt_writer, "again", needs_sheet=True)
-    assert readers.suffixes() == [PROJECT_SUFFIX, ".json", ".step", ".stp", ".iges", ".igs",
+    assert readers.suffixes() == [PROJECT_SUFFIX, ".toml", ".json", ".step", ".stp", ".iges", ".igs",
                                   ".stl", ".obj", ".ply", ".off"]
     assert "bad" not in [r.name for r in readers.readers()]
 

@@ -34,6 +34,7 @@ from flatweave.document.project import load_project
 from flatweave.geometry.surface_json import load_trimmed_surface
 from flatweave.reading.cad import read_cad_faces
 from flatweave.reading.meshes import MESH_SUFFIXES, open_mesh
+from flatweave.reading.jobs import load_job
 
 if TYPE_CHECKING:
     pass
@@ -205,7 +206,13 @@ def _load_geomdl_json(path: Path):
 
 # ".flatweave" is flatweave.document.project.PROJECT_SUFFIX, written out so that importing the
 # registry does not import the project module (a test checks they agree).
+def _load_job(path: Path) -> Opened:
+    project = load_job(path, open_path)
+    return Opened(project=project, surface=project.surface)
+
+
 register_reader("flatweave-project", (".flatweave",), _load_project, "flatweave project", project=True)
+register_reader("flatweave-job", (".toml",), _load_job, "flatweave job: a laminate's plies in TOML", project=True)
 register_reader("geomdl-json", (".json",), _load_geomdl_json, "geomdl JSON surface")
 
 
