@@ -342,6 +342,12 @@ def tube_seam(triangles: int) -> dict:
     return measure_tube(triangles)
 
 
+def laminate_solve_all(nodes: int) -> dict:
+    from benchmarks.laminate import measure
+
+    return measure(nodes)
+
+
 def gui_live_fps(nodes: int) -> dict:
     from benchmarks.gui_fps import measure
 
@@ -415,6 +421,11 @@ CASES: tuple[Case, ...] = (
          "read + cut + fit seconds alongside", Target("error_pct", "<=", 0.02, "%"), tube_seam, (12_000, 200_000),
          size_unit="triangles", repeats=1, keys=("error_pct", "area_signed_pct", "boundary_signed_pct",
                                                  "area_vs_cylinder_pct", "open_cut_fit_s", "solve_s", "triangles")),
+    Case("laminate_solve_all", "the bundled 24-ply job (the dome, four orientations, two materials, drop-offs) "
+         "solved in the default worker pool, over one ply alone times 24 over the workers: the pool's overhead; "
+         "peak memory alongside", Target("ratio", "<=", {2_500: 2.0}, "x"), laminate_solve_all, (300, 2_500),
+         repeats=1, keys=("ratio", "seconds", "one_ply_s", "over_all_alone", "all_alone_s", "workers", "plies",
+                          "failed", "nodes", "peak_mb", "first_ply_nodes")),
     Case("scan_open_cut_fit", "a panel drawn on a scan (face000, triangles split in four, the ones nearest its "
          "centre kept) read, cut out and fitted as flatten --region does", Target("seconds", "<", {200_000: 15.0}, "s"),
          scan_open_cut_fit, (50_000, 200_000), size_unit="triangles", keys=("seconds", "max_dev_pct",
