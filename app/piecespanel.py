@@ -19,6 +19,7 @@ from PySide6.QtWidgets import (QAbstractItemView, QHBoxLayout, QInputDialog, QLa
                                QToolButton, QVBoxLayout, QWidget)
 
 from flatweave.document import pieces as P
+from flatweave.document.checks import project_checks
 from flatweave.document.project import Project, settings_equal
 
 from flatweave.app.shortlist import ShortList
@@ -110,6 +111,10 @@ class PiecesPanel(QWidget):
         self.solve_button.clicked.connect(self.solve_all.emit)
         self._solving = False
         col.addWidget(self.solve_button)
+        self.checks = QLabel()  # the project's consistency warnings (flatweave.document.checks)
+        self.checks.setWordWrap(True)
+        self.checks.setStyleSheet(f"color: {COLOURS['warnings']}")
+        col.addWidget(self.checks)
         self.add.clicked.connect(lambda: self.piece_edit.emit("Add piece", P.add, True))
         self.delete.clicked.connect(self._delete)
         self.up.clicked.connect(lambda: self._move(-1))
@@ -194,6 +199,9 @@ class PiecesPanel(QWidget):
                     self.list.setCurrentRow(project.piece_index)
         finally:
             self._loading = False
+        warnings = project_checks(project) if project is not None else []
+        self.checks.setText("\n".join(warnings))
+        self.checks.setVisible(bool(warnings))
         self._update_buttons()
 
     def set_solving(self, solving: bool) -> None:

@@ -53,6 +53,7 @@ from flatweave.studies.sweep import sweep
 from flatweave.document.project import PROJECT_SUFFIX, load_project
 from flatweave.document.recovery import save_with_backups
 from flatweave.document.solving import solve_pieces
+from flatweave.document.checks import project_checks
 from flatweave.document.pieces import index_of
 from flatweave.reading.jobs import JOB_SUFFIX
 from flatweave.geometry.quadrature import boundary_length
@@ -828,6 +829,7 @@ def _cmd_solve(args) -> int:
             print(f"{o.name[:24]:<24} {o.result.status[:28]:<28} {m['nodes']:>7} {m['boundary_error_pct']:>10.3f} "
                   f"{m['area_error_pct']:>8.3f} {m.get('max_shear_deg', float('nan')):>9.2f} {o.seconds:>8.2f}")
         print(f"-> {out}")
+    _print_warnings(project_checks(project))  # the pieces judged together: sequence, materials, fibres
     failed = [o for o in outcomes if o.result is None]
     for o in failed:
         print(f"flatweave: piece {o.name!r} failed: {o.error}", file=sys.stderr)

@@ -121,7 +121,9 @@ def test_the_cli_solves_a_project_and_saves_every_result(laminate, tmp_path):
     assert _timeless(project_to_dict(back)) == _timeless(project_to_dict(again))
     # in place, one piece: the old file kept as a backup, the other pieces as they were
     p = _cli("solve", out, "--piece", "ply 2", "--quiet")
-    assert p.returncode == 0 and p.stdout == "" and p.stderr == ""
+    assert p.returncode == 0 and p.stdout == ""
+    # only the project's checks, which --quiet does not silence (the octant's fibres turn past 5 degrees)
+    assert all(line.startswith("flatweave: warning: piece ") for line in p.stderr.splitlines())
     assert (tmp_path / "solved.backup-1.flatweave").is_file()
     assert project_to_dict(load_project(tmp_path / "solved.backup-1.flatweave")) == project_to_dict(back)
     assert _timeless(project_to_dict(load_project(out))) == _timeless(project_to_dict(back))  # ply 2 again

@@ -1,0 +1,61 @@
+"""The project's consistency checks a shop expects (issue 41, item 6), as
+one-line warnings of the project (:func:`project_checks`): shown under the
+Pieces tab's list and printed by ``flatweave-cli solve``. They judge the
+pieces together, where a result's own warnings judge one piece:
+
+* two pieces of a laminate at the same sequence number;
+* a piece cut from a material the table lacks;
+* a piece whose region leaves the tool's surface (its domain);
+* a solved piece whose fibres turn on the tool by more than ``FIBRE_TOL_DEG``
+  from its orientation (the weft's deviation from the rosette direction
+  projected cell by cell, :func:`flatweave.method.fibres.result_fibres`): cut
+  with its warp along the roll, such a ply does not lie at its nominal angle
+  everywhere.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flatweave.document.project import settings_equal
+from flatweave.method.fibres import result_fibres
+
+__all__ = ["project_checks", "FIBRE_TOL_DEG"]
+
+FIBRE_TOL_DEG = 5.0  # a ply's fibres may turn this far from its nominal orientation (composites: 3 to 5 degrees)
+DOMAIN_SLACK = 1e-9  # of the domain's width: a region on its edge is on the surface
+
+
+def project_checks(project, fibre_tol_deg: float = FIBRE_TOL_DEG) -> list[str]:
+    """The project's consistency warnings, one line each, in the pieces' order (empty: none)."""
+    out = []
+    pieces = project.pieces
+    by_seq: dict[int, list[str]] = {}
+    for p in pieces:
+        if p.sequence is not None:
+            by_seq.setdefault(p.sequence, []).append(p.name)
+    for seq, names in sorted(by_seq.items()):
+        if len(names) > 1:
+            out.append(f"pieces {', '.join(repr(n) for n in names)} share sequence {seq}: a laminate lays one "
+                       f"ply at each place in its stack")
+    table = {f.name for f in project.materials}
+    dom = np.asarray(project.surface.domain, dtype=float)
+    slack = DOMAIN_SLACK * (dom[:, 1] - dom[:, 0])
+    for p in pieces:
+        material = p.settings.material.name
+        if material not in table:
+            out.append(f"piece {p.name!r} is cut from {material!r}, which the materials table lacks")
+        region = p.settings.region
+        if region is not None:
+            uv = np.concatenate([np.asarray(loop, dtype=float) for loop in region.loops])
+            if ((uv < dom[:, 0] - slack) | (uv > dom[:, 1] + slack)).any():
+                out.append(f"piece {p.name!r} reaches beyond the tool's surface: its region leaves the surface's "
+                           f"domain")
+        r = p.result
+        if r is not None and settings_equal(r.settings, p.settings):
+            dev = result_fibres(r).deviation_deg
+            dev = dev[np.isfinite(dev)]
+            if len(dev) and np.abs(dev).max() > fibre_tol_deg:
+                out.append(f"piece {p.name!r}: its fibres turn up to {np.abs(dev).max():.1f} deg from its "
+                           f"orientation on the tool (tolerance {fibre_tol_deg:g} deg)")
+    return out
