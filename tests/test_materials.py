@@ -79,6 +79,12 @@ def test_pieces_are_cut_from_the_table_and_an_edited_row_reaches_them():
     assert [x.settings.material.lock_deg for x in doc.project.pieces] == [30.0, 30.0, 40.0]
     with pytest.raises(SettingsError, match="no material is named 'kevlar'"):
         doc.use_material(0, "kevlar")
+    # a row no piece uses yet is an edit of its own (undoable), not nothing
+    kevlar = Fabric(replace(MATERIALS["woven"], name="kevlar"), 1000.0)
+    assert doc.set_materials((*doc.project.materials, kevlar)) is not None
+    assert doc.project.fabric("kevlar") == kevlar
+    doc.undo()
+    assert doc.project.fabric("kevlar") is None
 
 
 def test_the_table_is_saved_with_the_project_and_an_old_file_gets_one(tmp_path):

@@ -42,7 +42,7 @@ ASPECTS = ("surface", "settings", "labels", "display", "result", "name", "pieces
 "labels" are what never changes a solve: the darts' names and visibility and
 a curve dart's drawn points (see :func:`flatweave.document.project.labels_equal`).
 "pieces" are the list of pieces (flatweave.document.pieces): which is active, their
-names, order, quantities and sequence, and the pieces not active."""
+names, order, quantities and sequence, the pieces not active, and the materials table."""
 
 
 @dataclass(frozen=True)
@@ -88,8 +88,8 @@ def changed_aspects(old: Project | None, new: Project) -> frozenset:
         out.add("name")
     if (old.piece_name, old.quantity, old.sequence, old.piece_index) != (
             new.piece_name, new.quantity, new.sequence, new.piece_index) or len(old.others) != len(new.others) \
-            or any(a is not b for a, b in zip(old.others, new.others)):
-        out.add("pieces")
+            or any(a is not b for a, b in zip(old.others, new.others)) or old.materials != new.materials:
+        out.add("pieces")  # the materials table too: a row added that no piece uses yet is still an edit
     return frozenset(out)
 
 
