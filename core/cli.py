@@ -50,7 +50,7 @@ from flatweave.method.lattice import parse_material
 from flatweave.studies.planar import PlanarSettings, flatten_planar, planar_result_to_dict
 from flatweave.method.solvers import solver_entry
 from flatweave.studies.sweep import sweep
-from flatweave.document.project import PROJECT_SUFFIX, load_project
+from flatweave.document.project import PROJECT_SUFFIX
 from flatweave.document.recovery import save_with_backups
 from flatweave.document.solving import solve_pieces
 from flatweave.document.checks import project_checks
@@ -805,7 +805,7 @@ def _cmd_solve(args) -> int:
         raise SettingsError(f"--out {out.name}: the solved project is written as a {PROJECT_SUFFIX} file")
     if out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
-    project = open_path(src, surface_only=False).project if job else load_project(src)
+    project = open_path(src).project  # the registry's project readers: .flatweave and .toml
     names = args.piece or None
     if names is not None:
         for name in names:  # a name that is not there: one line before anything is solved

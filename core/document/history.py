@@ -177,11 +177,15 @@ class Document:
         """
         if not changed_aspects(self._project, project):
             return None
-        edit = Edit(label, self._project, project, answers_solve)
+        return self._record(Edit(label, self._project, project, answers_solve), "edit")
+
+    def _record(self, edit: Edit, cause: str) -> Edit:
+        """``edit`` on the undo stack (the oldest beyond the limit dropped, redo cleared) and its
+        project made current with ``cause``."""
         self._undo.append(edit)
         del self._undo[:-self.limit]
         self._redo.clear()
-        self._set(project, "edit", label)
+        self._set(edit.after, cause, edit.label)
         return edit
 
     def edit_settings(self, label: str, **changes) -> Edit | None:
@@ -356,10 +360,7 @@ class Document:
             self._undo[-1] = Edit(top.label, top.before, new, answers_solve=False)
             self._set(new, "result", top.label)
         else:
-            self._undo.append(Edit(label, cur, new, answers_solve=False))
-            del self._undo[:-self.limit]
-            self._redo.clear()
-            self._set(new, "result", label)
+            self._record(Edit(label, cur, new, answers_solve=False), "result")
         return True
 
     def attach_results(self, results: dict, source: Project, label: str = "Solve all") -> list[str]:
@@ -383,11 +384,8 @@ class Document:
                 taken.append(piece.name)
         if not taken:
             return []
-        new = pieces.with_pieces(cur, pieces_now, cur.piece_index)
-        self._undo.append(Edit(label, cur, new, answers_solve=False))
-        del self._undo[:-self.limit]
-        self._redo.clear()
-        self._set(new, "result", label)
+        self._record(Edit(label, cur, pieces.with_pieces(cur, pieces_now, cur.piece_index), answers_solve=False),
+                     "result")
         return taken
 
     # ------------------------------------------------------------------ documents

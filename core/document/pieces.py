@@ -140,7 +140,6 @@ def add(project, name: str | None = None, settings: FlattenSettings | None = Non
         settings = replace(project.settings, darts=(), yarns=())
     name = _free_name(pieces, f"piece {len(pieces) + 1}") if name is None else name
     new = pieces + (Piece(name, settings),)
-    check_pieces(new)
     return with_pieces(project, new, len(new) - 1 if select_it else project.piece_index)
 
 
@@ -164,9 +163,7 @@ def duplicate(project, k, name: str | None = None, angle_deg: float | None = Non
             base = base[:-len(label)]
         name = _free_name(pieces, f"{base} {angle_deg:+g}" if angle_deg is not None else f"{base} copy")
     copy = replace(src, name=name, settings=settings, result=None)
-    new = pieces[:i + 1] + (copy,) + pieces[i + 1:]
-    check_pieces(new)
-    return with_pieces(project, new, i + 1)
+    return with_pieces(project, pieces[:i + 1] + (copy,) + pieces[i + 1:], i + 1)
 
 
 def remove(project, k):
@@ -181,13 +178,17 @@ def remove(project, k):
     return with_pieces(project, new, active)
 
 
-def rename(project, k, name: str):
-    """The project with piece ``k`` named ``name`` (distinct from the others)."""
+def _changed(project, k, change):
+    """The project with piece ``k`` replaced by ``change(piece)``; the list is checked as the
+    project is made (distinct names, sane counts)."""
     i = index_of(project, k)
     pieces = pieces_of(project)
-    new = pieces[:i] + (replace(pieces[i], name=name),) + pieces[i + 1:]
-    check_pieces(new)
-    return with_pieces(project, new, project.piece_index)
+    return with_pieces(project, pieces[:i] + (change(pieces[i]),) + pieces[i + 1:], project.piece_index)
+
+
+def rename(project, k, name: str):
+    """The project with piece ``k`` named ``name`` (distinct from the others)."""
+    return _changed(project, k, lambda p: replace(p, name=name))
 
 
 def move(project, k, to: int):
@@ -204,32 +205,22 @@ def move(project, k, to: int):
 
 def set_quantity(project, k, quantity: int):
     """The project with ``quantity`` copies of piece ``k`` to cut."""
-    i = index_of(project, k)
-    pieces = pieces_of(project)
-    new = pieces[:i] + (replace(pieces[i], quantity=quantity),) + pieces[i + 1:]
-    return with_pieces(project, new, project.piece_index)
+    return _changed(project, k, lambda p: replace(p, quantity=quantity))
 
 
 def set_sequence(project, k, sequence: int | None):
     """The project with piece ``k`` at ``sequence`` in the laminate's stack (None: outside one)."""
-    i = index_of(project, k)
-    pieces = pieces_of(project)
-    new = pieces[:i] + (replace(pieces[i], sequence=sequence),) + pieces[i + 1:]
-    return with_pieces(project, new, project.piece_index)
+    return _changed(project, k, lambda p: replace(p, sequence=sequence))
 
 
 def use_material(project, k, name: str):
     """The project with piece ``k`` cut from the table's material ``name`` (its mechanics and shear
     angles become the piece's; a solved piece's result goes stale if they differ)."""
-    i = index_of(project, k)
     fabric = project.fabric(name)
     if fabric is None:
         raise SettingsError(f"no material is named {name!r} in the table "
                             f"({', '.join(f.name for f in project.materials)[:200]})")
-    pieces = pieces_of(project)
-    p = pieces[i]
-    new = pieces[:i] + (replace(p, settings=replace(p.settings, material=fabric.material)),) + pieces[i + 1:]
-    return with_pieces(project, new, project.piece_index)
+    return _changed(project, k, lambda p: replace(p, settings=replace(p.settings, material=fabric.material)))
 
 
 def set_materials(project, fabrics):

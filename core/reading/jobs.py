@@ -82,11 +82,11 @@ def _number(value: Any, what: str, positive: bool = False) -> float:
     return float(value)
 
 
-def _vector(value: Any, what: str):
+def _vector(value: Any, what: str, nonzero: bool = False):
     if not isinstance(value, list) or len(value) != 3:
         raise SettingsError(f"{what} must be [x, y, z], got {value!r:.60}")
     v = [_number(x, what) for x in value]
-    if what.endswith("zero") and math.hypot(*v) == 0:
+    if nonzero and math.hypot(*v) == 0:
         raise SettingsError(f"{what} must not be zero")
     return v
 
@@ -160,7 +160,7 @@ def load_job(path, open_path) -> Project:
             if not isinstance(r, dict):
                 raise SettingsError("a rosette is a table with origin and zero")
             named[str(r.get("name", f"rosette {k + 1}"))] = (_vector(r.get("origin"), "the rosette's origin"),
-                                                             _vector(r.get("zero"), "the rosette's zero"))
+                                                             _vector(r.get("zero"), "the rosette's zero", nonzero=True))
         except SettingsError as exc:
             raise lines.fail("rosette", k, str(exc)) from None
     if not named:
