@@ -6,22 +6,25 @@ not solved, or stale (its settings changed since); its tip says more.
 Selecting a row makes that piece the active one (the views, the settings and
 the tools then show and edit it); Add, Duplicate at
 +45, -45 or 90 degrees or at another angle, Delete, Up and Down edit the list,
-a double-click renames. The panel never changes the document: a selection is
+a double-click renames. Under the list, the active piece's material, chosen
+from the project's materials table, and Materials... to edit that table
+(:class:`flatweave.app.materialsdialog.MaterialsDialog`). The panel never changes the document: a selection is
 reported as ``piece_selected(index)`` and every edit as ``piece_edit(label,
 change, solves)``, ``change`` a function of the project giving the edited one,
 which the window makes one document edit."""
 
 from __future__ import annotations
 
-from PySide6.QtCore import QSignalBlocker, Signal
+from PySide6.QtCore import QSignalBlocker, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QFont
-from PySide6.QtWidgets import (QAbstractItemView, QHBoxLayout, QInputDialog, QLabel, QListWidgetItem, QMenu,
-                               QToolButton, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QHBoxLayout, QInputDialog, QLabel, QListWidgetItem,
+                               QMenu, QToolButton, QVBoxLayout, QWidget)
 
 from flatweave.document import pieces as P
 from flatweave.document.checks import project_checks
 from flatweave.document.project import Project, settings_equal
 
+from flatweave.app.materialsdialog import MaterialsDialog
 from flatweave.app.shortlist import ShortList
 
 __all__ = ["PiecesPanel", "piece_state"]
@@ -86,6 +89,22 @@ class PiecesPanel(QWidget):
         self.list.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
         self.list.setToolTip("Select a piece to show and edit it; double-click to rename it")
         col.addWidget(self.list, 1)
+        line = QHBoxLayout()
+        line.addWidget(QLabel("Material"))
+        self.material = QComboBox()
+        self.material.setToolTip("The active piece's material, a row of the project's materials table: its "
+                                 "springs and shear angles become the piece's")
+        self.material.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon)
+        self.material.setMinimumContentsLength(12)  # long names are not to widen the side panel
+        self.material.activated.connect(self._material_chosen)
+        line.addWidget(self.material, 1)
+        self.materials_button = QToolButton(text="Materials...")
+        self.materials_button.setToolTip("Edit the materials table: presets, springs, shear angles, roll width, "
+                                         "thickness, weight; import and export")
+        self.materials_button.clicked.connect(self.open_materials)
+        line.addWidget(self.materials_button)
+        col.addLayout(line)
+        self.materials_dialog: MaterialsDialog | None = None
         row = QHBoxLayout()
         self.add = QToolButton(text="Add")
         self.add.setToolTip("A new piece on the surface, with the selected one's material and spacing")
@@ -173,6 +192,34 @@ class PiecesPanel(QWidget):
         if self._project is not None and name != self._project.pieces[k].name:
             self.piece_edit.emit("Rename piece", lambda p: P.rename(p, k, name), False)
 
+    def _material_chosen(self, index: int) -> None:
+        name = self.material.itemData(index)
+        if name is not None:
+            self.choose_material(name)
+
+    def choose_material(self, name: str) -> None:
+        """Cut the active piece from the table's material ``name`` (what the material box asks)."""
+        if self._project is not None:
+            k = self._project.piece_index
+            self.piece_edit.emit(f"Material {name}", lambda p: P.use_material(p, k, name), True)
+
+    def open_materials(self) -> MaterialsDialog | None:
+        """The materials table in a window-modal dialog; its OK makes the edited table one edit."""
+        if self._project is None:
+            return None
+        dialog = MaterialsDialog(self._project, self)
+        dialog.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
+        dialog.accepted.connect(lambda: self._materials_accepted(dialog))
+        dialog.destroyed.connect(lambda: setattr(self, "materials_dialog", None))
+        self.materials_dialog = dialog
+        dialog.open()
+        return dialog
+
+    def _materials_accepted(self, dialog: MaterialsDialog) -> None:
+        table = dialog.table()
+        if table != dialog.original:
+            self.piece_edit.emit("Edit materials", lambda p: P.set_materials(p, table), True)
+
     def _row_changed(self, row: int) -> None:
         if not self._loading and self._project is not None and row >= 0 and row != self._project.piece_index:
             self.piece_selected.emit(row)
@@ -199,10 +246,34 @@ class PiecesPanel(QWidget):
                     self.list.setCurrentRow(project.piece_index)
         finally:
             self._loading = False
+        self._show_material(project)
         warnings = project_checks(project) if project is not None else []
         self.checks.setText("\n".join(warnings))
         self.checks.setVisible(bool(warnings))
         self._update_buttons()
+
+    def _show_material(self, project: Project | None) -> None:
+        """The material box: the table's rows, the active piece's selected (a material the table
+        lacks shown first, greyed: it cannot be chosen again once left)."""
+        with QSignalBlocker(self.material):
+            self.material.clear()
+            if project is None:
+                return
+            current = project.settings.material.name
+            if project.fabric(current) is None:
+                self.material.addItem(f"{current} (not in the table)", None)
+                self.material.model().item(0).setEnabled(False)
+            for f in project.materials:
+                self.material.addItem(f.name, f.name)
+                roll = f"{f.roll_width_mm:g} mm roll" if f.roll_width_mm is not None else "not on a roll"
+                self.material.setItemData(self.material.count() - 1, f"{f.name}: {f.kind} {f.material.ratio}, shear "
+                                          f"{f.material.warn_deg:g} / {f.material.lock_deg:g} deg, {roll}",
+                                          Qt.ItemDataRole.ToolTipRole)
+            self.material.setCurrentIndex(max(0, self.material.findData(current)))
+
+    def materials(self) -> list[str]:
+        """The material box's entries as shown."""
+        return [self.material.itemText(k) for k in range(self.material.count())]
 
     def set_solving(self, solving: bool) -> None:
         """While Solve all runs its button says so and waits."""
@@ -218,6 +289,8 @@ class PiecesPanel(QWidget):
         k = self._row()
         n = len(p.pieces) if p is not None else 0
         self.add.setEnabled(p is not None)
+        self.material.setEnabled(p is not None)
+        self.materials_button.setEnabled(p is not None)
         self.solve_button.setEnabled(p is not None and not self._solving)
         self.duplicate.setEnabled(k is not None)
         self.delete.setEnabled(k is not None and n > 1)

@@ -226,3 +226,22 @@ def test_results_of_several_pieces_attach_as_one_edit_to_the_settings_they_were_
     doc.undo()
     assert [x.result for x in doc.project.pieces] == [None, None, None]
     assert doc.attach_results({}, source) == [] and doc.attach_results(results, doc.project) == ["tool", "ninety"]
+
+
+def test_a_material_chosen_from_the_table_brings_its_shear_angles_to_the_display(octant):
+    """The colours and verdicts judge the active piece's cloth: choosing the glass twill (20 / 40 deg)
+    for the active piece moves the display's angles with it in the same edit; a piece not active
+    leaves them, and undo puts them back."""
+    doc = Document(new_project(octant, "tool", spacing=0.15))
+    doc.set_materials(doc.project.materials)  # the presets' table (no edit when it is already)
+    assert (doc.project.shear_warning_deg, doc.project.shear_limit_deg) == (15.0, 30.0)
+    doc.duplicate_piece(0, angle_deg=45.0)
+    doc.use_material(0, "glass twill 290")  # not the active piece: the display stays
+    assert doc.project.pieces[0].settings.material.name == "glass twill 290"
+    assert (doc.project.shear_warning_deg, doc.project.shear_limit_deg) == (15.0, 30.0)
+    n = len(doc.history)
+    doc.use_material(1, "glass twill 290")  # the active one
+    assert len(doc.history) == n + 1
+    assert (doc.project.shear_warning_deg, doc.project.shear_limit_deg) == (20.0, 40.0)
+    doc.undo()
+    assert (doc.project.shear_warning_deg, doc.project.shear_limit_deg) == (15.0, 30.0)

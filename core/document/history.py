@@ -177,7 +177,18 @@ class Document:
         """
         if not changed_aspects(self._project, project):
             return None
-        return self._record(Edit(label, self._project, project, answers_solve), "edit")
+        return self._record(Edit(label, self._project, self._shear_follows(project), answers_solve), "edit")
+
+    def _shear_follows(self, project: Project) -> Project:
+        """``project`` with the display's shear angles the active piece's material's when the edit changed
+        that material's angles (a material chosen from the table, a table row edited, another piece made
+        active by a delete) and not the display's itself: the colours and verdicts judge the cloth cut."""
+        old, new = self._project.settings.material, project.settings.material
+        shown = (project.shear_warning_deg, project.shear_limit_deg)
+        if (old.warn_deg, old.lock_deg) == (new.warn_deg, new.lock_deg) \
+                or shown != (self._project.shear_warning_deg, self._project.shear_limit_deg):
+            return project
+        return project.with_display(shear_warning_deg=float(new.warn_deg), shear_limit_deg=float(new.lock_deg))
 
     def _record(self, edit: Edit, cause: str) -> Edit:
         """``edit`` on the undo stack (the oldest beyond the limit dropped, redo cleared) and its
@@ -194,11 +205,7 @@ class Document:
         A new material whose shear angles differ from the old one's brings them
         to the display too, in the same edit: the colours and the verdicts then
         judge the shear by the cloth's own warning and lock angles."""
-        project = self._project.with_settings(**changes)
-        old, new = self._project.settings.material, project.settings.material
-        if (old.warn_deg, old.lock_deg) != (new.warn_deg, new.lock_deg):
-            project = project.with_display(shear_warning_deg=float(new.warn_deg), shear_limit_deg=float(new.lock_deg))
-        return self.apply(label, project)
+        return self.apply(label, self._project.with_settings(**changes))
 
     def edit_display(self, label: str, **changes) -> Edit | None:
         """An edit of units or shear angles (no solve answers it). The shear
