@@ -45,6 +45,10 @@ def _has_doc(s: UiState) -> bool:
     return s.has_doc
 
 
+def _any_solved(s: UiState) -> bool:
+    return s.has_doc and any(p.result is not None for p in s.document.project.pieces)
+
+
 @dataclass(frozen=True)
 class ActionSpec:
     """One action.
@@ -113,6 +117,13 @@ BASE_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("export", "&Export pattern...", "export_dialog", "Ctrl+E",
                "Write the pattern as DXF, SVG, tiled PDF, VTP or OBJ", menu=_FILE, section=1,
                enabled=lambda s: bool(s.document and s.document.project.result is not None) and not s.exporting),
+    ActionSpec("export_pieces", "Export all p&ieces...", "export_pieces_dialog", None,
+               "Write every solved piece's cut files into a folder: one DXF with a block per piece, an SVG and a "
+               "tiled PDF per piece", menu=_FILE, section=1, enabled=lambda s: _any_solved(s) and not s.exporting),
+    ActionSpec("export_book", "Export ply &book...", "export_book_dialog", None,
+               "Write the ply book (PDF): the stacking table, then a page per piece with the tool, its numbers and "
+               "its pattern at a stated scale", menu=_FILE, section=1,
+               enabled=lambda s: _has_doc(s) and not s.exporting),
     ActionSpec("quit", "&Quit", "close", Keys.Quit, menu=_FILE, section=2),
     ActionSpec("undo", "&Undo", "undo", Keys.Undo, menu=_EDIT,
                enabled=lambda s: bool(s.document and s.document.can_undo), text_of=_undo_text),

@@ -21,6 +21,8 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, 
                                QFormLayout, QHBoxLayout, QLabel, QLineEdit, QMessageBox, QPushButton, QVBoxLayout,
                                QWidget)
 
+from flatweave.document.cutfiles import export_pieces, file_stem
+from flatweave.document.plybook import write_ply_book
 from flatweave.errors import FlatweaveError
 from flatweave.export.registry import (FORMATS, ExportOption, ExportOptions, dialog_filter, export_all,
                                        export_options, option_formats, surprises)
@@ -52,13 +54,15 @@ class ExportThread(QThread):
     succeeded = Signal(object)
     failed = Signal(str)
 
-    def __init__(self, result: FlattenResult, paths: list[Path], options: ExportOptions, parent=None):
+    def __init__(self, result: FlattenResult | None, paths: list[Path], options: ExportOptions, parent=None,
+                 job=None):
         super().__init__(parent)
         self.result, self.paths, self.options = result, list(paths), options
+        self.job = job  # job() -> the paths written, in place of export_all (the ply book, all pieces)
 
     def run(self) -> None:
         try:
-            written = export_all(self.result, self.paths, self.options)
+            written = self.job() if self.job is not None else export_all(self.result, self.paths, self.options)
         except Exception as exc:  # every failure reaches the window as one line
             if not isinstance(exc, FlatweaveError):
                 traceback.print_exc(file=sys.stderr)
@@ -221,6 +225,7 @@ class Exports:
         self.export_box: ExportDialog | None = None
         self.last_export: list[Path] = []
         self.export_options = ExportOptions()  # the last choices (units come from the project)
+        self.left_out: list[str] = []  # the pieces an export of all pieces left out (not solved)
         self._every_format = False
 
     @property
@@ -258,7 +263,64 @@ class Exports:
         if project is None or project.result is None or self.export_thread is not None:
             return False
         self.export_options = options
-        t = ExportThread(project.result, [Path(p) for p in paths], options)
+        return self._start(ExportThread(project.result, [Path(p) for p in paths], options), paths)
+
+    # ------------------------------------------------------------------ every piece at once
+    def ask_book_path(self, start: Path) -> str:
+        """The ply book's file, asked (tests replace this); "" when cancelled."""
+        path, _ = QFileDialog.getSaveFileName(self.window, "Export ply book", str(start), "PDF (*.pdf)")
+        return path
+
+    def ask_folder(self, start: Path) -> str:
+        """The folder of the pieces' cut files, asked (tests replace this); "" when cancelled."""
+        return QFileDialog.getExistingDirectory(self.window, "Export all pieces into", str(start))
+
+    def _folder(self) -> Path:
+        doc = self.window.document
+        return doc.path.parent if doc is not None and doc.path is not None else Path.cwd()
+
+    def export_book_dialog(self) -> None:
+        """Ask where to write the project's ply book, then write it."""
+        project = self.window.project
+        if project is None:
+            return
+        path = self.ask_book_path(self._folder() / f"{file_stem(project.name)}-ply-book.pdf")
+        if path:
+            self.export_book_to(path if Path(path).suffix else f"{path}.pdf")
+
+    def export_book_to(self, path) -> bool:
+        """Write the project's ply book to ``path`` in a background thread (patterns drawn net:
+        no seam allowance); ``export_finished`` or ``export_failed`` follows."""
+        project, options = self.window.project, self.export_options
+        if project is None or self.export_thread is not None:
+            return False
+        job = lambda: [write_ply_book(project, path, options.paper)]  # noqa: E731
+        return self._start(ExportThread(None, [Path(path)], options, job=job), [path])
+
+    def export_pieces_dialog(self) -> None:
+        """Ask a folder, then write every solved piece's cut files into it."""
+        if self.window.project is None:
+            return
+        folder = self.ask_folder(self._folder())
+        if folder:
+            self.export_pieces_to(folder)
+
+    def export_pieces_to(self, folder, options: ExportOptions | None = None) -> bool:
+        """Write every solved piece's cut files into ``folder`` (one DXF with a block per piece, an SVG
+        and a tiled PDF per piece; :func:`flatweave.document.cutfiles.export_pieces`) with the last
+        export's options, in a background thread."""
+        project = self.window.project
+        if project is None or self.export_thread is not None:
+            return False
+        options = options or self.export_options
+        self.left_out = []
+
+        def job():
+            paths, self.left_out = export_pieces(project, folder, options=options)
+            return paths
+        return self._start(ExportThread(None, [Path(folder)], options, job=job), [folder])
+
+    def _start(self, t: ExportThread, paths) -> bool:
         t.succeeded.connect(self._succeeded)
         t.failed.connect(self._failed)
         t.finished.connect(self._thread_finished)
@@ -273,6 +335,9 @@ class Exports:
         folder = written[0].parent if written else Path(".")
         names = ", ".join(p.name for p in written)
         text = f"Exported {names} to {folder}"
+        if self.left_out:
+            text += f"; no cut files for {len(self.left_out)} piece(s) not solved: {', '.join(self.left_out[:4])}"
+            self.left_out = []
         self.window.statusBar().showMessage(text, 15000)
         self.window.progress.setText(text)
         self.window.export_finished.emit(list(written))

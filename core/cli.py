@@ -54,10 +54,13 @@ from flatweave.document.project import PROJECT_SUFFIX
 from flatweave.document.recovery import save_with_backups
 from flatweave.document.solving import solve_pieces
 from flatweave.document.checks import project_checks
+from flatweave.document.cutfiles import check_folder, export_pieces
+from flatweave.document.plybook import plybook_bytes
+from flatweave.files import atomic_write_many
 from flatweave.document.pieces import index_of
 from flatweave.reading.jobs import JOB_SUFFIX
 from flatweave.geometry.quadrature import boundary_length
-from flatweave.reading.examples import example_path, list_examples
+from flatweave.reading.examples import example_path, job_names, job_path, list_examples
 from flatweave.geometry.region import region_from_spec
 from flatweave.method.darts import curve_dart_from_file
 from flatweave.geometry.region import check_region_size
@@ -387,19 +390,33 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--fit-tolerance", type=float, default=None, metavar="T",
                    help="as for flatten: the fit refined until no vertex is farther than T from the surface")
 
-    sub.add_parser("examples", help="list the bundled example surfaces")
+    sub.add_parser("examples", help="list the bundled example surfaces and jobs")
 
     v = sub.add_parser("solve", **exact, help="solve the pieces of a project (.flatweave) together, in worker "
                                               "processes, and save it with their results")
     v.add_argument("project", metavar="PROJECT.flatweave|JOB.toml",
-                   help="a project saved by the window (or by solve), or a job file (TOML: a laminate's plies)")
+                   help="a project saved by the window (or by solve), a job file (TOML: a laminate's plies), or a "
+                        "bundled example job by name (flatweave-cli examples lists them)")
     v.add_argument("--piece", action="append", default=[], metavar="NAME",
                    help="solve this piece (repeatable; default every piece)")
     v.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes (default one per core, at most 4; 1: one piece after another here)")
+    v.add_argument("--dask", default=None, metavar="ADDRESS",
+                   help="the scheduler's address of an existing Dask cluster, e.g. tcp://host:8786: the pieces are "
+                        "solved on its workers instead of local processes (needs flatweave[cluster])")
     v.add_argument("--out", default=None, metavar="PROJECT.flatweave",
                    help="write the solved project here (default: over PROJECT, its old file kept as a backup; "
                         "a job's beside it, JOB.flatweave)")
+    v.add_argument("--ply-book", default=None, metavar="BOOK.pdf",
+                   help="also write the ply book: the stacking table, then a page per piece (the tool with the "
+                        "piece, its fibres and numbers, its flat pattern at a stated scale)")
+    v.add_argument("--export", default=None, metavar="DIR",
+                   help="also write every solved piece's cut files into DIR (made if missing): one DXF with a block "
+                        "per piece, an SVG and a tiled 1:1 PDF per piece, named by piece")
+    v.add_argument("--seam-allowance", type=float, default=0.0, metavar="MM",
+                   help="seam allowance of the cut files and the ply book's patterns, mm (default 0: a laminate's "
+                        "plies are cut net)")
+    v.add_argument("--paper", default="a4", choices=["a4", "letter"], help="paper of the ply book and tiled PDFs")
     v.add_argument("--quiet", action="store_true", help="no table on stdout, no progress on stderr")
     return p
 
@@ -794,17 +811,30 @@ def _cmd_solve(args) -> int:
     (flatweave.document.solving), the project saved with their results, a table of them on stdout.
     Exit 0 when every piece was solved, 1 when one failed (its line on stderr; the others are saved)."""
     src = Path(args.project)
+    bundled = not src.exists() and src.parent == Path(".") and src.stem in job_names()
+    if bundled:  # a bundled example job by name: its project is written here, not beside the package's file
+        src = job_path(src.name)
     job = src.suffix.lower() == JOB_SUFFIX
     if src.suffix.lower() != PROJECT_SUFFIX and not job:
         raise SettingsError(f"{src.name}: solve takes a project ({PROJECT_SUFFIX}, saved by the window) or a job "
                             f"file ({JOB_SUFFIX})")
     if args.workers is not None and not 1 <= args.workers <= 256:
         raise SettingsError(f"--workers must be 1 to 256, got {args.workers}")
-    out = Path(args.out) if args.out else src.with_suffix(PROJECT_SUFFIX) if job else src
+    if args.dask is not None and args.workers is not None:
+        raise SettingsError("--dask and --workers contradict: the Dask cluster's workers solve the pieces")
+    out = Path(args.out) if args.out else Path(src.with_suffix(PROJECT_SUFFIX).name) if bundled \
+        else src.with_suffix(PROJECT_SUFFIX) if job else src
     if out.suffix.lower() != PROJECT_SUFFIX:
         raise SettingsError(f"--out {out.name}: the solved project is written as a {PROJECT_SUFFIX} file")
     if out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    book = Path(args.ply_book) if args.ply_book else None
+    if book is not None:
+        if book.suffix.lower() != ".pdf":
+            raise SettingsError(f"--ply-book {book.name}: a ply book is a PDF (.pdf)")
+        check_target(book)
+    folder = check_folder(args.export) if args.export else None
+    options = ExportOptions(seam_allowance_mm=args.seam_allowance, paper=args.paper)
     project = open_path(src).project  # the registry's project readers: .flatweave and .toml
     names = args.piece or None
     if names is not None:
@@ -816,8 +846,8 @@ def _cmd_solve(args) -> int:
             what = f"failed: {outcome.error}" if outcome.error else outcome.result.status
             print(f"  {outcome.name}: {what} ({outcome.seconds:.1f} s)", file=sys.stderr)
 
-    project, outcomes = solve_pieces(project, names, args.workers, on_done=progress)
-    save_with_backups(project, out)
+    project, outcomes = solve_pieces(project, names, args.workers, on_done=progress, cluster=args.dask)
+    _save_solved(project, out, book, folder, options, args.quiet)
     if not args.quiet:
         print(f"{'piece':<24} {'status':<28} {'nodes':>7} {'boundary %':>10} {'area %':>8} {'shear deg':>9} "
               f"{'seconds':>8}")
@@ -836,9 +866,35 @@ def _cmd_solve(args) -> int:
     return 1 if failed else 0
 
 
+def _save_solved(project, out: Path, book: Path | None, folder: Path | None, options: ExportOptions,
+                 quiet: bool) -> None:
+    """The solved project saved with its ply book and cut files, all or nothing: every file is built,
+    then staged, and the project saved, before any replaces its target."""
+    extra = [(book, plybook_bytes(project, options.paper, options.seam_allowance_mm))] if book else []
+
+    def save():
+        save_with_backups(project, out)
+    if folder is None:
+        atomic_write_many(extra, before_replace=save)
+        return
+    if not any(p.result is not None for p in project.pieces):  # nothing to cut; the failures are said below
+        atomic_write_many(extra, before_replace=save)
+        print("flatweave: warning: no piece is solved: no cut files written", file=sys.stderr)
+        return
+    paths, left = export_pieces(project, folder, options=options, extra=extra, before_replace=save)
+    if not quiet:
+        print(f"{len(paths) - len(extra)} cut files -> {folder}", file=sys.stderr)
+    if left:
+        names = ", ".join(repr(n) for n in left[:5]) + (f" and {len(left) - 5} more" if len(left) > 5 else "")
+        print(f"flatweave: warning: no cut files for {len(left)} piece{'s' if len(left) > 1 else ''} with no current "
+              f"result: {names}", file=sys.stderr)
+
+
 def _cmd_examples(args) -> int:
     for e in list_examples():
         print(f"{e['name']:<14} {e.get('title', '')}  ({example_path(e['name'])})")
+    for name in job_names():
+        print(f"{name:<14} job: flatweave-cli solve {name}  ({job_path(name)})")
     return 0
 
 

@@ -7,6 +7,7 @@ save and reopen with the project."""
 from __future__ import annotations
 
 import pytest
+from pypdf import PdfReader
 
 from tests.test_app_run import run_to_end
 
@@ -77,9 +78,10 @@ def test_plies_are_duplicated_at_angles_selected_renamed_moved_deleted_and_saved
     assert other.project.result_is_current and other.project.settings.angle_deg == 45.0
 
 
-def test_solve_all_solves_every_piece_in_workers_while_the_window_stays_live(make_window, qtbot):
+def test_solve_all_solves_every_piece_in_workers_while_the_window_stays_live(make_window, qtbot, tmp_path):
     """Three plies at 0, +45 and 90 degrees; Solve all: each is reported as it finishes, the results
-    come as one undoable edit, each the one the piece gets alone; a piece edited meanwhile keeps its state."""
+    come as one undoable edit, each the one the piece gets alone; a piece edited meanwhile keeps its state.
+    Then File > Export ply book and Export all pieces write the book and every piece's cut files."""
     from flatweave import flatten
 
     win = make_window(example="octant")
@@ -104,6 +106,22 @@ def test_solve_all_solves_every_piece_in_workers_while_the_window_stays_live(mak
         alone = flatten(p.surface, piece.settings)
         assert piece.result is not None and (piece.result.pattern.xy == alone.pattern.xy).all()
     assert all(row.endswith("%") for row in panel.rows())
+
+    book = tmp_path / "plies.pdf"
+    win.exports.ask_book_path = lambda start: str(book)
+    with qtbot.waitSignal(win.export_finished, timeout=120000):
+        win.actions["export_book"].trigger()
+    pages = PdfReader(str(book)).pages
+    assert len(pages) == 1 + 3
+    assert [p.extract_text().splitlines()[0] for p in pages[1:]] == ["octant", "octant +45", "ply 90"]
+    qtbot.waitUntil(lambda: not win.exports.busy and win.actions["export_pieces"].isEnabled())
+    folder = tmp_path / "cut"
+    win.exports.ask_folder = lambda start: str(folder)
+    with qtbot.waitSignal(win.export_finished, timeout=300000):
+        win.actions["export_pieces"].trigger()
+    assert sorted(x.name for x in folder.glob("*.svg")) == ["octant.svg", "octant_45.svg", "ply_90.svg"]
+    assert len(list(folder.glob("*.dxf"))) == 1 and len(list(folder.glob("*.pdf"))) == 3
+    assert "Exported" in win.progress.text()
     win.undo()  # Solve all is one step
     assert [x.result for x in win.project.pieces] == [None, None, None]
 

@@ -255,7 +255,8 @@ def test_wheel_installs_one_package_with_its_examples(tmp_path):
         names = set(zf.namelist())
         want = {"flatweave/examples_data/index.json"} | {f"flatweave/examples_data/{e['file']}"
                                                          for e in index["examples"]}
-        want |= {"flatweave/__init__.py", "flatweave/app/main.py", "flatweave/method/pipeline.py"}
+        want |= {"flatweave/__init__.py", "flatweave/app/main.py", "flatweave/method/pipeline.py",
+                 "flatweave/example_jobs/dome-laminate.toml"}
         assert want <= names, sorted(want - names)
         tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")}
         assert tops == {"flatweave"}, tops  # no generic top-level name: core, app, resources
@@ -273,3 +274,8 @@ def test_wheel_installs_one_package_with_its_examples(tmp_path):
                          env=env, capture_output=True, text=True, timeout=300)
     assert cli.returncode == 0, cli.stderr
     assert "converged" in cli.stderr + cli.stdout and (tmp_path / "r.json").is_file()
+    # the bundled example job runs with no other file, its project written here
+    job = subprocess.run([sys.executable, "-m", "flatweave", "solve", "dome-laminate", "--piece", "P24", "--quiet"],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert job.returncode == 0, job.stderr
+    assert (tmp_path / "dome-laminate.flatweave").is_file()

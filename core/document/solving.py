@@ -1,14 +1,22 @@
 """Solve a project's pieces together (issue 41, "Solve all"): each piece's
 flattening in a worker process, as many as asked (default one per core, at
-most four), results gathered into the project as they finish.
+most four), or on the workers of an existing Dask cluster (``cluster``, the
+scheduler's address; issue 41, "Beyond one machine"), results gathered into
+the project as they finish.
 
 A piece is solved exactly as alone (:func:`flatweave.method.pipeline.flatten`
 on the project's surface with the piece's settings, from a new drape), so its
-result is the same bit for bit in the pool as in this process. A piece whose
+result is the same bit for bit in the pool, on a cluster (whose workers run
+the same flatweave, numpy and scipy) and in this process. A piece whose
 solve fails (a one-line FlatweaveError) fails alone, with its message; a
 worker that dies (killed, out of memory) breaks the pool: the pieces not yet
 finished are then run again one by one, each in a pool of its own, and the one
-whose worker dies again fails with one line. The others' results are kept.
+whose worker dies again fails with one line. On a cluster a piece whose worker
+died (the scheduler's KilledWorker) is likewise run again alone once the
+others are done, and fails with one line if its worker dies again; a piece
+whose task was lost (the scheduler gone) fails with one line. The others'
+results are kept. A cluster that cannot be reached, or ``distributed`` not
+installed, is a one-line SettingsError before anything is solved.
 """
 
 from __future__ import annotations
@@ -20,7 +28,7 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 from flatweave.document.pieces import index_of, with_pieces
-from flatweave.errors import FlatweaveError
+from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.method.pipeline import flatten
 from flatweave.method.result import FlattenResult
 from flatweave.studies.sweep import default_workers, pool_context
@@ -28,6 +36,8 @@ from flatweave.studies.sweep import default_workers, pool_context
 __all__ = ["PieceOutcome", "solve_pieces", "solve_piece"]
 
 WORKER_DIED = "its worker process died (killed, or out of memory)"
+TASK_LOST = "its task was lost on the Dask cluster (the scheduler went away)"
+CONNECT_SECONDS = 10.0  # how long a scheduler (and a first worker) is waited for before it is said unreachable
 
 
 @dataclass(frozen=True)
@@ -54,19 +64,27 @@ def solve_piece(job) -> tuple:
 
 
 def solve_pieces(project, pieces=None, workers: int | None = None,
-                 on_done: Callable[[PieceOutcome], None] | None = None, fn=solve_piece, stop=None):
+                 on_done: Callable[[PieceOutcome], None] | None = None, fn=solve_piece, stop=None,
+                 cluster: str | None = None):
     """``project`` with ``pieces`` (indices or names; default every piece)
     solved, and the outcomes in the order given: (project, [PieceOutcome]).
 
     ``workers`` processes (None: :func:`flatweave.studies.sweep.default_workers`;
-    1: here, one after another). ``on_done(outcome)`` is called in this thread
-    as each piece finishes. ``stop`` (a ``threading.Event``, optional): once set,
-    no piece starts (those already running finish); the pieces not solved are
-    left out of the outcomes. ``fn`` is the worker's function (tests replace it)."""
+    1: here, one after another). ``cluster``: the address of an existing Dask
+    cluster's scheduler (``"tcp://host:8786"``; needs ``flatweave[cluster]``),
+    whose workers solve the pieces instead (not with ``workers``); its
+    client is closed at the end, the cluster left running. ``on_done(outcome)``
+    is called in this thread as each piece finishes. ``stop`` (a
+    ``threading.Event``, optional): once set, no piece starts (those already
+    running finish); the pieces not solved are left out of the outcomes.
+    ``fn`` is the worker's function (tests replace it; on a cluster its
+    workers must be able to import it)."""
     all_pieces = list(project.pieces)
     chosen = range(len(all_pieces)) if pieces is None else [index_of(project, k) for k in pieces]
     chosen = list(dict.fromkeys(chosen))  # each piece once, in the order first given
     jobs = {all_pieces[i].name: (all_pieces[i].name, project.surface, all_pieces[i].settings) for i in chosen}
+    if cluster is not None and workers is not None:
+        raise SettingsError("give worker processes or a Dask cluster, not both: the cluster's workers solve the pieces")
     workers = default_workers() if workers is None else max(1, int(workers))
     outcomes: dict[str, PieceOutcome] = {}
 
@@ -78,7 +96,9 @@ def solve_pieces(project, pieces=None, workers: int | None = None,
             on_done(out)
 
     stopped = (lambda: False) if stop is None else stop.is_set
-    if workers == 1 or len(jobs) == 1:
+    if cluster is not None:
+        _run_cluster(cluster, list(jobs.values()), fn, done, stopped)
+    elif workers == 1 or len(jobs) == 1:
         for job in jobs.values():
             if stopped():
                 break
@@ -119,3 +139,79 @@ def _run_pool(jobs, workers: int, fn, done, stopped) -> list:
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
     return left
+
+
+def _run_cluster(address: str, jobs, fn, done, stopped) -> None:
+    """Run ``jobs`` on the workers of the Dask cluster whose scheduler is at
+    ``address``; ``done(*fn(job))`` for each as it finishes, a job whose
+    worker died (again, when run alone) or whose task was lost done as failed
+    with one line. A one-line SettingsError, nothing run, when ``distributed``
+    is missing or the scheduler (or a first worker) does not answer within
+    :data:`CONNECT_SECONDS`."""
+    try:
+        import distributed
+    except ImportError:
+        raise SettingsError("solving on a Dask cluster needs distributed (pip install 'flatweave[cluster]')") from None
+    if not isinstance(address, str) or not address.strip():
+        # Client("") would start a cluster of its own in this process
+        raise SettingsError(f"a Dask scheduler's address is like tcp://host:8786, got {address!r}")
+    # made, then started: a Client whose start failed must be closed here, not left to the garbage
+    # collector, whose close of it can come while another Client starts in this process and wait on
+    # the lock that one holds (distributed's loop runner: seen as a hang under pytest-xdist)
+    client = distributed.Client.__new__(distributed.Client)
+    try:
+        client.__init__(address, timeout=CONNECT_SECONDS, set_as_default=False)
+    except OSError:  # refused, unknown host, no answer: distributed retries them all until the timeout
+        client.close()
+        raise SettingsError(f"no Dask scheduler answered at {address} within {CONNECT_SECONDS:g} s") from None
+    except (ValueError, TypeError) as exc:  # no port, an unknown or unusable scheme
+        client.close()
+        raise SettingsError(f"{address} is not a Dask scheduler's address: {str(exc).splitlines()[0]}") from None
+    try:
+        try:
+            client.wait_for_workers(1, timeout=CONNECT_SECONDS)
+        except TimeoutError:
+            raise SettingsError(f"the Dask cluster at {address} has no workers (none joined within "
+                                f"{CONNECT_SECONDS:g} s)") from None
+        killed = _run_tasks(client, distributed, jobs, fn, done, stopped, None)
+        for job in killed:  # each again alone: a worker's death counts against every task it held, not only
+            # the one that killed it, so a neighbour's piece may be among these
+            if not stopped() and _run_tasks(client, distributed, [job], fn, done, stopped, 1):
+                done(job[0], None, WORKER_DIED, 0.0)
+    finally:
+        client.close()  # the client only: the cluster is the user's
+
+
+def _run_tasks(client, distributed, jobs, fn, done, stopped, slots: int | None) -> list:
+    """Run ``jobs`` as tasks of ``client``'s cluster, at most ``slots`` at once
+    (None: as many as its workers have threads, so that no task waits queued
+    on the cluster and, once ``stopped()``, none starts); ``done(...)`` for
+    each as it finishes. Returns the jobs whose worker died (KilledWorker)."""
+    queue = list(jobs)
+    running = distributed.as_completed(loop=client.loop)  # this client's, not a default one
+    sent, killed = {}, []
+
+    def send():
+        room = slots or max(1, sum(client.nthreads().values()))
+        while queue and running.count() < room and not stopped():
+            job = queue.pop(0)
+            future = client.submit(fn, job, pure=False)  # pure=False: each piece solved, never a cached result
+            sent[future] = job
+            running.add(future)
+
+    send()
+    for future in running:
+        job = sent.pop(future)
+        try:
+            out = future.result()
+        except distributed.KilledWorker:
+            killed.append(job)
+        except CancelledError:  # we cancel nothing: the scheduler (or the connection to it) went away
+            done(job[0], None, TASK_LOST, 0.0)
+        except FlatweaveError as exc:  # raised by fn itself, outside solve_piece's own catch
+            done(job[0], None, str(exc).splitlines()[0] if str(exc) else type(exc).__name__, 0.0)
+        else:
+            done(*out)
+        future.release()
+        send()
+    return killed

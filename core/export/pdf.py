@@ -32,7 +32,8 @@ from flatweave.export.sheet import Sheet
 from flatweave.export.sheet import label_box
 
 __all__ = ["PAPERS", "MM", "TEST_SQUARE_MM", "TILE_SQUARES_MM", "OVERLAP_MM", "PAGE_MARGIN_MM", "FRONT_PAGES",
-           "tile_grid", "tiles", "page_count", "name_place", "scale_text", "sheet_marks", "pdf_bytes"]
+           "tile_grid", "tiles", "page_count", "name_place", "scale_text", "sheet_marks", "pdf_bytes",
+           "draw_sheet", "nice_length", "draw_test_square", "paper_size", "draw_scale_bar"]
 
 MM = 72.0 / 25.4  # PDF points per millimetre
 PAPERS = {"a4": (210.0, 297.0), "letter": (215.9, 279.4)}
@@ -131,7 +132,7 @@ def _region(c, p):
     c.drawPath(path, stroke=0, fill=1)
 
 
-def _draw_sheet(c, sheet: Sheet, unit_width: float, labels: bool = True, fill: bool = False):
+def draw_sheet(c, sheet: Sheet, unit_width: float, labels: bool = True, fill: bool = False):
     """Draw the pieces in the current user space (1 unit = 1 sheet mm); line
     widths are given in mm and divided by ``unit_width`` (mm per unit drawn).
     ``labels``: the full labels (1:1); else each piece's name (:func:`name_place`)."""
@@ -242,7 +243,7 @@ def name_place(piece, scale: float, within) -> tuple[float, float, float]:
     return float(x0), float(y0 - descent * size), float(size)
 
 
-def _test_square(c, x_mm: float, y_mm: float, side_mm: float = TEST_SQUARE_MM):
+def draw_test_square(c, x_mm: float, y_mm: float, side_mm: float = TEST_SQUARE_MM):
     """A test square of ``side_mm``, in page units (points), bottom-left at (x, y) mm."""
     c.saveState()
     c.setStrokeColorRGB(0.25, 0.25, 0.25)
@@ -331,13 +332,31 @@ def _registration(c, x: float, y: float, r: float = 3.0):
     c.restoreState()
 
 
-def _nice_length(limit: float) -> float:
+def nice_length(limit: float) -> float:
     """The largest 1, 2, 5 x 10^k not above ``limit``."""
     k = 10 ** math.floor(math.log10(limit))
     for m in (5, 2, 1):
         if m * k <= limit:
             return m * k
     return k
+
+
+def draw_scale_bar(c, x0: float, y0: float, length: float, scale: float, note: str = "") -> None:
+    """A scale bar on canvas ``c`` from (``x0``, ``y0``) mm on the page: ``length``
+    drawing mm (printed ``length * scale`` mm) ticked in fifths, then its length and
+    :func:`scale_text` (and ``note``) in words; the canvas's state is kept."""
+    c.saveState()
+    c.setStrokeColorRGB(0, 0, 0)
+    c.setFillColorRGB(0, 0, 0)
+    c.setLineWidth(0.8)
+    c.line(x0 * MM, y0 * MM, (x0 + length * scale) * MM, y0 * MM)
+    for t in np.linspace(0.0, length, 6):
+        h = 2.5 if t in (0.0, length) else 1.5
+        c.line((x0 + t * scale) * MM, y0 * MM, (x0 + t * scale) * MM, (y0 + h) * MM)
+    c.setFont("Helvetica", 8)
+    c.drawString((x0 + length * scale + 3) * MM, (y0 - 1) * MM,
+                 f"{length:g} mm    {scale_text(scale)}{' ' + note if note else ''}")
+    c.restoreState()
 
 
 def scale_text(scale: float) -> str:
@@ -370,7 +389,7 @@ def _scaled_page(c, sheet: Sheet, pw: float, ph: float, title: str, grid=None):
     c.translate(ox * MM, oy * MM)
     c.scale(scale * MM, scale * MM)
     c.translate(SHEET_MARGIN_MM, SHEET_MARGIN_MM)
-    _draw_sheet(c, sheet, unit_width=scale, labels=False)
+    draw_sheet(c, sheet, unit_width=scale, labels=False)
     c.restoreState()
     if grid is None:  # the pieces' labels in full, below the scale bar
         c.setFillColorRGB(0.2, 0.2, 0.2)
@@ -403,20 +422,7 @@ def _scaled_page(c, sheet: Sheet, pw: float, ph: float, title: str, grid=None):
                                     _tile_name(r, col))
         c.restoreState()
     # scale bar: a round length about a quarter of the drawing's width
-    L = _nice_length(0.25 * W)
-    x0, y0 = PAGE_MARGIN_MM, bottom - 12.0
-    c.saveState()
-    c.setStrokeColorRGB(0, 0, 0)
-    c.setFillColorRGB(0, 0, 0)
-    c.setLineWidth(0.8)
-    c.line(x0 * MM, y0 * MM, (x0 + L * scale) * MM, y0 * MM)
-    for t in np.linspace(0, L, 6):
-        h = 2.5 if t in (0, L) else 1.5
-        c.line((x0 + t * scale) * MM, y0 * MM, (x0 + t * scale) * MM, (y0 + h) * MM)
-    c.setFont("Helvetica", 8)
-    c.drawString((x0 + L * scale + 3) * MM, (y0 - 1) * MM,
-                 f"{L:g} mm    {scale_text(scale)}")
-    c.restoreState()
+    draw_scale_bar(c, PAGE_MARGIN_MM, bottom - 12.0, nice_length(0.25 * W), scale)
     return scale, (ox, oy)
 
 
@@ -464,10 +470,10 @@ def pdf_bytes(sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern")
             c.translate(PAGE_MARGIN_MM * MM, PAGE_MARGIN_MM * MM)
             c.scale(MM, MM)  # from here on 1 unit = 1 mm: true size
             c.translate(SHEET_MARGIN_MM - x0, SHEET_MARGIN_MM - (y1 - ch))
-            _draw_sheet(c, sheet, unit_width=1.0, fill=True)
+            draw_sheet(c, sheet, unit_width=1.0, fill=True)
             c.restoreState()
             _tile_marks(c, r, col, rows, cols, cw, ch, shown)
-            _test_square(c, *_tile_square(marks, r, col, rows, cols, cw, ch, x0, y1))
+            draw_test_square(c, *_tile_square(marks, r, col, rows, cols, cw, ch, x0, y1))
             name = _tile_name(r, col)
             c.setFont("Helvetica-Bold", 11)
             c.setFillColorRGB(0, 0, 0)
@@ -481,7 +487,7 @@ def pdf_bytes(sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern")
 
 
 def _test_square_corner(c, pw, ph):
-    _test_square(c, pw - PAGE_MARGIN_MM - TEST_SQUARE_MM, PAGE_MARGIN_MM + 2.0)
+    draw_test_square(c, pw - PAGE_MARGIN_MM - TEST_SQUARE_MM, PAGE_MARGIN_MM + 2.0)
 
 
 def _footer(c, pw, text):

@@ -41,7 +41,7 @@ from flatweave.method.lattice import WARP
 from flatweave.geometry.numerics import polygon_area
 
 __all__ = ["UNITS", "Sheet", "SheetPiece", "build_sheet", "mm_per_unit", "warp_direction", "label_box",
-           "TEXT_EM", "LINE_PITCH", "SIZE", "QUANTITY"]
+           "TEXT_EM", "LINE_PITCH", "SIZE", "QUANTITY", "join_sheets"]
 
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 PIECE_GAP_MM = 30.0
@@ -294,7 +294,8 @@ def _ascii(text: str) -> str:
     return str(text).encode("ascii", errors="replace").decode("ascii")
 
 
-def _label_text(name: str, style: str, result, units: str, seam_mm: float, metrics: dict) -> tuple[tuple, tuple]:
+def _label_text(name: str, style: str, result, units: str, seam_mm: float, metrics: dict,
+                quantity: int = QUANTITY) -> tuple[tuple, tuple]:
     """(system text, annotation): ASTM D6673's piece system text as (key, value) pairs,
     and the lines a person reads (spacing, units, errors, date)."""
     s = result.settings
@@ -303,7 +304,7 @@ def _label_text(name: str, style: str, result, units: str, seam_mm: float, metri
     system = (
         ("Piece Name", name),
         ("Size", SIZE),
-        ("Quantity", str(QUANTITY)),
+        ("Quantity", str(quantity)),
         ("Material", f"{mat.name or 'custom'} {mat.ratio}"),
         ("Category", style),
     )
@@ -322,8 +323,10 @@ def _label_text(name: str, style: str, result, units: str, seam_mm: float, metri
     return tuple((k, _ascii(v)) for k, v in system), tuple(map(_ascii, annotation))
 
 
-def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name: str = "piece") -> Sheet:
-    """The pieces of a :class:`flatweave.method.pipeline.FlattenResult` in mm, with all their lines."""
+def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name: str = "piece",
+                quantity: int = QUANTITY) -> Sheet:
+    """The pieces of a :class:`flatweave.method.pipeline.FlattenResult` in mm, with all their lines;
+    ``quantity``: how many of it are cut (the labels' ``Quantity``)."""
     if not np.isfinite(seam_allowance_mm) or seam_allowance_mm < 0:
         raise SettingsError(f"seam allowance {seam_allowance_mm!r} mm must be zero or a positive number")
     scale = mm_per_unit(units)
@@ -368,7 +371,7 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
         direction = warp_direction(result.mesh, xy_mm, src.nodes if len(src.nodes) else None)
         extent = float(np.ptp(sew, axis=0).max())
         label_h = float(np.clip(0.012 * extent, 2.5, 8.0))
-        system, annotation = _label_text(pname, name, result, units, seam_allowance_mm, result.metrics)
+        system, annotation = _label_text(pname, name, result, units, seam_allowance_mm, result.metrics, quantity)
         label = tuple(f"{k}: {v}" for k, v in system) + annotation
         poly = _polygon(sew, holes)
         grain = _grain(poly, direction, label, label_h)
@@ -382,10 +385,28 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
         pieces.append(SheetPiece(pname, sew, cut, holes, hole_cuts, tuple(internal), tuple(notches),
                                  np.array(drills).reshape(-1, 2), grain, heads, system, annotation, label_at,
                                  label_h))
-    # lay the pieces out left to right, bottoms on y = 0; each piece's offset says how far it moved
+    return Sheet(_side_by_side(pieces), float(seam_allowance_mm), units, _ascii(name))
+
+
+def _side_by_side(pieces) -> tuple:
+    """The pieces laid out left to right, bottoms on y = 0, ``PIECE_GAP_MM`` apart; each
+    piece's offset says how far it moved."""
     placed, x = [], 0.0
     for p in pieces:
         lo, hi = p.bounds()
         placed.append(p.moved([x - lo[0], -lo[1]]))
         x += (hi[0] - lo[0]) + PIECE_GAP_MM
-    return Sheet(tuple(placed), float(seam_allowance_mm), units, _ascii(name))
+    return tuple(placed)
+
+
+def join_sheets(sheets, name: str) -> Sheet:
+    """One sheet of the pieces of ``sheets`` (a project's pieces, each built by
+    :func:`build_sheet` with its own name), laid out side by side: a DXF of it holds a
+    block per piece. The sheets share their units and seam allowance (ValueError if not)."""
+    sheets = list(sheets)
+    if not sheets:
+        raise SettingsError("there is no solved piece to export")
+    if len({(s.units, s.seam_allowance_mm) for s in sheets}) > 1:
+        raise ValueError("joined sheets must share their units and seam allowance")
+    return Sheet(_side_by_side([p for s in sheets for p in s.pieces]), sheets[0].seam_allowance_mm,
+                 sheets[0].units, _ascii(name))

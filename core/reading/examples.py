@@ -28,7 +28,7 @@ from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.geometry.surface_json import load_surface
 
 __all__ = ["resources_dir", "surfaces_dir", "list_examples", "example_names", "example_info", "example_path",
-           "load_example"]
+           "load_example", "jobs_dir", "job_names", "job_path"]
 
 
 def resources_dir() -> Path:
@@ -86,3 +86,26 @@ def example_path(name: str) -> Path:
 def load_example(name: str) -> NurbsSurface:
     """The surface of example ``name``."""
     return load_surface(example_path(name))
+
+
+@lru_cache(maxsize=1)
+def jobs_dir() -> Path:
+    """The folder of the example job files: the checkout's ``resources/jobs``, else the
+    installed package data ``flatweave.example_jobs`` (as :func:`surfaces_dir`)."""
+    checkout = resources_dir() / "jobs"
+    if checkout.is_dir() and any(checkout.glob("*.toml")):
+        return checkout
+    return Path(str(importlib.resources.files("flatweave.example_jobs")))
+
+
+def job_names() -> list[str]:
+    """Names of the bundled example jobs (their files' stems), e.g. ``['dome-laminate']``."""
+    return sorted(p.stem for p in jobs_dir().glob("*.toml"))
+
+
+def job_path(name: str) -> Path:
+    """Path of the bundled job ``name`` (with or without ``.toml``); SettingsError if there is none."""
+    stem = name[:-5] if name.lower().endswith(".toml") else name
+    if stem not in job_names():
+        raise SettingsError(f"unknown example job {name!r}; the bundled ones: {', '.join(job_names())}")
+    return jobs_dir() / f"{stem}.toml"
