@@ -348,6 +348,18 @@ def laminate_solve_all(nodes: int) -> dict:
     return measure(nodes)
 
 
+def laminate_dask(nodes: int) -> dict:
+    from benchmarks.laminate import measure_dask
+
+    return measure_dask(nodes)
+
+
+def laminate_ply_book(nodes: int) -> dict:
+    from benchmarks.laminate import measure_book
+
+    return measure_book(nodes)
+
+
 def gui_live_fps(nodes: int) -> dict:
     from benchmarks.gui_fps import measure
 
@@ -426,6 +438,14 @@ CASES: tuple[Case, ...] = (
          "peak memory alongside", Target("ratio", "<=", {2_500: 2.0}, "x"), laminate_solve_all, (300, 2_500),
          repeats=1, keys=("ratio", "seconds", "one_ply_s", "over_all_alone", "all_alone_s", "workers", "plies",
                           "failed", "nodes", "peak_mb", "first_ply_nodes")),
+    Case("laminate_dask", "the bundled 24-ply job solved on a Dask LocalCluster (a worker process per core) and "
+         "in the local pool, side by side: the plies whose result differs from the pool's bit for bit; seconds "
+         "each alongside", Target("differ", "<=", 0.0, "plies"), laminate_dask, (300, 2_500), repeats=1,
+         keys=("differ", "dask_s", "pool_s", "dask_over_pool", "workers", "plies")),
+    Case("laminate_ply_book", "the solved 24-ply job's ply book written (the stacking table and a page per ply: "
+         "the tool, the numbers, the pattern at a stated scale); its cut files as one DXF of blocks and an SVG per "
+         "ply alongside", Target("book_s", "<", {2_500: 10.0}, "s"), laminate_ply_book, (300, 2_500), repeats=1,
+         keys=("book_s", "pages", "book_mb", "dxf_svg_s")),
     Case("scan_open_cut_fit", "a panel drawn on a scan (face000, triangles split in four, the ones nearest its "
          "centre kept) read, cut out and fitted as flatten --region does", Target("seconds", "<", {200_000: 15.0}, "s"),
          scan_open_cut_fit, (50_000, 200_000), size_unit="triangles", keys=("seconds", "max_dev_pct",
