@@ -20,8 +20,9 @@ from pathlib import Path
 
 from PySide6.QtCore import QSignalBlocker, Qt
 from PySide6.QtGui import QBrush, QColor
-from PySide6.QtWidgets import (QAbstractItemView, QDialog, QDialogButtonBox, QFileDialog, QHBoxLayout, QHeaderView,
-                               QLabel, QMenu, QTableWidget, QTableWidgetItem, QToolButton, QVBoxLayout)
+from PySide6.QtWidgets import QFileDialog, QMenu, QTableWidgetItem, QToolButton
+
+from flatweave.app.tabledialog import RIGHT, TableDialog, free_name
 
 from flatweave.document.pieces import pieces_of
 from flatweave.errors import FlatweaveError, SettingsError
@@ -41,7 +42,6 @@ COLUMNS = (
     ("weight", "Weight\n(g/m²)", "Areal weight; empty when not known"),
 )
 KEYS = tuple(key for key, _, _ in COLUMNS)
-ERROR_COLOUR = "#b00020"
 FILTER = "Materials tables (*.json);;All files (*)"
 
 
@@ -94,80 +94,34 @@ def edited_fabric(fabric: Fabric, key: str, text: str) -> Fabric:
     return replace(fabric, **{field: _number(text, label, True)})
 
 
-def _free_name(taken, base: str) -> str:
-    keys = {n.strip().casefold() for n in taken}
-    if base.casefold() not in keys:
-        return base
-    n = 2
-    while f"{base} {n}".casefold() in keys:
-        n += 1
-    return f"{base} {n}"
-
-
-class MaterialsDialog(QDialog):
+class MaterialsDialog(TableDialog):
     """The materials table of ``project``, edited on a copy; :meth:`table` is the result."""
 
     def __init__(self, project, parent=None):
-        super().__init__(parent)
-        self.setWindowTitle("flatweave: materials")
+        super().__init__("flatweave: materials",
+                         "The materials this project's pieces are cut from. Double-click a cell to edit it; "
+                         "an empty cell is not known. A row's values go to every piece cut from it.", COLUMNS, parent)
         self.original = tuple(project.materials)
         self._rows = list(self.original)
         self.used: dict[str, list[str]] = {}  # material name -> the pieces cut from it
         for p in pieces_of(project):
             self.used.setdefault(p.settings.material.name, []).append(p.name)
-        intro = QLabel("The materials this project's pieces are cut from. Double-click a cell to edit it; "
-                       "an empty cell is not known. A row's values go to every piece cut from it.")
-        intro.setWordWrap(True)
-        self.grid = QTableWidget(0, len(COLUMNS))
-        for c, (_, header, tip) in enumerate(COLUMNS):
-            item = QTableWidgetItem(header)
-            item.setToolTip(tip)
-            self.grid.setHorizontalHeaderItem(c, item)
-        self.grid.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
-        self.grid.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
-        self.grid.verticalHeader().setVisible(False)
-        head = self.grid.horizontalHeader()
-        head.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
-        head.setSectionResizeMode(0, QHeaderView.ResizeMode.Stretch)
-        self.grid.itemChanged.connect(self._cell_edited)
-        self.grid.itemSelectionChanged.connect(self._update_buttons)
-
-        self.add_preset_button = QToolButton(text="Add preset")
-        self.add_preset_button.setToolTip("A bundled material the table lacks (typical catalogue values)")
+        self.add_preset_button = self.tool_button("Add preset", "A bundled material the table lacks (typical "
+                                                  "catalogue values)")
         self.add_preset_button.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
         self.add_preset_button.setMenu(QMenu(self.add_preset_button))
-        self.add_copy_button = QToolButton(text="Add copy")
-        self.add_copy_button.setToolTip("A copy of the selected material, under a new name")
-        self.delete_button = QToolButton(text="Delete")
-        self.delete_button.setToolTip("Delete the selected material (not one a piece is cut from)")
-        self.import_button = QToolButton(text="Import...")
-        self.import_button.setToolTip("Read a materials file: its rows replace the rows of the same name, "
-                                      "the others are added")
-        self.export_button = QToolButton(text="Export...")
-        self.export_button.setToolTip("Write this table to a materials file, to read into other projects")
-        self.add_copy_button.clicked.connect(self.add_copy)
-        self.delete_button.clicked.connect(self.delete_selected)
-        self.import_button.clicked.connect(self.import_asked)
-        self.export_button.clicked.connect(self.export_asked)
-        row = QHBoxLayout()
-        for w in (self.add_preset_button, self.add_copy_button, self.delete_button, self.import_button,
-                  self.export_button):
-            row.addWidget(w)
-        row.addStretch(1)
-        self.status = QLabel("")
-        self.status.setWordWrap(True)
-        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
-        buttons.accepted.connect(self.accept)
-        buttons.rejected.connect(self.reject)
-        col = QVBoxLayout(self)
-        col.addWidget(intro)
-        col.addWidget(self.grid, 1)
-        col.addLayout(row)
-        col.addWidget(self.status)
-        col.addWidget(buttons)
+        self.add_copy_button = self.tool_button("Add copy", "A copy of the selected material, under a new name",
+                                                self.add_copy)
+        self.delete_button = self.tool_button("Delete", "Delete the selected material (not one a piece is cut "
+                                              "from)", self.delete_selected)
+        self.import_button = self.tool_button("Import...", "Read a materials file: its rows replace the rows of "
+                                              "the same name, the others are added", self.import_asked)
+        self.export_button = self.tool_button("Export...", "Write this table to a materials file, to read into "
+                                              "other projects", self.export_asked)
         self._fill()
         if self._rows:
             self.grid.selectRow(0)
+        head = self.grid.horizontalHeader()
         width = max((self.grid.fontMetrics().horizontalAdvance(f.name) for f in self._rows), default=120) + 24
         width += sum(max(head.sectionSizeFromContents(c).width(), self.grid.sizeHintForColumn(c))
                      for c in range(1, len(COLUMNS)))
@@ -178,23 +132,12 @@ class MaterialsDialog(QDialog):
         """The table as edited (what OK hands the caller)."""
         return tuple(self._rows)
 
-    def row_texts(self) -> list[list[str]]:
-        """Each row's cells as shown."""
-        return [[self.grid.item(r, c).text() for c in range(len(COLUMNS))] for r in range(self.grid.rowCount())]
-
-    def selected_row(self) -> int | None:
-        rows = self.grid.selectionModel().selectedRows()
-        return rows[0].row() if rows else None
-
     def _show_row(self, r: int) -> None:
         fabric = self._rows[r]
         users = self.used.get(fabric.name, [])
         tip = f"Cut from it: {', '.join(users)[:300]}" if users else "No piece is cut from it"
         for c, key in enumerate(KEYS):
-            item = self.grid.item(r, c)
-            if item is None:
-                item = QTableWidgetItem()
-                self.grid.setItem(r, c, item)
+            item = self.cell(r, c)
             item.setText(cell_text(fabric, key))
             if key == "kind":
                 item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsEditable)
@@ -204,18 +147,7 @@ class MaterialsDialog(QDialog):
             elif key == "name":
                 item.setToolTip(tip)
             else:
-                item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
-
-    def _fill(self) -> None:
-        with QSignalBlocker(self.grid):
-            self.grid.setRowCount(len(self._rows))
-            for r in range(len(self._rows)):
-                self._show_row(r)
-        self._update_buttons()
-
-    def _say(self, text: str, error: bool = False) -> None:
-        self.status.setText(text)
-        self.status.setStyleSheet(f"color: {ERROR_COLOUR}" if error else "")
+                item.setTextAlignment(RIGHT)
 
     def _cell_edited(self, item: QTableWidgetItem) -> None:
         r, key = item.row(), KEYS[item.column()]
@@ -239,10 +171,6 @@ class MaterialsDialog(QDialog):
             self._show_row(r)
         self._say("")
         self._update_buttons()
-
-    def edit_cell(self, row: int, key: str, text: str) -> None:
-        """Type ``text`` into column ``key`` of ``row``, as a cell edit does."""
-        self.grid.item(row, KEYS.index(key)).setText(text)
 
     # ------------------------------------------------------------------ rows added and deleted
     def _insert(self, fabric: Fabric, at: int | None = None) -> None:
@@ -268,7 +196,7 @@ class MaterialsDialog(QDialog):
         if r is None:
             return
         src = self._rows[r]
-        name = _free_name([f.name for f in self._rows], f"{src.name} copy")
+        name = free_name([f.name for f in self._rows], f"{src.name} copy")
         self._insert(replace(src, material=replace(src.material, name=name)), r + 1)
         self._say(f"Added {name!r}: double-click its cells to change them.")
 

@@ -1,6 +1,6 @@
 """The Pieces tab (issue 41): the project's pieces (:mod:`flatweave.document.pieces`),
 the plies of a laminate or the panels of a product on its surface. Each row
-names a piece with its weft angle and its boundary and area errors (coloured
+names a piece with its orientation (or weft angle) and its boundary and area errors (coloured
 green when usable, orange with warnings, red when not usable), or says it is
 not solved, or stale (its settings changed since); its tip says more.
 Selecting a row makes that piece the active one (the views, the settings and
@@ -8,7 +8,9 @@ the tools then show and edit it); Add, Duplicate at
 +45, -45 or 90 degrees or at another angle, Delete, Up and Down edit the list,
 a double-click renames. Under the list, the active piece's material, chosen
 from the project's materials table, and Materials... to edit that table
-(:class:`flatweave.app.materialsdialog.MaterialsDialog`). The panel never changes the document: a selection is
+(:class:`flatweave.app.materialsdialog.MaterialsDialog`); its rosette, chosen from
+the project's rosettes, its orientation from it, and Rosettes... to edit them
+(:class:`flatweave.app.rosettesdialog.RosettesDialog`). The panel never changes the document: a selection is
 reported as ``piece_selected(index)`` and every edit as ``piece_edit(label,
 change, solves)``, ``change`` a function of the project giving the edited one,
 which the window makes one document edit."""
@@ -17,21 +19,27 @@ from __future__ import annotations
 
 from PySide6.QtCore import QSignalBlocker, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QFont
-from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QHBoxLayout, QInputDialog, QLabel, QListWidgetItem,
-                               QMenu, QToolButton, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QHBoxLayout, QInputDialog, QLabel,
+                               QListWidgetItem, QMenu, QToolButton, QVBoxLayout, QWidget)
 
 from flatweave.document import pieces as P
 from flatweave.document.checks import project_checks
 from flatweave.document.project import Project, settings_equal
 
 from flatweave.app.materialsdialog import MaterialsDialog
+from flatweave.app.rosettesdialog import RosettesDialog
 from flatweave.app.shortlist import ShortList
 
 __all__ = ["PiecesPanel", "piece_state"]
 
-ANGLES = (45.0, -45.0, 90.0)  # the duplicate menu's orientations, degrees added to the piece's weft angle
+ANGLES = (45.0, -45.0, 90.0)  # the duplicate menu's turns, degrees added to the piece's orientation (or weft angle)
 COLOURS = {"usable": "#1b7a1b", "warnings": "#b86e00", "unusable": "#b00020", "unsolved": "#707070",
            "stale": "#707070"}
+
+
+def _angle_of(piece) -> float:
+    """What a piece's duplicate turns: its orientation from its rosette, or its weft angle."""
+    return float(piece.orientation) if piece.rosette is not None else float(piece.settings.angle_deg)
 
 
 def piece_state(piece) -> str:
@@ -47,7 +55,8 @@ def piece_state(piece) -> str:
 
 
 def _row_text(piece) -> str:
-    """One short line: sequence, name, count, weft angle, and the errors (boundary / area) or the state."""
+    """One short line: sequence, name, count, orientation ("+45 deg" from its rosette, "weft +12.5 deg"
+    a weft angle alone), and the errors (boundary / area) or the state."""
     state = piece_state(piece)
     if state in ("unsolved", "stale"):
         what = "not solved" if state == "unsolved" else "stale"
@@ -56,7 +65,8 @@ def _row_text(piece) -> str:
         what = f"{m['boundary_error_pct']:.2f} % / {m['area_error_pct']:.2f} %"
     count = f" x{piece.quantity}" if piece.quantity > 1 else ""
     seq = f"{piece.sequence}. " if piece.sequence is not None else ""
-    return f"{seq}{piece.name}{count}   {piece.settings.angle_deg:+g} deg   {what}"
+    angle = f"{piece.orientation:+g} deg" if piece.rosette is not None else f"weft {piece.settings.angle_deg:+g} deg"
+    return f"{seq}{piece.name}{count}   {angle}   {what}"
 
 
 def _row_tip(piece) -> str:
@@ -105,6 +115,31 @@ class PiecesPanel(QWidget):
         line.addWidget(self.materials_button)
         col.addLayout(line)
         self.materials_dialog: MaterialsDialog | None = None
+        line = QHBoxLayout()
+        line.addWidget(QLabel("Rosette"))
+        self.rosette = QComboBox()
+        self.rosette.setToolTip("The tool rosette the active piece's orientation is measured from (its 0-degree "
+                                "direction projected at the piece's seed), or none: the piece's weft angle alone")
+        self.rosette.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon)
+        self.rosette.setMinimumContentsLength(8)
+        self.rosette.activated.connect(self._rosette_chosen)
+        line.addWidget(self.rosette, 1)
+        self.orientation = QDoubleSpinBox()
+        self.orientation.setRange(-180.0, 180.0)
+        self.orientation.setDecimals(2)
+        self.orientation.setSuffix(" deg")
+        self.orientation.setWrapping(True)
+        self.orientation.setKeyboardTracking(False)  # one edit when the value is entered, not one per key
+        self.orientation.setToolTip("The active piece's orientation from its rosette: 0, +45, -45, 90 or any angle")
+        self.orientation.valueChanged.connect(self._orientation_entered)
+        line.addWidget(self.orientation)
+        self.rosettes_button = QToolButton(text="Rosettes...")
+        self.rosettes_button.setToolTip("Edit the tool's rosettes: origin and 0-degree direction as numbers, or "
+                                        "one added at the active piece's seed along its weft")
+        self.rosettes_button.clicked.connect(self.open_rosettes)
+        line.addWidget(self.rosettes_button)
+        col.addLayout(line)
+        self.rosettes_dialog: RosettesDialog | None = None
         row = QHBoxLayout()
         self.add = QToolButton(text="Add")
         self.add.setToolTip("A new piece on the surface, with the selected one's material and spacing")
@@ -151,7 +186,9 @@ class PiecesPanel(QWidget):
         if k is None:
             return
         piece = self._project.pieces[k]
-        angle = piece.settings.angle_deg + turn
+        angle = _angle_of(piece) + turn
+        if piece.rosette is not None:  # an orientation reads as a ply's: -45 + 90 is +45, not +135 - 180
+            angle = (angle + 180.0) % 360.0 - 180.0
         name = None if turn else f"{piece.name} copy"
         self.piece_edit.emit(f"Duplicate {piece.name}", lambda p: P.duplicate(p, k, name, angle), True)
 
@@ -159,13 +196,16 @@ class PiecesPanel(QWidget):
         k = self._row()
         if k is None:
             return
-        angle, ok = QInputDialog.getDouble(self, "Duplicate at an angle", "Weft angle of the copy, degrees:",
-                                           self._project.pieces[k].settings.angle_deg, -360.0, 360.0, 2)
+        piece = self._project.pieces[k]
+        what = "Orientation" if piece.rosette is not None else "Weft angle"
+        angle, ok = QInputDialog.getDouble(self, "Duplicate at an angle", f"{what} of the copy, degrees:",
+                                           _angle_of(piece), -360.0, 360.0, 2)
         if ok:
             self.duplicate_at(k, angle)
 
     def duplicate_at(self, k: int, angle: float) -> None:
-        """A copy of piece ``k`` with weft angle ``angle`` (what the menu's "another angle" asks)."""
+        """A copy of piece ``k`` at ``angle``: its orientation from its rosette when it has one, else its
+        weft angle (what the menu's "another angle" asks)."""
         self.piece_edit.emit(f"Duplicate {self._project.pieces[k].name}",
                              lambda p: P.duplicate(p, k, None, angle), True)
 
@@ -205,20 +245,51 @@ class PiecesPanel(QWidget):
 
     def open_materials(self) -> MaterialsDialog | None:
         """The materials table in a window-modal dialog; its OK makes the edited table one edit."""
+        return self._open_table(MaterialsDialog, "materials_dialog", "Edit materials", P.set_materials)
+
+    def _open_table(self, kind, attribute: str, label: str, setter):
+        """A table dialog ``kind`` over the project, kept as ``attribute`` while open; its OK, when the
+        table changed, is the edit ``label``: ``setter(project, table)``."""
         if self._project is None:
             return None
-        dialog = MaterialsDialog(self._project, self)
+        dialog = kind(self._project, self)
         dialog.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose)
-        dialog.accepted.connect(lambda: self._materials_accepted(dialog))
-        dialog.destroyed.connect(lambda: setattr(self, "materials_dialog", None))
-        self.materials_dialog = dialog
+
+        def accepted():
+            table = dialog.table()
+            if table != dialog.original:
+                self.piece_edit.emit(label, lambda p: setter(p, table), True)
+
+        dialog.accepted.connect(accepted)
+        dialog.destroyed.connect(lambda: setattr(self, attribute, None))
+        setattr(self, attribute, dialog)
         dialog.open()
         return dialog
 
-    def _materials_accepted(self, dialog: MaterialsDialog) -> None:
-        table = dialog.table()
-        if table != dialog.original:
-            self.piece_edit.emit("Edit materials", lambda p: P.set_materials(p, table), True)
+    def _rosette_chosen(self, index: int) -> None:
+        self.choose_rosette(self.rosette.itemData(index))
+
+    def choose_rosette(self, name: str | None) -> None:
+        """Orient the active piece from the rosette ``name``, its fibres kept (None: its weft angle alone)."""
+        p = self._project
+        if p is not None and name != p.piece_rosette:
+            k = p.piece_index
+            label = f"Orient {p.piece_name} from {name}" if name else f"{p.piece_name} by its weft angle"
+            self.piece_edit.emit(label, lambda q: P.orient(q, k, name), True)
+
+    def _orientation_entered(self, value: float) -> None:
+        self.set_orientation(value)
+
+    def set_orientation(self, value: float) -> None:
+        """The active piece at ``value`` degrees from its rosette (what the orientation box asks)."""
+        p = self._project
+        if p is not None and p.piece_rosette is not None and float(value) != p.orientation:
+            k, name = p.piece_index, p.piece_rosette
+            self.piece_edit.emit(f"Orientation {value:+g}", lambda q: P.orient(q, k, name, float(value)), True)
+
+    def open_rosettes(self) -> RosettesDialog | None:
+        """The rosette table in a window-modal dialog; its OK makes the edited table one edit."""
+        return self._open_table(RosettesDialog, "rosettes_dialog", "Edit rosettes", P.set_rosettes)
 
     def _row_changed(self, row: int) -> None:
         if not self._loading and self._project is not None and row >= 0 and row != self._project.piece_index:
@@ -247,6 +318,7 @@ class PiecesPanel(QWidget):
         finally:
             self._loading = False
         self._show_material(project)
+        self._show_rosette(project)
         warnings = project_checks(project) if project is not None else []
         self.checks.setText("\n".join(warnings))
         self.checks.setVisible(bool(warnings))
@@ -271,6 +343,20 @@ class PiecesPanel(QWidget):
                                           Qt.ItemDataRole.ToolTipRole)
             self.material.setCurrentIndex(max(0, self.material.findData(current)))
 
+    def _show_rosette(self, project: Project | None) -> None:
+        """The rosette box (none, then the table's rosettes, the active piece's selected) and its
+        orientation (enabled when it has a rosette)."""
+        with QSignalBlocker(self.rosette), QSignalBlocker(self.orientation):
+            self.rosette.clear()
+            if project is None:
+                return
+            self.rosette.addItem("none (weft angle)", None)
+            for r in project.rosettes:
+                self.rosette.addItem(r.name, r.name)
+            self.rosette.setCurrentIndex(max(0, self.rosette.findData(project.piece_rosette)))
+            self.orientation.setValue(project.orientation if project.orientation is not None else 0.0)
+            self.orientation.setEnabled(project.piece_rosette is not None)
+
     def materials(self) -> list[str]:
         """The material box's entries as shown."""
         return [self.material.itemText(k) for k in range(self.material.count())]
@@ -291,6 +377,8 @@ class PiecesPanel(QWidget):
         self.add.setEnabled(p is not None)
         self.material.setEnabled(p is not None)
         self.materials_button.setEnabled(p is not None)
+        self.rosette.setEnabled(p is not None and bool(p.rosettes))
+        self.rosettes_button.setEnabled(p is not None)
         self.solve_button.setEnabled(p is not None and not self._solving)
         self.duplicate.setEnabled(k is not None)
         self.delete.setEnabled(k is not None and n > 1)

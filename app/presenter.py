@@ -20,6 +20,8 @@ from flatweave.method.energy import yarn_nodes
 from flatweave.errors import FlatweaveError
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.document.project import Project
+from flatweave.document.rosettes import rosette_named
+from flatweave.method.rosette import rosette, rosette_arrows, zero_angle
 
 from flatweave.app.aspects import HISTORY, WHOLE, Aspect
 from flatweave.app.frames import FrameMaker
@@ -38,6 +40,12 @@ GRID_POINTS = 60
 CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
 KEEP_PATTERN_FOR_LIVE_FRAMES = True
 KEPT_REGIONS = LayerStyle("#808080", width=2.0, closed=True)  # candidate regions kept beside the active one
+OTHER_PIECES = LayerStyle("#a8a8a8", width=1.5, closed=True)  # the project's other pieces' outlines, faint
+PIECE_AXES = {"piece weft": LayerStyle("#c0392b", width=3.0), "piece warp": LayerStyle("#1f5fbf", width=3.0),
+              "piece zero": LayerStyle("#202020", width=2.0)}
+"""The active piece's fibres at its seed (weft red, warp blue) and, when it is oriented from a
+rosette, that rosette's 0-degree direction there (black): what its orientation is measured from."""
+AXES_FRACTION = 0.08  # the piece's weft arrow's length, of the surface's size (the Seed tool's is 0.12)
 """A live frame without a pattern leaves the pattern view as it is when that shows a pattern (the
 last result's, or an earlier frame's): it changes when the run has a pattern of its own. The first
 frame of a re-solve has none (``flatweave.app.worker.FIRST_PATTERN_AT_ONCE``), and drawing its mesh in the pattern
@@ -228,6 +236,8 @@ class Presenter:
             self.show_yarns(project)
         if aspects & (Aspect.PIECES | Aspect.SETTINGS | Aspect.RESULT) or whole:
             w.pieces_panel.set_project(project)
+        if aspects & (Aspect.PIECES | Aspect.SETTINGS | Aspect.SURFACE) or whole:
+            self.show_pieces(project)
         if aspects & Aspect.RESULT:
             w.tools.result_changed()
         if aspects & (Aspect.SURFACE | Aspect.DISPLAY):
@@ -329,6 +339,40 @@ class Presenter:
         loops = [project.surface.points(p) for c in project.candidates
                  if c.visible and c.region is not None for p in cover_for(project.surface, c.region).loops]
         self.view.draw("kept regions", KEPT_REGIONS, loops)
+
+    def show_pieces(self, project: Project) -> None:
+        """The active piece among the others: the others' outlines faint on the tool, and at the active
+        piece's seed its weft and warp and, oriented from a rosette, the rosette's 0-degree direction."""
+        s = project.surface
+        loops = []
+        for k, piece in enumerate(project.pieces):
+            region = piece.settings.region
+            if k != project.piece_index and region is not None:
+                loops.extend(self._outline(s, region))
+        self.view.draw("other pieces", OTHER_PIECES, loops, render=False)
+        length = AXES_FRACTION * float(np.linalg.norm(np.ptp(s.ctrlpts.reshape(-1, 3), axis=0)))
+        seed = project.settings.seed
+        weft, warp = rosette_arrows(rosette(s, seed, project.settings.angle_deg), length)
+        self.view.draw("piece weft", PIECE_AXES["piece weft"], [weft], render=False)
+        self.view.draw("piece warp", PIECE_AXES["piece warp"], [warp], render=False)
+        zero = []
+        if project.piece_rosette is not None:
+            r = rosette_named(project.rosettes, project.piece_rosette)
+            z = zero_angle(s, seed, r.zero)
+            if z is not None:
+                zero = [rosette_arrows(rosette(s, seed, z), 1.25 * length)[0]]
+        self.view.draw("piece zero", PIECE_AXES["piece zero"], zero)
+
+    def _outline(self, surface, region) -> list:
+        """A region's loops on the surface, kept by region (the others' outlines are drawn at every
+        change of the active piece; a region is immutable)."""
+        key = ("outline", id(surface), id(region))
+        hit = self._curve_cache.get(key)
+        if hit is None or hit[0] is not region:
+            if len(self._curve_cache) >= CURVE_CACHE:
+                self._curve_cache.clear()
+            hit = self._curve_cache[key] = (region, [xyz for _, xyz in loops_on_surface(surface, region)])
+        return hit[1]
 
     def show_yarns(self, project: Project | None, frame=None) -> None:
         if project is None:

@@ -58,6 +58,7 @@ from flatweave.document.cutfiles import check_folder, export_pieces
 from flatweave.document.plybook import plybook_bytes
 from flatweave.files import atomic_write_many
 from flatweave.document.pieces import index_of
+from flatweave.document.rosettes import orientation_text
 from flatweave.reading.jobs import JOB_SUFFIX
 from flatweave.geometry.quadrature import boundary_length
 from flatweave.reading.examples import example_path, job_names, job_path, list_examples
@@ -849,15 +850,18 @@ def _cmd_solve(args) -> int:
     project, outcomes = solve_pieces(project, names, args.workers, on_done=progress, cluster=args.dask)
     _save_solved(project, out, book, folder, options, args.quiet)
     if not args.quiet:
-        print(f"{'piece':<24} {'status':<28} {'nodes':>7} {'boundary %':>10} {'area %':>8} {'shear deg':>9} "
-              f"{'seconds':>8}")
+        print(f"{'piece':<24} {'orient.':>8} {'status':<28} {'nodes':>7} {'boundary %':>10} {'area %':>8} "
+              f"{'shear deg':>9} {'seconds':>8}")
+        by_name = {p.name: p for p in project.pieces}
         for o in outcomes:
+            orient = orientation_text(by_name[o.name], short=True)
             if o.result is None:
-                print(f"{o.name[:24]:<24} {'failed':<28}")
+                print(f"{o.name[:24]:<24} {orient:>8} {'failed':<28}")
                 continue
             m = o.result.metrics
-            print(f"{o.name[:24]:<24} {o.result.status[:28]:<28} {m['nodes']:>7} {m['boundary_error_pct']:>10.3f} "
-                  f"{m['area_error_pct']:>8.3f} {m.get('max_shear_deg', float('nan')):>9.2f} {o.seconds:>8.2f}")
+            print(f"{o.name[:24]:<24} {orient:>8} {o.result.status[:28]:<28} {m['nodes']:>7} "
+                  f"{m['boundary_error_pct']:>10.3f} {m['area_error_pct']:>8.3f} "
+                  f"{m.get('max_shear_deg', float('nan')):>9.2f} {o.seconds:>8.2f}")
         print(f"-> {out}")
     _print_warnings(project_checks(project))  # the pieces judged together: sequence, materials, fibres
     failed = [o for o in outcomes if o.result is None]

@@ -1,10 +1,11 @@
-"""Make docs/images/pieces_panel.png: the Pieces tab on three plies of the woven octant.
+"""Make docs/images/pieces_panel.png: the Pieces tab on the bundled 24-ply laminate job.
 
     xvfb-run -s '-screen 0 1600x1000x24' .venv/bin/python docs/pieces_screenshot.py [OUT.png]
 
-Solves the woven octant, duplicates it at +45 and at 90 degrees from the Pieces
-tab, solves the +45 ply (the 90 one is left unsolved, to show its state), and
-grabs the window with the +45 ply selected.
+Opens resources/jobs/dome-laminate.toml, runs Solve all (the pieces in worker
+processes) and grabs the window with ply P02 (+45 degrees from rosette 1)
+selected: its weft, warp and the rosette's 0-degree direction at its seed, the
+other 23 plies' outlines faint on the tool, its pattern on the right.
 """
 
 from __future__ import annotations
@@ -22,24 +23,19 @@ REPO = Path(__file__).resolve().parent.parent
 def main() -> int:
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "docs/images/pieces_panel.png"
     shot = Shot()
-    win = shot.solved_window("octant", 0.04)
+    win = shot.window(REPO / "resources/jobs/dome-laminate.toml")
     win.side_tabs.setCurrentWidget(win.pieces_panel)
     panel = win.pieces_panel
-    panel.rename(0, "ply 1 (0)")
-    panel.duplicate_at(0, 45.0)
-    panel.rename(1, "ply 2 (+45)")
-    done = []
-    win.run_finished.connect(done.append)
-    win.run()
-    shot.wait(lambda: done)
-    panel.duplicate_at(1, 90.0)
-    panel.rename(2, "ply 3 (90)")
+    finished = []
+    win.solve_all.finished.connect(finished.append)
+    panel.solve_all.emit()
+    shot.wait(lambda: finished)
     panel.list.setCurrentRow(1)
     win.view.reset_camera()
     win.pattern_view.fit()
     shot.settle(1.0)
     win.grab().save(str(out))
-    print(f"wrote {out}: {panel.rows()}")
+    print(f"wrote {out}: {finished[0]}")
     win.close()
     return 0
 

@@ -38,6 +38,21 @@ class Shot:
         t0 = time.perf_counter()
         self.wait(lambda: time.perf_counter() - t0 >= seconds)
 
+    def window(self, path, size=(1600, 1000)):
+        """A shown main window on the file ``path`` (a project, a job, a surface), not solved."""
+        from flatweave.app.mainwindow import MainWindow
+
+        win = MainWindow()
+        win.resize(*size)
+        win.move(0, 0)
+        shown = []
+        win.show_error = shown.append
+        if not win.open_file(path) or shown:
+            raise RuntimeError(f"{path} did not open: {shown}")
+        win.show()
+        self.wait(lambda: win.view.is_ready() and win.pattern_view.is_ready())
+        return win
+
     def solved_window(self, example: str, spacing: float, size=(1600, 1000)):
         """A shown main window on ``example`` at ``spacing``, solved from the drape."""
         from flatweave.app.mainwindow import MainWindow

@@ -6,10 +6,15 @@ save and reopen with the project."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
 import pytest
 from pypdf import PdfReader
 
 from tests.test_app_run import run_to_end
+
+JOB = Path(__file__).resolve().parent.parent / "resources" / "jobs" / "dome-laminate.toml"
 
 pytestmark = pytest.mark.slow
 
@@ -19,7 +24,7 @@ def test_plies_are_duplicated_at_angles_selected_renamed_moved_deleted_and_saved
     shown = []
     win.show_error = shown.append
     panel = win.pieces_panel
-    assert panel.rows() == ["octant   +0 deg   not solved"] and not panel.delete.isEnabled()
+    assert panel.rows() == ["octant   weft +0 deg   not solved"] and not panel.delete.isEnabled()
     run_to_end(qtbot, win)
     m = win.project.result.metrics
     assert win.project.result_is_current
@@ -72,8 +77,9 @@ def test_plies_are_duplicated_at_angles_selected_renamed_moved_deleted_and_saved
     q = other.project
     assert [x.name for x in q.pieces] == ["octant", "octant +45", "ply 90"] and q.piece_name == "octant"
     assert [x.result is not None for x in q.pieces] == [True, True, False]
-    assert other.pieces_panel.rows()[1].startswith("octant +45   +45 deg   ") and "%" in other.pieces_panel.rows()[1]
-    assert other.pieces_panel.rows()[2] == "ply 90   +90 deg   not solved"
+    row = other.pieces_panel.rows()[1]
+    assert row.startswith("octant +45   weft +45 deg   ") and "%" in row
+    assert other.pieces_panel.rows()[2] == "ply 90   weft +90 deg   not solved"
     other.pieces_panel.list.setCurrentRow(1)
     assert other.project.result_is_current and other.project.settings.angle_deg == 45.0
 
@@ -138,3 +144,64 @@ def test_a_job_file_opens_in_the_window_as_its_plies(make_window):
     assert len(win.project.pieces) == 24 and win.project.piece_name == "P01"
     rows = win.pieces_panel.rows()
     assert rows[0] == "1. P01   +0 deg   not solved" and rows[23].startswith("24. P24   ")
+
+
+def _direction(polyline) -> np.ndarray:
+    """An arrow's shaft direction: its tip (the second point) from its foot."""
+    d = np.asarray(polyline[1]) - np.asarray(polyline[0])
+    return d / np.linalg.norm(d)
+
+
+def test_a_ply_is_shown_with_its_rosette_among_the_others_and_oriented_in_the_panel(make_window):
+    """The job's plies: the active one's weft, warp and rosette 0-degree direction at its seed, the other
+    23 plies' outlines faint; the Rosette and orientation boxes orient it as undoable edits."""
+    win = make_window(example=None)
+    shown = []
+    win.show_error = shown.append
+    assert win.open_file(JOB) and not shown
+    panel, view = win.pieces_panel, win.view
+    assert panel.rosette.currentText() == "rosette 1" and panel.orientation.value() == 0.0
+    assert panel.orientation.isEnabled()
+    others = view.layer_lines("other pieces")
+    assert len(others) > 23 * 8  # 23 closed outlines, each sampled along its image on the tool
+    weft, zero = view.layer_lines("piece weft"), view.layer_lines("piece zero")
+    assert len(weft) == 5 and len(zero) == 5  # a shaft and a head each
+    shaft = np.linalg.norm(np.asarray(weft[1]) - np.asarray(weft[0]))
+    # both at the seed: the feet differ only by the hair each arrow is lifted off the surface (1 % of its length)
+    assert np.linalg.norm(np.asarray(weft[0]) - np.asarray(zero[0])) < 0.01 * shaft
+    assert _direction(weft) @ _direction(zero) > 1 - 1e-9  # P01 is at 0 degrees: its weft is the 0 direction
+
+    panel.list.setCurrentRow(1)  # P02, +45: the weft 45 degrees from the 0 direction, which is drawn too
+    weft, zero = view.layer_lines("piece weft"), view.layer_lines("piece zero")
+    assert abs(np.degrees(np.arccos(_direction(weft) @ _direction(zero))) - 45.0) < 1e-6
+    assert panel.orientation.value() == 45.0
+
+    before = win.project.settings.angle_deg
+    panel.set_orientation(90.0)  # what the orientation box asks when a value is entered
+    assert win.project.orientation == 90.0 and win.project.piece_name == "P02"
+    assert abs((win.project.settings.angle_deg - before - 45.0 + 180.0) % 360.0 - 180.0) < 1e-6
+    assert panel.rows()[1] == "2. P02   +90 deg   not solved"
+    weft, zero = view.layer_lines("piece weft"), view.layer_lines("piece zero")
+    assert abs(_direction(weft) @ _direction(zero)) < 1e-9
+
+    panel.choose_rosette(None)  # laid by its weft angle alone: the angle stays, no 0 direction drawn
+    assert win.project.piece_rosette is None and panel.rows()[1].startswith("2. P02   weft ")
+    assert not panel.orientation.isEnabled() and len(view.layer_lines("piece zero")) == 0
+    win.undo()
+    win.undo()
+    assert win.project.orientation == 45.0 and win.project.settings.angle_deg == before
+
+    # the rosette's 0-degree direction turned in the Rosettes dialog turns every ply tied to it, as one edit
+    angles = [p.settings.angle_deg for p in win.project.pieces]
+    dialog = panel.open_rosettes()
+    assert dialog is not None and dialog.problem() == ""
+    dialog.edit_cell(0, "dx", "0")
+    dialog.edit_cell(0, "dy", "1")
+    assert dialog.problem() == ""
+    dialog.accept()
+    assert win.project.rosettes[0].zero == (0.0, 1.0, 0.0) and not shown
+    turned = [p.settings.angle_deg for p in win.project.pieces]
+    assert sum(abs((a - b + 180.0) % 360.0 - 180.0) > 1.0 for a, b in zip(angles, turned)) == 24
+    assert [p.orientation for p in win.project.pieces][:3] == [0.0, 45.0, -45.0]  # orientations are the datum
+    win.undo()
+    assert [p.settings.angle_deg for p in win.project.pieces] == angles

@@ -112,7 +112,8 @@ def test_the_cli_solves_a_project_and_saves_every_result(laminate, tmp_path):
     p = _cli("solve", path, "--workers", "2", "--out", out)
     assert p.returncode == 0, p.stderr
     rows = p.stdout.splitlines()
-    assert rows[0].split()[:2] == ["piece", "status"] and [r.split()[1] for r in rows[1:4]] == ["1", "2", "3"]
+    assert rows[0].split()[:3] == ["piece", "orient.", "status"]
+    assert [r.split()[1] for r in rows[1:4]] == ["1", "2", "3"]
     assert all("converged" in r for r in rows[1:4]) and rows[-1] == f"-> {out}"
     back = load_project(out)
     assert all(piece.result is not None for piece in back.pieces) and back.result_is_current

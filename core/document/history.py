@@ -86,10 +86,11 @@ def changed_aspects(old: Project | None, new: Project) -> frozenset:
         out.add("result")
     if (old.name, old.source) != (new.name, new.source):
         out.add("name")
-    if (old.piece_name, old.quantity, old.sequence, old.piece_index) != (
-            new.piece_name, new.quantity, new.sequence, new.piece_index) or len(old.others) != len(new.others) \
-            or any(a is not b for a, b in zip(old.others, new.others)) or old.materials != new.materials:
-        out.add("pieces")  # the materials table too: a row added that no piece uses yet is still an edit
+    if (old.piece_name, old.quantity, old.sequence, old.piece_index, old.piece_rosette, old.orientation) != (
+            new.piece_name, new.quantity, new.sequence, new.piece_index, new.piece_rosette, new.orientation) \
+            or len(old.others) != len(new.others) or any(a is not b for a, b in zip(old.others, new.others)) \
+            or old.materials != new.materials or old.rosettes != new.rosettes:
+        out.add("pieces")  # the materials and rosette tables too: a row added that no piece uses yet is an edit
     return frozenset(out)
 
 
@@ -175,6 +176,7 @@ class Document:
         one. ``answers_solve``: a solve started from ``project`` is folded into
         this edit when it finishes (see the module docstring).
         """
+        project = pieces.follow_rosettes(self._project, project)
         if not changed_aspects(self._project, project):
             return None
         return self._record(Edit(label, self._project, self._shear_follows(project), answers_solve), "edit")
@@ -271,6 +273,16 @@ class Document:
     def set_materials(self, fabrics, label: str = "Edit materials") -> Edit | None:
         """A new materials table; the pieces cut from a row take its values (one edit)."""
         return self.apply(label, pieces.set_materials(self._project, fabrics))
+
+    def orient_piece(self, k, rosette: str | None, orientation: float | None = None) -> Edit | None:
+        """Piece ``k`` oriented ``orientation`` degrees from the rosette named ``rosette``
+        (:func:`flatweave.document.pieces.orient`: None keeps its fibres; no rosette: its weft angle alone)."""
+        name = self._project.pieces[pieces.index_of(self._project, k)].name
+        return self.apply(f"Orient {name}", pieces.orient(self._project, k, rosette, orientation))
+
+    def set_rosettes(self, rosettes, label: str = "Edit rosettes") -> Edit | None:
+        """A new rosette table; the pieces oriented from a rosette follow it (one edit)."""
+        return self.apply(label, pieces.set_rosettes(self._project, rosettes))
 
     # ------------------------------------------------------------------ darts and yarns
     def _dart_index(self, index: int) -> int:

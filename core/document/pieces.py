@@ -18,13 +18,15 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
+from flatweave.document.rosettes import check_rosettes, piece_weft, rosette_named
 from flatweave.errors import SettingsError
+from flatweave.method.rosette import orientation_for
 from flatweave.method.result import FlattenResult
 from flatweave.method.settings import FlattenSettings
 
 __all__ = ["Piece", "MAX_PIECES", "MAX_QUANTITY", "check_piece", "pieces_of", "with_pieces", "select", "add",
            "duplicate", "remove", "rename", "move", "set_quantity", "set_sequence", "index_of", "use_material",
-           "set_materials"]
+           "set_materials", "orient", "set_rosettes", "follow_rosettes"]
 
 MAX_PIECES = 1000  # a laminate has 10 to 200 plies, a product 5 to 30 panels
 MAX_QUANTITY = 100_000  # copies of one piece cut for a job
@@ -46,15 +48,28 @@ class Piece:
     candidates: tuple = ()
     quantity: int = 1
     sequence: int | None = None
+    # the tool rosette its orientation is measured from (a name in Project.rosettes), and the
+    # orientation in degrees (flatweave.document.rosettes); both None: the weft angle alone
+    rosette: str | None = None
+    orientation: float | None = None
 
     def __post_init__(self):
-        check_piece(self.name, self.quantity, self.sequence)
+        check_piece(self.name, self.quantity, self.sequence, self.rosette, self.orientation)
 
 
-def check_piece(name: Any, quantity: Any, sequence: Any) -> None:
+def check_piece(name: Any, quantity: Any, sequence: Any, rosette: Any = None, orientation: Any = None) -> None:
     """A one-line SettingsError unless the name is a text of 1 to MAX_NAME
     characters (not only spaces), ``quantity`` a whole number 1 to
-    MAX_QUANTITY and ``sequence`` None or a whole number 1 to MAX_PIECES."""
+    MAX_QUANTITY, ``sequence`` None or a whole number 1 to MAX_PIECES, and
+    ``rosette`` and ``orientation`` both None or a name and a finite angle."""
+    if rosette is not None or orientation is not None:
+        if not isinstance(rosette, str) or not rosette.strip():
+            raise SettingsError(f"piece {name!r:.60}: an orientation is measured from a rosette; "
+                                f"got rosette {rosette!r:.40}")
+        if isinstance(orientation, bool) or not isinstance(orientation, (int, float)) \
+                or not math.isfinite(orientation):
+            raise SettingsError(f"piece {name!r:.60}: its orientation must be a finite angle in degrees, "
+                                f"got {orientation!r:.40}")
     if not isinstance(name, str) or not name.strip() or len(name) > MAX_NAME or "\n" in name:
         raise SettingsError(f"a piece's name must be a line of 1 to {MAX_NAME} characters, got {name!r:.60}")
     if isinstance(quantity, bool) or not isinstance(quantity, int) or not 1 <= quantity <= MAX_QUANTITY:
@@ -83,7 +98,7 @@ def check_pieces(pieces) -> None:
 def active_piece(project) -> Piece:
     """The project's active piece, from its own fields."""
     return Piece(project.piece_name, project.settings, project.result, project.region_name, project.candidates,
-                 project.quantity, project.sequence)
+                 project.quantity, project.sequence, project.piece_rosette, project.orientation)
 
 
 def pieces_of(project) -> tuple[Piece, ...]:
@@ -100,7 +115,8 @@ def with_pieces(project, pieces, index: int):
     p = pieces[index]
     return replace(project, settings=p.settings, result=p.result, region_name=p.region_name,
                    candidates=p.candidates, piece_name=p.name, quantity=p.quantity, sequence=p.sequence,
-                   others=pieces[:index] + pieces[index + 1:], piece_index=index)
+                   piece_rosette=p.rosette, orientation=p.orientation, others=pieces[:index] + pieces[index + 1:],
+                   piece_index=index)
 
 
 def index_of(project, k: Any) -> int:
@@ -144,25 +160,28 @@ def add(project, name: str | None = None, settings: FlattenSettings | None = Non
 
 
 def duplicate(project, k, name: str | None = None, angle_deg: float | None = None):
-    """The project with a copy of piece ``k`` right after it (selected):
-    the same settings (with its weft angle ``angle_deg`` if given, so a ply
-    is repeated at another orientation), unsolved, named ``name`` (default
-    the original's with the angle, or "copy")."""
+    """The project with a copy of piece ``k`` right after it (selected), unsolved,
+    at ``angle_deg`` if given, so a ply is repeated at another orientation: its
+    orientation from its rosette when it has one, else its weft angle. Named
+    ``name`` (default the original's with the angle, or "copy")."""
     i = index_of(project, k)
     pieces = pieces_of(project)
     src = pieces[i]
-    settings = src.settings
+    copy = replace(src, result=None)
     if angle_deg is not None:
         if isinstance(angle_deg, bool) or not isinstance(angle_deg, (int, float)) or not math.isfinite(angle_deg):
             raise SettingsError(f"a piece's orientation must be a finite angle in degrees, got {angle_deg!r:.40}")
-        settings = replace(settings, angle_deg=float(angle_deg))
+        if src.rosette is None:
+            copy = replace(copy, settings=replace(src.settings, angle_deg=float(angle_deg)))
+        else:
+            copy = _oriented(project, replace(copy, orientation=float(angle_deg)))
     if name is None:  # named after the original, its own angle label (if it has one) replaced by the new angle
         base = src.name
-        label = f" {src.settings.angle_deg:+g}"
+        label = f" {src.settings.angle_deg if src.rosette is None else src.orientation:+g}"
         if angle_deg is not None and base.endswith(label) and len(base) > len(label):
             base = base[:-len(label)]
         name = _free_name(pieces, f"{base} {angle_deg:+g}" if angle_deg is not None else f"{base} copy")
-    copy = replace(src, name=name, settings=settings, result=None)
+    copy = replace(copy, name=name)
     return with_pieces(project, pieces[:i + 1] + (copy,) + pieces[i + 1:], i + 1)
 
 
@@ -232,3 +251,70 @@ def set_materials(project, fabrics):
                    if p.settings.material.name in by_name and by_name[p.settings.material.name].material
                    != p.settings.material else p for p in pieces_of(project))
     return with_pieces(replace(project, materials=fabrics), pieces, project.piece_index)
+
+
+# ---------------------------------------------------------------------- rosettes
+def _oriented(project, piece, rosettes=None) -> Piece:
+    """``piece`` with the weft angle its orientation from its rosette gives at its seed
+    (unchanged, the same object, when it has no rosette or the angle is already that)."""
+    if piece.rosette is None:
+        return piece
+    angle = piece_weft(project.surface, project.rosettes if rosettes is None else rosettes, piece)
+    if angle == piece.settings.angle_deg:
+        return piece
+    return replace(piece, settings=replace(piece.settings, angle_deg=angle))
+
+
+def orient(project, k, rosette: str | None, orientation: float | None = None):
+    """The project with piece ``k`` oriented ``orientation`` degrees from the tool rosette
+    named ``rosette`` (its weft angle set to match at its seed). ``orientation`` None: the
+    piece keeps its fibres and the orientation is read from its weft angle. ``rosette``
+    None: the piece no longer follows a rosette (its weft angle stays)."""
+    i = index_of(project, k)
+    piece = pieces_of(project)[i]
+    if rosette is None:
+        return _changed(project, i, lambda p: replace(p, rosette=None, orientation=None))
+    r = rosette_named(project.rosettes, rosette)
+    if orientation is None:
+        orientation = orientation_for(project.surface, piece.settings.seed, r.zero, piece.settings.angle_deg)
+        if orientation is None:
+            raise SettingsError(f"rosette {r.name!r}'s 0-degree direction is along the surface's normal at "
+                                f"{piece.name!r}'s seed: it sets no direction there")
+        orientation = round(orientation, 9)  # a whole angle read back stays whole (45, not 44.99999999999999)
+    return _changed(project, i, lambda p: _oriented(project, replace(p, rosette=r.name, orientation=orientation)))
+
+
+def set_rosettes(project, rosettes):
+    """The project with the rosette table ``rosettes`` (ToolRosettes, distinct names); every
+    piece oriented from one takes the weft angle its orientation gives from the new
+    table's rosette of that name. A rosette a piece is oriented from cannot go (one line)."""
+    rosettes = tuple(rosettes)
+    pieces = pieces_of(project)
+    check_rosettes(rosettes, pieces)
+    pieces = tuple(_oriented(project, p, rosettes) for p in pieces)
+    return with_pieces(replace(project, rosettes=rosettes), pieces, project.piece_index)
+
+
+def follow_rosettes(before, after):
+    """``after`` (an edit of ``before``) with its pieces' orientations and weft angles agreeing.
+
+    The active piece's weft angle set directly (it changed while its rosette and orientation did
+    not) turns its orientation; otherwise a piece oriented from a rosette takes the weft angle its
+    orientation gives at its seed (its seed moved, the surface or a rosette changed, an orientation
+    was set). Only the active piece is looked at unless the surface or the rosette table changed."""
+    if not after.rosettes:
+        return after
+    every = after.surface is not before.surface or after.rosettes != before.rosettes
+    given = pieces_of(after)
+    pieces = list(given)
+    i = after.piece_index
+    p = pieces[i]
+    if p.rosette is not None and before.piece_name == p.name and before.piece_rosette == p.rosette \
+            and before.orientation == p.orientation and before.settings.angle_deg != p.settings.angle_deg \
+            and not every:
+        return orient(after, i, p.rosette, None)
+    for j in (range(len(pieces)) if every else (i,)):
+        pieces[j] = _oriented(after, pieces[j])
+    if all(a is b for a, b in zip(pieces, given)):
+        return after
+    return with_pieces(after, pieces, i)

@@ -35,6 +35,7 @@ import numpy as np
 from flatweave.document.checks import project_checks
 from flatweave.document.project import settings_equal
 from flatweave.errors import SettingsError
+from flatweave.document.rosettes import orientation_text
 from flatweave.export.pdf import MM, draw_scale_bar, draw_sheet, nice_length, paper_size, scale_text
 from flatweave.export.sheet import build_sheet, mm_per_unit
 from flatweave.files import atomic_write_bytes
@@ -61,7 +62,7 @@ THREADS = 14  # weft and warp threads drawn across a piece on the tool, about
 class BookRow:
     """One row of the stacking table: a piece as the shop reads it.
 
-    orientation : its text (the weft angle at its seed, degrees)
+    orientation : its text (:func:`flatweave.document.rosettes.orientation_text`)
     size_mm : (width, height) of its flat sew line(s), mm; None when not drawn
     area_m2 : its flat area (sew lines, darts taken out), m^2; None when not drawn
     status : "not solved", "stale (settings changed)", or the result's status
@@ -78,6 +79,7 @@ class BookRow:
     beyond_lock_pct: float | None
     status: str
     warnings: tuple
+    orientation_short: str = ""  # the table's column: "+45" from a rosette, "w+12.5" a weft angle alone
 
 
 def book_order(project) -> list:
@@ -119,7 +121,8 @@ def _row(piece, sheet) -> BookRow:
         shear = float(r.metrics.get("max_shear_deg", math.nan))
         lock = float(r.metrics.get("area_beyond_lock_pct", math.nan))
     return BookRow(piece.sequence, piece.name, piece.quantity, s.material.name or "custom",
-                   f"{s.angle_deg:+g} deg", size, area, shear, lock, status, warnings)
+                   orientation_text(piece), size, area, shear, lock, status, warnings,
+                   orientation_text(piece, short=True))
 
 
 # ---------------------------------------------------------------------- layout
@@ -285,7 +288,7 @@ def _cells(row: BookRow) -> list[str]:
     size = "-" if row.size_mm is None else f"{row.size_mm[0]:.0f} x {row.size_mm[1]:.0f}"
     status = row.status + (f", {len(row.warnings)} warn." if row.warnings else "")
     return ["-" if row.sequence is None else str(row.sequence), row.name, str(row.quantity), row.material,
-            row.orientation.replace(" deg", ""), size, _fmt(row.area_m2, ".3f"), _fmt(row.max_shear_deg, ".1f"),
+            row.orientation_short, size, _fmt(row.area_m2, ".3f"), _fmt(row.max_shear_deg, ".1f"),
             _fmt(row.beyond_lock_pct, ".1f"), status]
 
 

@@ -30,7 +30,10 @@ The file (``.flatweave``) is JSON::
         "candidates": optional, the regions kept beside the active one (flatweave.document.candidates)},
        ...],
      "current": the index of the active piece in "pieces",
-     "materials": optional, the materials table (flatweave.method.materials.Fabric.to_dict each)}
+     "materials": optional, the materials table (flatweave.method.materials.Fabric.to_dict each),
+     "rosettes": optional, the tool's rosettes [{"name", "origin": [x, y, z], "zero": [dx, dy, dz]}]
+                 (flatweave.document.rosettes); a piece oriented from one has "rosette" (its name) and
+                 "orientation" (degrees) beside its "quantity"}
 
 Versions. Version 2 added the result's ``history`` (the energy trace, so the
 energy plot comes back with the project). Version 3 added the result's
@@ -93,6 +96,7 @@ from flatweave.geometry.meshfit import MeshFit, with_fit
 from flatweave.geometry.region import cover_for
 from flatweave.document.candidates import candidates_from_dict
 from flatweave.document.pieces import MAX_PIECES, Piece, check_piece, check_pieces, pieces_of, with_pieces
+from flatweave.document.rosettes import MAX_ROSETTES, ToolRosette, check_rosettes
 
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
            "DRAPE_KEYS", "settings_from_dict", "settings_equal", "labels_equal",
@@ -153,12 +157,17 @@ class Project:
     piece_index: int = 0
     # the materials table (flatweave.method.materials): () when made, the bundled presets and the pieces' own
     materials: tuple = ()
+    # the tool's rosettes (flatweave.document.rosettes), and the active piece's: the rosette its orientation
+    # is measured from and the orientation (both None: its weft angle alone)
+    rosettes: tuple = ()
+    piece_rosette: str | None = None
+    orientation: float | None = None
 
     def __post_init__(self):
         if not self.piece_name:  # a project made as one piece: the piece is named after it
             object.__setattr__(self, "piece_name", self.name if isinstance(self.name, str) and self.name.strip()
                                else "piece 1")
-        check_piece(self.piece_name, self.quantity, self.sequence)
+        check_piece(self.piece_name, self.quantity, self.sequence, self.piece_rosette, self.orientation)
         if isinstance(self.piece_index, bool) or not isinstance(self.piece_index, int) \
                 or not 0 <= self.piece_index <= len(self.others):
             raise SettingsError(f"the active piece's position {self.piece_index!r:.20} is not among the "
@@ -170,6 +179,8 @@ class Project:
         elif not all(isinstance(f, Fabric) for f in self.materials):
             raise TypeError("a project's materials must be Fabrics")
         check_table(self.materials, "the materials table")
+        object.__setattr__(self, "rosettes", tuple(self.rosettes))
+        check_rosettes(self.rosettes, pieces_of(self))
         if not isinstance(self.surface, NurbsSurface):
             raise TypeError(f"Project.surface must be a NurbsSurface, got {type(self.surface).__name__}")
         if self.units not in UNITS:
@@ -458,6 +469,7 @@ def project_to_dict(project: Project) -> dict:
         "pieces": [_piece_doc(piece, p.source) for piece in p.pieces],
         "current": p.piece_index,
         "materials": [f.to_dict() for f in p.materials],
+        **({"rosettes": [r.to_dict() for r in p.rosettes]} if p.rosettes else {}),
     }
 
 
@@ -467,6 +479,7 @@ def _piece_doc(piece: Piece, source: str | None) -> dict:
         "name": piece.name,
         "quantity": piece.quantity,
         "sequence": piece.sequence,
+        **({"rosette": piece.rosette, "orientation": float(piece.orientation)} if piece.rosette is not None else {}),
         "settings": settings_to_dict(piece.settings, "project"),
         "darts": _darts_to_list(piece.settings.darts),
         "yarns": _yarns_to_list(piece.settings.yarns),
@@ -634,7 +647,12 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
     current = f.integer(d.get("current", 0), "current")
     if not 0 <= current < len(docs):
         raise f.fail(f"current is {current}, but the project has {len(docs)} pieces")
+    rows = d.get("rosettes", [])  # optional: a file without rosettes orients its pieces by weft angle alone
+    if not isinstance(rows, list) or len(rows) > MAX_ROSETTES:
+        raise f.fail(f"rosettes must be a list of at most {MAX_ROSETTES} rosettes")
     try:
+        # the pieces' weft angles are read as saved (as they were solved), not recomputed from the rosettes
+        rosettes = tuple(ToolRosette.from_dict(r, f"rosettes[{k}]") for k, r in enumerate(rows))
         pieces = [_piece_from(f, doc, k, surface, where) for k, doc in enumerate(docs)]
         project = Project(
             surface, pieces[current].settings,
@@ -643,7 +661,7 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
             units=f.string(display.get("units", "m"), "display.units"),
             shear_warning_deg=f.number(display.get("shear_warning_deg", 15.0), "display.shear_warning_deg"),
             shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"),
-            view=tuple(sorted(view.items())), piece_name=pieces[current].name)
+            view=tuple(sorted(view.items())), piece_name=pieces[current].name, rosettes=rosettes)
         project = with_pieces(project, pieces, current)
         rows = d.get("materials")  # optional: a file without a table gets the presets and the pieces' own
         if rows is not None:
@@ -665,8 +683,10 @@ def _piece_from(f: _Fields, doc: Any, k: int, surface: NurbsSurface, where: str)
     settings = settings_from_dict(f.get(doc, "settings", what), doc.get("darts", []), doc.get("yarns", []), here)
     sequence = doc.get("sequence")
     region_name, kept = candidates_from_dict(doc.get("candidates"))
+    rosette = doc.get("rosette")
+    orientation = None if rosette is None else f.number(doc.get("orientation"), f"{what}.orientation")
     piece = Piece(name, settings, None, region_name, kept, doc.get("quantity", 1),
-                  None if sequence is None else sequence)
+                  None if sequence is None else sequence, rosette, orientation)
     if doc.get("result") is not None:
         piece = replace(piece, result=result_from_dict(doc["result"], surface, here))
     return piece

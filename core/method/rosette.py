@@ -12,7 +12,8 @@ import numpy as np
 
 from flatweave.method.fibres import reference_direction
 
-__all__ = ["Rosette", "rosette", "angle_towards", "seed_fraction", "rosette_arrows"]
+__all__ = ["Rosette", "rosette", "angle_towards", "seed_fraction", "rosette_arrows", "zero_angle", "weft_for",
+           "orientation_for"]
 
 
 class Rosette(SimpleNamespace):
@@ -50,6 +51,34 @@ def angle_towards(surface, seed, point) -> float | None:
     if math.hypot(x, y) <= 1e-12 * max(float(np.linalg.norm(d)), 1e-300):
         return None
     return math.degrees(math.atan2(y, x))
+
+
+def zero_angle(surface, seed, zero) -> float | None:
+    """The weft angle (degrees) of a tool rosette's 0-degree direction ``zero`` (3,)
+    projected on the tangent plane at ``seed`` (the projection rosette of composites
+    tools); None when ``zero`` is along the normal there (no direction)."""
+    here = rosette(surface, seed, 0.0).origin
+    return angle_towards(surface, seed, here + np.asarray(zero, dtype=float))
+
+
+def _wrap(angle: float) -> float:
+    """``angle`` in [-180, 180) degrees."""
+    return (float(angle) + 180.0) % 360.0 - 180.0
+
+
+def weft_for(surface, seed, zero, orientation_deg: float) -> float | None:
+    """The weft angle that lays a ply at ``orientation_deg`` from the tool rosette's
+    0-degree direction ``zero``, about the normal at ``seed``, in [-180, 180); None
+    when ``zero`` sets no direction there."""
+    z = zero_angle(surface, seed, zero)
+    return None if z is None else _wrap(z + float(orientation_deg))
+
+
+def orientation_for(surface, seed, zero, angle_deg: float) -> float | None:
+    """The inverse of :func:`weft_for`: the orientation from ``zero`` of weft angle
+    ``angle_deg`` at ``seed``, in [-180, 180); None when ``zero`` sets no direction there."""
+    z = zero_angle(surface, seed, zero)
+    return None if z is None else _wrap(float(angle_deg) - z)
 
 
 def rosette_arrows(r: Rosette, length: float) -> list[np.ndarray]:

@@ -37,17 +37,18 @@ from __future__ import annotations
 
 import math
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from flatweave.document.pieces import Piece, with_pieces
+from flatweave.document.rosettes import ToolRosette, piece_weft
 from flatweave.document.project import Project, UNITS
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.files import read_input
 from flatweave.geometry.region import cover_for, offset_region, region_from_spec
 from flatweave.method.lattice import MATERIALS, Material, parse_material
 from flatweave.method.materials import FABRICS, Fabric
-from flatweave.method.rosette import angle_towards, rosette
 from flatweave.method.settings import FlattenSettings
 
 __all__ = ["load_job", "JOB_SUFFIX"]
@@ -159,8 +160,9 @@ def load_job(path, open_path) -> Project:
         try:
             if not isinstance(r, dict):
                 raise SettingsError("a rosette is a table with origin and zero")
-            named[str(r.get("name", f"rosette {k + 1}"))] = (_vector(r.get("origin"), "the rosette's origin"),
-                                                             _vector(r.get("zero"), "the rosette's zero", nonzero=True))
+            name = r.get("name", f"rosette {k + 1}")
+            named[name] = ToolRosette(name, _vector(r.get("origin"), "the rosette's origin"),
+                                      _vector(r.get("zero"), "the rosette's zero", nonzero=True))
         except SettingsError as exc:
             raise lines.fail("rosette", k, str(exc)) from None
     if not named:
@@ -187,7 +189,7 @@ def load_job(path, open_path) -> Project:
     name = data.get("name", path.stem)
     try:
         project = Project(surface, pieces[0].settings, name=str(name), source=str(path), units=units,
-                          piece_name=pieces[0].name, materials=materials)
+                          piece_name=pieces[0].name, materials=materials, rosettes=tuple(named.values()))
         return with_pieces(project, pieces, 0)
     except SettingsError as exc:
         raise top(str(exc)) from None
@@ -211,22 +213,15 @@ def _ply(ply: Any, surface, base_region, table: dict, rosettes: dict, default_sp
     orientation = _number(ply.get("orientation", 0.0), "its orientation (degrees)")
     ros_name = ply.get("rosette", next(iter(rosettes)))
     if ros_name not in rosettes:
-        raise SettingsError(f"unknown rosette {ros_name!r} (the job's: {', '.join(rosettes)})")
+        raise SettingsError(f"unknown rosette {ros_name!r:.40} (the job's: {', '.join(rosettes)})")
     region = base_region
     if "boundary" in ply:
         region = region_from_spec(surface, ply["boundary"])
     if "offset" in ply:
         region = offset_region(surface, region, _number(ply["offset"], "its offset"))
     cover = cover_for(surface, region)
-    seed = cover.default_seed
-    _, zero = rosettes[ros_name]
-    here = rosette(surface, seed, 0.0).origin
-    towards = angle_towards(surface, seed, [here[i] + zero[i] for i in range(3)])
-    if towards is None:
-        raise SettingsError(f"rosette {ros_name!r}'s zero direction is along the surface's normal at the ply's "
-                            f"seed: it sets no direction there")
-    angle = (towards + orientation + 180.0) % 360.0 - 180.0
-    settings = FlattenSettings(spacing=spacing, material=table[material_name].material, seed=seed,
-                               angle_deg=angle, region=region)
-    sequence = ply.get("sequence")
-    return Piece(name, settings, quantity=ply.get("quantity", 1), sequence=sequence)
+    settings = FlattenSettings(spacing=spacing, material=table[material_name].material,
+                               seed=cover.default_seed, angle_deg=0.0, region=region)
+    piece = Piece(name, settings, quantity=ply.get("quantity", 1), sequence=ply.get("sequence"),
+                  rosette=ros_name, orientation=orientation)
+    return replace(piece, settings=replace(settings, angle_deg=piece_weft(surface, rosettes.values(), piece)))
