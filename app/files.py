@@ -93,33 +93,51 @@ class Files(QObject):
         self.window.statusBar().showMessage(text, ms)
 
     # ------------------------------------------------------------------ open
-    def open_file(self, path: str | Path) -> bool:
+    def open_file(self, path: str | Path, add: bool = False) -> bool:
         """Open a project (.flatweave) or a surface file; on failure show the error, keep the document.
-        Unsaved work is asked about first (:meth:`may_replace`); False if the user keeps it."""
+        Unsaved work is asked about first (:meth:`may_replace`); False if the user keeps it.
+        ``add``: the file's pieces join the document instead (Pieces > Add from a file: a face of
+        the part, another file), on their own surface, as one undoable edit; nothing is replaced."""
         path = Path(path)
-        if not self.may_replace(f"opening {path.name}"):
+        if not add and not self.may_replace(f"opening {path.name}"):
             return False
         try:
             opened = open_path(path)
             if opened.project is not None:
-                self.window.set_project(opened.project, path)
+                if not self._deliver(opened.project, add, path):
+                    return False
             elif opened.cad is not None and opened.face is None:
-                self.pick_face(opened)
+                self.pick_face(opened, add)
                 return True
             elif opened.mesh is not None and (opened.surface is None or opened.mesh.advice):
-                self.pick_mesh_region(opened)
+                self.pick_mesh_region(opened, add)
                 return True
             else:  # a surface, or a CAD file's only face (its region and units with it)
-                self.window.set_project(opened.as_project())
+                if not self._deliver(opened.as_project(), add):
+                    return False
                 self.ask_mesh(opened)
         except (FlatweaveError, OSError) as exc:
             reader = reader_for(path)
             self.window.show_error(f"Cannot open {'project' if reader and reader.project else 'surface'}: {exc}")
             return False
-        self._status(f"Opened {path}", 5000)
+        self._status(f"{'Added the pieces of' if add else 'Opened'} {path}", 5000)
         return True
 
-    def pick_face(self, opened) -> FacePicker:
+    def _deliver(self, project: Project, add: bool, path: str | Path | None = None) -> bool:
+        """``project`` (opened from ``path``) made the document, or with ``add`` its pieces added to
+        the document's (a new document when there is none); False when that was refused (said)."""
+        if add and self.window.document is not None:
+            return self.window.add_pieces_from(project)
+        self.window.set_project(project, path)
+        return True
+
+    def _may_open(self, opened, asked_at: int | None, add: bool) -> bool:
+        """Whether a file picked from may be opened now: adding replaces nothing; otherwise unsaved
+        work is asked about unless it was when the file was opened (at revision ``asked_at``)."""
+        doc = self.window.document
+        return add or (doc is not None and doc.revision == asked_at) or self.may_replace(f"opening {opened.path.name}")
+
+    def pick_face(self, opened, add: bool = False) -> FacePicker:
         """Show the face picker (non-modal) for a STEP or IGES file with several
         faces; its OK opens the chosen face (:meth:`open_face`)."""
         if self.face_picker is not None:
@@ -127,8 +145,8 @@ class Files(QObject):
         doc = self.window.document
         asked_at = None if doc is None else doc.revision  # unsaved work was asked about at this revision
         picker = FacePicker(opened, self.window)
-        picker.chosen.connect(lambda index: self.open_face(opened, index, asked_at))
-        picker.joined.connect(lambda faces: self.open_faces(opened, faces, asked_at))
+        picker.chosen.connect(lambda index: self.open_face(opened, index, asked_at, add))
+        picker.joined.connect(lambda faces: self.open_faces(opened, faces, asked_at, add))
         picker.finished.connect(lambda _result: self._picker_closed(picker))
         self.face_picker = picker
         picker.show()
@@ -139,7 +157,7 @@ class Files(QObject):
         if self.face_picker is picker:
             self.face_picker = None
 
-    def pick_mesh_region(self, opened) -> MeshLoopPicker:
+    def pick_mesh_region(self, opened, add: bool = False) -> MeshLoopPicker:
         """Show the region picker (non-modal) for a closed mesh (or one with
         handles, or far from developable): the piece's outline is drawn on it,
         and its OK cuts the piece out and opens it (:meth:`open_mesh_region`);
@@ -149,9 +167,9 @@ class Files(QObject):
         doc = self.window.document
         asked_at = None if doc is None else doc.revision
         picker = MeshLoopPicker(opened, self.window)
-        picker.chosen.connect(lambda loop: self.open_mesh_region(opened, loop, asked_at))
-        picker.seamed.connect(lambda seam: self.open_mesh_seam(opened, seam, asked_at))
-        picker.whole.connect(lambda: self.open_mesh_whole(opened, asked_at))
+        picker.chosen.connect(lambda loop: self.open_mesh_region(opened, loop, asked_at, add))
+        picker.seamed.connect(lambda seam: self.open_mesh_seam(opened, seam, asked_at, add))
+        picker.whole.connect(lambda: self.open_mesh_whole(opened, asked_at, add))
         picker.finished.connect(lambda _result: self._picker_closed(picker))
         self.face_picker = picker
         picker.show()
@@ -161,35 +179,32 @@ class Files(QObject):
         self._status(f"{reason}: {how}", 15000)
         return picker
 
-    def open_mesh_whole(self, opened, asked_at: int | None = None) -> bool:
+    def open_mesh_whole(self, opened, asked_at: int | None = None, add: bool = False) -> bool:
         """Open an open mesh as one piece (its picker's "Open it whole")."""
-        doc = self.window.document
-        if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
+        if not self._may_open(opened, asked_at, add) or not self._deliver(opened.as_project(), add):
             return False
-        self.window.set_project(opened.as_project())
         self._status(f"Opened {opened.path} whole", 5000)
         self.ask_mesh(opened)
         return True
 
-    def open_mesh_region(self, opened, loop3d, asked_at: int | None = None) -> bool:
+    def open_mesh_region(self, opened, loop3d, asked_at: int | None = None, add: bool = False) -> bool:
         """Open the piece of a mesh inside ``loop3d`` ((k, 3) points drawn on it) as a
         new document (:meth:`flatweave.reading.meshes.MeshFile.cut`: the inside of the loop)."""
-        return self._open_mesh_piece(opened, lambda: opened.mesh.cut(loop3d), asked_at,
+        return self._open_mesh_piece(opened, lambda: opened.mesh.cut(loop3d), asked_at, add,
                                      f"Cannot cut the piece out of {opened.path.name}",
                                      f"Opened the piece drawn on {opened.path}")
 
-    def open_mesh_seam(self, opened, seam3d, asked_at: int | None = None) -> bool:
+    def open_mesh_seam(self, opened, seam3d, asked_at: int | None = None, add: bool = False) -> bool:
         """Open a tube-shaped mesh along ``seam3d`` ((k, 3) points drawn on it from one
         open end to another) as a new document (:meth:`flatweave.reading.meshes.MeshFile.cut_along`)."""
-        return self._open_mesh_piece(opened, lambda: opened.mesh.cut_along(seam3d), asked_at,
+        return self._open_mesh_piece(opened, lambda: opened.mesh.cut_along(seam3d), asked_at, add,
                                      f"Cannot open {opened.path.name} along the seam",
                                      f"Opened {opened.path} along the seam drawn on it")
 
-    def _open_mesh_piece(self, opened, cut, asked_at: int | None, failed: str, done: str) -> bool:
-        """The piece ``cut()`` makes of a mesh as a new document (unsaved work asked about
-        first, unless at revision ``asked_at``); its error shown after ``failed``."""
-        doc = self.window.document
-        if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
+    def _open_mesh_piece(self, opened, cut, asked_at: int | None, add: bool, failed: str, done: str) -> bool:
+        """The piece ``cut()`` makes of a mesh as a new document, or added to it (``add``; unsaved
+        work asked about first, unless at revision ``asked_at``); its error shown after ``failed``."""
+        if not self._may_open(opened, asked_at, add):
             return False
         try:
             piece = cut()
@@ -197,7 +212,8 @@ class Files(QObject):
         except (FlatweaveError, OSError) as exc:
             self.window.show_error(f"{failed}: {exc}")
             return False
-        self.window.set_project(project)
+        if not self._deliver(project, add):
+            return False
         self._status(f"{done}: {piece.fit.describe()}", 10000)
         self.ask_mesh(opened)
         return True
@@ -245,14 +261,13 @@ class Files(QObject):
         self._status(f"Refitted: {piece.fit.describe()}", 10000)
         return True
 
-    def open_face(self, opened, index: int, asked_at: int | None = None) -> bool:
+    def open_face(self, opened, index: int, asked_at: int | None = None, add: bool = False) -> bool:
         """Open face ``index`` of a CAD file (``opened``, :func:`flatweave.reading.registry.open_path`'s)
         as a new document: its surface and trimmed region; the project's name and
         source say which face of which file (``source`` is ``"path#face=N"``).
         Unsaved work is asked about unless it was when the file was opened
-        (``asked_at``, the document's revision then)."""
-        doc = self.window.document
-        if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
+        (``asked_at``, the document's revision then). ``add``: its piece joins the document's."""
+        if not self._may_open(opened, asked_at, add):
             return False
         try:
             face = opened.with_face(index)
@@ -261,19 +276,19 @@ class Files(QObject):
             self.window.show_error(f"Cannot open face {index} of {opened.path.name}: {exc}")
             return False
         project = replace(project, name=f"{project.name} face {face.face}", source=f"{opened.source}#face={face.face}")
-        self.window.set_project(project)
+        if not self._deliver(project, add):
+            return False
         self._status(f"Opened face {face.face} of {opened.path}", 5000)
         return True
 
-    def open_faces(self, opened, faces, asked_at: int | None = None) -> bool:
+    def open_faces(self, opened, faces, asked_at: int | None = None, add: bool = False) -> bool:
         """Open faces ``faces`` of a CAD file joined into one surface
         (:func:`flatweave.reading.cadjoin.join_faces`: tessellated, welded, fitted as a mesh) as a
         new document; ``source`` is ``"path#faces=2,5,7"``, and the project keeps
         the fitted surface, so it reopens without the CAD file."""
         from PySide6.QtWidgets import QApplication
 
-        doc = self.window.document
-        if (doc is None or doc.revision != asked_at) and not self.may_replace(f"opening {opened.path.name}"):
+        if not self._may_open(opened, asked_at, add):
             return False
         listed = ",".join(str(int(i)) for i in faces)
         self._status(f"Joining faces {listed} of {opened.path.name}...", 0)
@@ -288,7 +303,8 @@ class Files(QObject):
         finally:
             QApplication.restoreOverrideCursor()
         project = replace(project, name=f"{project.name} faces {listed}", source=f"{opened.source}#faces={listed}")
-        self.window.set_project(project)
+        if not self._deliver(project, add):
+            return False
         self._status(f"Opened faces {listed} of {opened.path} joined: {piece.fit.describe()}", 10000)
         return True
 
@@ -328,12 +344,14 @@ class Files(QObject):
         if not examples:
             menu.addAction("(no examples found)").setEnabled(False)
 
-    def open_dialog(self) -> None:
+    def open_dialog(self, add: bool = False) -> None:
+        """Ask for a file and open it (``add``: add its pieces to the document's)."""
         doc = self.window.document
         start = str(doc.path.parent) if doc and doc.path else ""
-        path, _ = QFileDialog.getOpenFileName(self.window, "Open project or surface", start, open_filter())
+        title = "Add the pieces of a surface, part or project" if add else "Open project or surface"
+        path, _ = QFileDialog.getOpenFileName(self.window, title, start, open_filter())
         if path:
-            self.open_file(path)
+            self.open_file(path, add)
 
     # ------------------------------------------------------------------ save
     def save(self) -> bool:

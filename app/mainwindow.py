@@ -31,6 +31,7 @@ from flatweave.document.history import Change, Document
 from flatweave.errors import FlatweaveError
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.document.project import Project, new_project
+from flatweave.document.pieces import add_from
 
 from flatweave.app.actions import (UiState, action_specs, build_actions, build_menus, build_toolbar,
                                    show_view_choices, update_actions)
@@ -210,6 +211,7 @@ class MainWindow(QMainWindow):
         self.pieces_panel.piece_selected.connect(self.select_piece)
         self.pieces_panel.piece_edit.connect(self.piece_edit)
         self.pieces_panel.solve_all.connect(self.solve_all.start)
+        self.pieces_panel.add_from_file.connect(lambda: self.files.open_dialog(add=True))
         self.solve_all.piece_done.connect(lambda name, text: self.statusBar().showMessage(
             f"Solve all: {name}: {text}", 10000))
         self.solve_all.finished.connect(self._solve_all_finished)
@@ -330,6 +332,16 @@ class MainWindow(QMainWindow):
             self.pieces_panel.set_project(self.document.project)
             return False
         return True
+
+    def add_pieces_from(self, project: Project) -> bool:
+        """``project``'s pieces (a surface, a CAD face, a mesh's piece or a project opened to be
+        added) added to the document's on their own surface, the first of them selected, as one
+        undoable edit; refused (False) with its reason shown."""
+        if self.document is None:
+            self.set_project(project)
+            return True
+        names = ", ".join(p.name for p in project.pieces)
+        return self.piece_edit(f"Add {names[:60]}", lambda current: add_from(current, project), False)
 
     def _solve_all_finished(self, summary: str) -> None:
         self.last_solve_all = summary

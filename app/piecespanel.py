@@ -1,10 +1,11 @@
 """The Pieces tab (issue 41): the project's pieces (:mod:`flatweave.document.pieces`),
-the plies of a laminate or the panels of a product on its surface. Each row
+the plies of a laminate or the panels of a product, each on its surface. Each row
 names a piece with its orientation (or weft angle) and its boundary and area errors (coloured
 green when usable, orange with warnings, red when not usable), or says it is
 not solved, or stale (its settings changed since); its tip says more.
 Selecting a row makes that piece the active one (the views, the settings and
-the tools then show and edit it); Add, Duplicate at
+the tools then show and edit it, on its own surface); Add (on the selected piece's
+surface, or from a file: the pieces of another face, surface or project), Duplicate at
 +45, -45 or 90 degrees or at another angle, Delete, Up and Down edit the list,
 a double-click renames. Under the list, the active piece's material, chosen
 from the project's materials table, and Materials... to edit that table
@@ -84,13 +85,14 @@ class PiecesPanel(QWidget):
     piece_selected = Signal(int)
     piece_edit = Signal(str, object, bool)  # label, change (project -> project), whether a solve answers it
     solve_all = Signal()  # Solve all pressed
+    add_from_file = Signal()  # Add > from a file: the window asks for one and adds its pieces
 
     def __init__(self, parent=None):
         super().__init__(parent)
         self._loading = False
         self._project: Project | None = None
         col = QVBoxLayout(self)
-        self.label = QLabel("The pieces on this surface: the plies of a laminate, the panels of a product. "
+        self.label = QLabel("The pieces of this project: the plies of a laminate, the panels of a product. "
                             "The selected one is shown and edited.")
         self.label.setWordWrap(True)
         col.addWidget(self.label)
@@ -142,7 +144,13 @@ class PiecesPanel(QWidget):
         self.rosettes_dialog: RosettesDialog | None = None
         row = QHBoxLayout()
         self.add = QToolButton(text="Add")
-        self.add.setToolTip("A new piece on the surface, with the selected one's material and spacing")
+        self.add.setToolTip("A new piece on the surface, with the selected one's material and spacing; the "
+                            "arrow adds the pieces of another face, file or project, each on its own surface")
+        self.add.setPopupMode(QToolButton.ToolButtonPopupMode.MenuButtonPopup)
+        add_menu = QMenu(self.add)
+        add_menu.addAction("on this surface", lambda: self.piece_edit.emit("Add piece", P.add, True))
+        add_menu.addAction("from a file (a face, a surface, a project)...", self.add_from_file.emit)
+        self.add.setMenu(add_menu)
         self.duplicate = QToolButton(text="Duplicate")
         self.duplicate.setToolTip("A copy of the selected piece at another orientation (its weft angle turned)")
         self.duplicate.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)

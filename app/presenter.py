@@ -347,7 +347,7 @@ class Presenter:
         loops = []
         for k, piece in enumerate(project.pieces):
             region = piece.settings.region
-            if k != project.piece_index and region is not None:
+            if k != project.piece_index and region is not None and piece.surface is s:  # on this surface
                 loops.extend(self._outline(s, region))
         self.view.draw("other pieces", OTHER_PIECES, loops, render=False)
         length = AXES_FRACTION * float(np.linalg.norm(np.ptp(s.ctrlpts.reshape(-1, 3), axis=0)))

@@ -401,7 +401,8 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--piece", action="append", default=[], metavar="NAME",
                    help="solve this piece (repeatable; default every piece)")
     v.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="worker processes (default one per core, at most 4; 1: one piece after another here)")
+                   help="worker processes (default one per core, at most 4; never more than the available memory "
+                        "holds; 1: one piece after another here)")
     v.add_argument("--dask", default=None, metavar="ADDRESS",
                    help="the scheduler's address of an existing Dask cluster, e.g. tcp://host:8786: the pieces are "
                         "solved on its workers instead of local processes (needs flatweave[cluster])")

@@ -205,3 +205,48 @@ def test_a_ply_is_shown_with_its_rosette_among_the_others_and_oriented_in_the_pa
     assert [p.orientation for p in win.project.pieces][:3] == [0.0, 45.0, -45.0]  # orientations are the datum
     win.undo()
     assert [p.settings.angle_deg for p in win.project.pieces] == angles
+
+
+def test_pieces_of_another_file_join_the_project_on_their_own_surface(make_window, qtbot, tmp_path):
+    """Pieces > Add > from a file: the half cylinder's piece joins the octant's on its own surface (one
+    undoable edit, nothing asked: nothing is replaced); selecting a piece shows its surface; Solve all
+    solves each on its own; saved and reopened, the project holds two sources."""
+    from flatweave import flatten
+    from flatweave.document.pieces import sources_of
+    from flatweave.reading.examples import example_path
+
+    win = make_window(example="octant")
+    shown = []
+    win.show_error = shown.append
+    octant = win.project.surface
+    octant_view = win.view.surface_points.copy()
+    win.files.may_replace = lambda doing: pytest.fail(f"asked about unsaved work while {doing}")
+    assert win.files.open_file(example_path("half_cylinder"), add=True) and not shown
+    p = win.project
+    assert [x.name for x in p.pieces] == ["octant", "half_cylinder"] and p.piece_name == "half_cylinder"
+    assert p.surface is not octant and p.pieces[0].surface is octant and len(sources_of(p)) == 2
+    assert win.pieces_panel.rows()[1].startswith("half_cylinder   weft +0 deg")
+    cyl_view = win.view.surface_points
+    assert cyl_view is not None and (cyl_view.shape != octant_view.shape or not np.allclose(cyl_view, octant_view))
+    assert len(win.view.layer_lines("other pieces")) == 0  # the octant's piece is not on this surface
+    win.undo()  # the addition is one step
+    assert len(win.project.pieces) == 1 and win.project.surface is octant
+    win.redo()
+    assert [x.name for x in win.project.pieces] == ["octant", "half_cylinder"]
+
+    with qtbot.waitSignal(win.solve_all.finished, timeout=120000):
+        win.pieces_panel.solve_button.click()
+    for piece in win.project.pieces:
+        alone = flatten(piece.surface, piece.settings)
+        assert piece.result is not None and (piece.result.pattern.xy == alone.pattern.xy).all()
+    win.pieces_panel.list.setCurrentRow(0)
+    assert win.project.surface is octant and win.project.result_is_current
+    assert np.allclose(win.view.surface_points, octant_view)
+
+    path = tmp_path / "two.flatweave"
+    assert win.files.save_to(path) and not shown
+    del win.files.may_replace
+    assert win.open_file(path) and not shown
+    back = win.project
+    assert len(sources_of(back)) == 2 and back.pieces[1].surface is not back.pieces[0].surface
+    assert all(x.result is not None and x.result.surface is x.surface for x in back.pieces)

@@ -48,7 +48,7 @@ def test_each_inconsistency_is_one_line_naming_its_pieces():
         f"piece 'tool': its fibres turn up to {worst:.1f} deg from its orientation on the tool (tolerance 5 deg)",
         "piece 'twin' is cut from 'woven', which the materials table lacks",
         "piece 'off the tool' is cut from 'woven', which the materials table lacks",
-        "piece 'off the tool' reaches beyond the tool's surface: its region leaves the surface's domain",
+        "piece 'off the tool' reaches beyond its surface: its region leaves the surface's domain",
     ]
     assert all("\n" not in w for w in warnings)
     assert project_checks(p, fibre_tol_deg=30.0) == warnings[:2] + warnings[3:]

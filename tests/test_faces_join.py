@@ -308,7 +308,7 @@ def test_project_of_joined_faces_reopens_without_the_file(fillet_piece, tmp_path
     assert again.surface.fit == piece.fit and again.surface.fit.faces == (0, 1, 2)
     assert np.array_equal(again.surface.ctrlpts, piece.surface.ctrlpts)
     assert again.settings.region == piece.region and again.source == project.source
-    assert project_to_dict(again)["surface_fit"]["faces"] == [0, 1, 2]
+    assert project_to_dict(again)["sources"][0]["surface_fit"]["faces"] == [0, 1, 2]
 
 
 def test_densify_keeps_the_shape_and_bounds_the_edges():

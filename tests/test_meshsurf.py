@@ -388,7 +388,7 @@ def test_project_from_a_mesh_reopens_without_the_mesh(tmp_path):
     assert again.surface.fit == opened.surface.fit and again.source == str(path)
     assert np.array_equal(again.surface.ctrlpts, opened.surface.ctrlpts)
     assert again.settings.region == opened.region and again.settings.region.n_holes == 1
-    assert project_to_dict(again)["surface_fit"]["max_deviation"] == opened.surface.fit.max_deviation
+    assert project_to_dict(again)["sources"][0]["surface_fit"]["max_deviation"] == opened.surface.fit.max_deviation
 
 
 def test_closed_mesh_refused_without_region():

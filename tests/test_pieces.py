@@ -57,13 +57,14 @@ def test_a_version_4_project_opens_as_one_piece_unchanged():
     np.testing.assert_allclose(p.result.pattern.xy, raw["result"]["nodes"]["xy"], atol=1e-9)
     assert p.region_name == "region" and [c.name for c in p.candidates] == ["circle"]
     assert [d.name for d in p.settings.darts] == ["side"] and p.units == "cm"
-    # saved again: version 5, the one piece holding what the old file held at its top
+    # saved again: version 6, the one piece holding what the old file held at its top, on the one source
     doc = project_to_dict(p)
-    assert doc["version"] == PROJECT_VERSION == 5 and doc["current"] == 0 and len(doc["pieces"]) == 1
+    assert doc["version"] == PROJECT_VERSION == 6 and doc["current"] == 0 and len(doc["pieces"]) == 1
     piece = doc["pieces"][0]
     assert piece["settings"] == raw["settings"] and piece["darts"] == raw["darts"]
     assert piece["candidates"] == raw["candidates"] and piece["result"]["nodes"] == raw["result"]["nodes"]
-    assert "settings" not in doc and "result" not in doc
+    assert "settings" not in doc and "result" not in doc and "surface" not in doc
+    assert doc["sources"] == [{"source": raw["source"], "surface": raw["surface"]}] and piece["source"] == 0
 
 
 @pytest.mark.parametrize("name", ["v1-octant-solved", "v2-octant-yarn-solved", "v3-octant-dart-solved"])

@@ -114,7 +114,7 @@ def test_save_then_load_restores_the_same_project(solved, tmp_path):
     path = save_project(solved, tmp_path / "job.flatweave")
     doc = json.loads(path.read_text())
     assert doc["format"] == "flatweave-project" and doc["version"] == PROJECT_VERSION
-    assert doc["surface"]["shape"]["type"] == "surface"
+    assert doc["sources"][0]["surface"]["shape"]["type"] == "surface"
     [piece] = doc["pieces"]  # one piece: the project's own
     assert [d["kind"] for d in piece["darts"]] == ["plane", "curve"] and len(piece["yarns"]) == 1
 
@@ -222,8 +222,13 @@ def _corruptions(octant, solved):
         "result_file": json.dumps({"format": "flatweave-result", "version": 1}),
         "version_string": edit(lambda d: d.update(version="1")),
         "version_zero": edit(lambda d: d.update(version=0)),
-        "no_surface": edit(lambda d: d.pop("surface")),
-        "bad_surface": edit(lambda d: d["surface"]["shape"]["data"][0].update(degree_u=-1)),
+        "no_surface": edit(lambda d: d["sources"][0].pop("surface")),
+        "bad_surface": edit(lambda d: d["sources"][0]["surface"]["shape"]["data"][0].update(degree_u=-1)),
+        "no_sources": edit(lambda d: d.pop("sources")),
+        "sources_empty": edit(lambda d: d.update(sources=[])),
+        "source_not_text": edit(lambda d: d["sources"][0].update(source=7)),
+        "piece_source_missing": edit(lambda d: d["pieces"][0].update(source=1)),
+        "piece_source_string": edit(lambda d: d["pieces"][0].update(source="0")),
         "negative_spacing": edit(lambda d: d["pieces"][0]["settings"].update(spacing=-0.1)),
         "spacing_string": edit(lambda d: d["pieces"][0]["settings"].update(spacing="0.1")),
         "missing_solver": edit(lambda d: d["pieces"][0]["settings"].pop("solver")),
@@ -242,7 +247,8 @@ def _corruptions(octant, solved):
 
 
 CORRUPTIONS = ["empty", "not_json", "truncated", "binary", "a_list", "no_format", "other_format",
-               "result_file", "version_string", "version_zero", "no_surface", "bad_surface", "negative_spacing",
+               "result_file", "version_string", "version_zero", "no_surface", "bad_surface", "no_sources",
+               "sources_empty", "source_not_text", "piece_source_missing", "piece_source_string", "negative_spacing",
                "spacing_string", "missing_solver", "unknown_solver", "bad_material", "bad_dart",
                "dart_plane_zero", "curve_dart_one_point", "bad_yarn", "bad_units", "warning_above_limit",
                "result_nodes_outside", "result_not_object"]

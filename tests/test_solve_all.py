@@ -15,7 +15,9 @@ import pytest
 from flatweave import flatten
 from flatweave.document import pieces as P
 from flatweave.document.project import load_project, new_project, project_to_dict, save_project
-from flatweave.document.solving import WORKER_DIED, solve_piece, solve_pieces
+from flatweave.document import solving
+from flatweave.document.solving import WORKER_DIED, WORKER_BYTES, memory_workers, piece_nodes, solve_piece, solve_pieces
+from flatweave.method.drape import BYTES_PER_NODE
 from flatweave.errors import SettingsError
 from flatweave.reading.examples import load_example
 
@@ -73,6 +75,30 @@ def test_named_pieces_only_and_here_with_one_worker(laminate):
     assert [p.result is not None for p in solved.pieces] == [True, False, True]
     with pytest.raises(SettingsError, match="no piece is named 'ply 9'"):
         solve_pieces(laminate, ["ply 9"])
+
+
+def _where(job):
+    """A worker's function that says which process solved the piece."""
+    name, result, error, seconds = solve_piece(job)
+    return name, result, f"pid {os.getpid()}", seconds
+
+
+def test_the_pool_is_as_large_as_the_memory_holds_with_the_largest_pieces_at_once(laminate, monkeypatch):
+    nodes = [piece_nodes(p.surface, p.settings) for p in laminate.pieces]
+    solved, _ = solve_pieces(laminate, workers=1)
+    made = [p.result.mesh.n_nodes for p in solved.pieces]
+    assert all(0.7 * m <= n <= 1.5 * m for n, m in zip(nodes, made)), (nodes, made)  # the estimate is close
+    one = WORKER_BYTES + BYTES_PER_NODE * max(nodes)
+    monkeypatch.setattr(solving.drape, "available_memory", lambda: int(2.5 * one))
+    assert memory_workers(4, nodes) == 2 and memory_workers(1, nodes) == 1
+    monkeypatch.setattr(solving.drape, "available_memory", lambda: int(0.5 * one))
+    assert memory_workers(4, nodes) == 1  # even one that does not fit runs: the drape refuses it in one line
+    monkeypatch.setattr(solving.drape, "available_memory", lambda: None)
+    assert memory_workers(3, nodes) == 3
+    # memory for one at a time: asked for two workers, the pieces are solved one after another, here
+    monkeypatch.setattr(solving.drape, "available_memory", lambda: int(1.5 * one))
+    _, outcomes = solve_pieces(laminate, workers=2, fn=_where)
+    assert {o.error for o in outcomes} == {f"pid {os.getpid()}"}
 
 
 def test_a_piece_that_fails_fails_alone(laminate):

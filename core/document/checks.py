@@ -56,9 +56,9 @@ def project_checks(project, fibre_tol_deg: float = FIBRE_TOL_DEG) -> list[str]:
             out.append(f"pieces {', '.join(repr(n) for n in names)} share sequence {seq}: a laminate lays one "
                        f"ply at each place in its stack")
     table = {f.name for f in project.materials}
-    dom = np.asarray(project.surface.domain, dtype=float)
-    slack = DOMAIN_SLACK * (dom[:, 1] - dom[:, 0])
     for p in pieces:
+        dom = np.asarray(p.surface.domain, dtype=float)
+        slack = DOMAIN_SLACK * (dom[:, 1] - dom[:, 0])
         material = p.settings.material.name
         if material not in table:
             out.append(f"piece {p.name!r} is cut from {material!r}, which the materials table lacks")
@@ -66,7 +66,7 @@ def project_checks(project, fibre_tol_deg: float = FIBRE_TOL_DEG) -> list[str]:
         if region is not None:
             uv = np.concatenate([np.asarray(loop, dtype=float) for loop in region.loops])
             if ((uv < dom[:, 0] - slack) | (uv > dom[:, 1] + slack)).any():
-                out.append(f"piece {p.name!r} reaches beyond the tool's surface: its region leaves the surface's "
+                out.append(f"piece {p.name!r} reaches beyond its surface: its region leaves the surface's "
                            f"domain")
         r = p.result
         if r is not None and settings_equal(r.settings, p.settings) and fibre_turn(r) > fibre_tol_deg:

@@ -225,7 +225,9 @@ class Document:
     def refit_surface(self, label: str, surface) -> Edit | None:
         """The surface refitted (a mesh's, to another tolerance: the same (u, v) map, so the
         settings, region and drawings stay) as one undoable edit; the result it had is dropped."""
-        return self.apply(label, replace(self._project, surface=surface, result=None), answers_solve=False)
+        cur = self._project
+        # every piece on the refitted surface moves with the active one: they share the source
+        return self.apply(label, pieces.resurface(cur, cur.surface, surface).with_result(None), answers_solve=False)
 
     # ------------------------------------------------------------------ pieces
     def select_piece(self, k) -> Change | None:
@@ -387,17 +389,16 @@ class Document:
         FlattenResult) started from project ``source``, as one undoable edit.
         A piece gets the result made from its settings as they are now (its
         own, or, renamed meanwhile, the one its settings were solved under; a
-        piece whose settings changed since keeps its state); returns the names
-        of the pieces that got one."""
+        piece whose settings changed since keeps its state); a result fits a
+        piece only on the surface it was made on (its source refitted or
+        replaced since: not taken). Returns the names of the pieces that got one."""
         cur = self._project
-        if cur.surface is not source.surface:
-            return []
         pieces_now = list(cur.pieces)
         taken = []
         for k, piece in enumerate(pieces_now):
             mine = results.get(piece.name)
             fits = [r for r in ([mine] if mine is not None else []) + list(results.values())
-                    if r.surface is cur.surface and settings_equal(r.settings, piece.settings)]
+                    if r.surface is piece.surface and settings_equal(r.settings, piece.settings)]
             if fits:
                 pieces_now[k] = replace(piece, result=fits[0])
                 taken.append(piece.name)

@@ -20,13 +20,15 @@ from typing import Any
 
 from flatweave.document.rosettes import check_rosettes, piece_weft, rosette_named
 from flatweave.errors import SettingsError
+from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.method.rosette import orientation_for
 from flatweave.method.result import FlattenResult
 from flatweave.method.settings import FlattenSettings
 
 __all__ = ["Piece", "MAX_PIECES", "MAX_QUANTITY", "check_piece", "pieces_of", "with_pieces", "select", "add",
            "duplicate", "remove", "rename", "move", "set_quantity", "set_sequence", "index_of", "use_material",
-           "set_materials", "orient", "set_rosettes", "follow_rosettes"]
+           "set_materials", "orient", "set_rosettes", "follow_rosettes", "placed", "sources_of", "add_from",
+           "resurface"]
 
 MAX_PIECES = 1000  # a laminate has 10 to 200 plies, a product 5 to 30 panels
 MAX_QUANTITY = 100_000  # copies of one piece cut for a job
@@ -52,9 +54,16 @@ class Piece:
     # orientation in degrees (flatweave.document.rosettes); both None: the weft angle alone
     rosette: str | None = None
     orientation: float | None = None
+    # the surface it lies on and where that came from (a file, a face of one, an example): one of the
+    # project's sources, shared by identity with the other pieces on it (None only until the piece is
+    # placed in a project, which puts it on the active piece's surface)
+    surface: NurbsSurface | None = None
+    source: str | None = None
 
     def __post_init__(self):
         check_piece(self.name, self.quantity, self.sequence, self.rosette, self.orientation)
+        if self.surface is not None and not isinstance(self.surface, NurbsSurface):
+            raise TypeError(f"a piece's surface must be a NurbsSurface, got {type(self.surface).__name__}")
 
 
 def check_piece(name: Any, quantity: Any, sequence: Any, rosette: Any = None, orientation: Any = None) -> None:
@@ -98,7 +107,26 @@ def check_pieces(pieces) -> None:
 def active_piece(project) -> Piece:
     """The project's active piece, from its own fields."""
     return Piece(project.piece_name, project.settings, project.result, project.region_name, project.candidates,
-                 project.quantity, project.sequence, project.piece_rosette, project.orientation)
+                 project.quantity, project.sequence, project.piece_rosette, project.orientation, project.surface,
+                 project.source)
+
+
+def placed(pieces, surface, source) -> tuple[Piece, ...]:
+    """``pieces`` with those not yet on a surface put on ``surface`` (from ``source``)."""
+    return tuple(p if p.surface is not None else replace(p, surface=surface, source=source) for p in pieces)
+
+
+def sources_of(project) -> list[tuple]:
+    """The project's sources: each distinct (surface, source) its pieces lie on, in the order of
+    their first piece, as (surface, source, [piece indices])."""
+    out, index = [], {}
+    for k, p in enumerate(pieces_of(project)):
+        key = (id(p.surface), p.source)
+        if key not in index:
+            index[key] = len(out)
+            out.append((p.surface, p.source, []))
+        out[index[key]][2].append(k)
+    return out
 
 
 def pieces_of(project) -> tuple[Piece, ...]:
@@ -109,14 +137,14 @@ def pieces_of(project) -> tuple[Piece, ...]:
 
 def with_pieces(project, pieces, index: int):
     """``project`` holding ``pieces`` (in that order) with ``pieces[index]`` active."""
-    pieces = tuple(pieces)
+    pieces = placed(pieces, project.surface, project.source)
     if not 0 <= index < len(pieces):
         raise SettingsError(f"no piece {index + 1}: the project has {len(pieces)}")
     p = pieces[index]
-    return replace(project, settings=p.settings, result=p.result, region_name=p.region_name,
-                   candidates=p.candidates, piece_name=p.name, quantity=p.quantity, sequence=p.sequence,
-                   piece_rosette=p.rosette, orientation=p.orientation, others=pieces[:index] + pieces[index + 1:],
-                   piece_index=index)
+    return replace(project, surface=p.surface, source=p.source, settings=p.settings, result=p.result,
+                   region_name=p.region_name, candidates=p.candidates, piece_name=p.name, quantity=p.quantity,
+                   sequence=p.sequence, piece_rosette=p.rosette, orientation=p.orientation,
+                   others=pieces[:index] + pieces[index + 1:], piece_index=index)
 
 
 def index_of(project, k: Any) -> int:
@@ -147,16 +175,55 @@ def _free_name(pieces, base: str) -> str:
     return f"{base} {n}"
 
 
-def add(project, name: str | None = None, settings: FlattenSettings | None = None, select_it: bool = True):
+def add(project, name: str | None = None, settings: FlattenSettings | None = None, select_it: bool = True,
+        surface: NurbsSurface | None = None, source: str | None = None):
     """The project with a new piece after the last: ``settings`` (default the
     active piece's, less its darts and yarns: a new piece on the same
-    surface and material), named ``name`` (default "piece N"), unsolved."""
+    surface and material), named ``name`` (default "piece N"), unsolved; on
+    ``surface`` from ``source`` (another of the job's sources: a face of the
+    same CAD file, another file) or, by default, the active piece's."""
     pieces = pieces_of(project)
     if settings is None:
+        if surface is not None:
+            raise SettingsError("a piece on another surface needs its own settings (its region and seed are "
+                                "that surface's)")
         settings = replace(project.settings, darts=(), yarns=())
     name = _free_name(pieces, f"piece {len(pieces) + 1}") if name is None else name
-    new = pieces + (Piece(name, settings),)
+    if surface is None:
+        surface, source = project.surface, project.source
+    new = pieces + (Piece(name, settings, surface=surface, source=source),)
     return with_pieces(project, new, len(new) - 1 if select_it else project.piece_index)
+
+
+def add_from(project, other, select_it: bool = True):
+    """The project with ``other``'s pieces (another project: a surface, a CAD face or a mesh
+    opened on its own) added after the last, on ``other``'s surfaces, unsolved results kept.
+    A name already taken gets a number; ``other``'s materials the table lacks are added
+    (same name, other mechanics: refused) and so are its rosettes (same name: the project's kept)."""
+    pieces = list(pieces_of(project))
+    materials = {f.name: f for f in project.materials}
+    for f in other.materials:
+        if f.name in materials and materials[f.name].material != f.material \
+                and any(p.settings.material.name == f.name for p in pieces_of(other)):
+            raise SettingsError(f"the material {f.name!r} of {other.name!r} differs from the project's of that "
+                                f"name: rename one first")
+        materials.setdefault(f.name, f)
+    rosettes = {r.name.strip().casefold(): r for r in project.rosettes}
+    for r in other.rosettes:
+        rosettes.setdefault(r.name.strip().casefold(), r)
+    first = len(pieces)
+    for p in pieces_of(other):
+        pieces.append(replace(p, name=_free_name(pieces, p.name)))
+    out = replace(project, materials=tuple(materials.values()), rosettes=tuple(rosettes.values()))
+    return with_pieces(out, pieces, first if select_it else project.piece_index)
+
+
+def resurface(project, old, new, source: str | None = None):
+    """The project with every piece on surface ``old`` moved to ``new`` (a refit of the same
+    (u, v) map: regions, seeds and drawings stay), from ``source`` (default each piece's own)."""
+    pieces = tuple(replace(p, surface=new, source=p.source if source is None else source)
+                   if p.surface is old else p for p in pieces_of(project))
+    return with_pieces(replace(project, surface=pieces[project.piece_index].surface), pieces, project.piece_index)
 
 
 def duplicate(project, k, name: str | None = None, angle_deg: float | None = None):
@@ -259,7 +326,8 @@ def _oriented(project, piece, rosettes=None) -> Piece:
     (unchanged, the same object, when it has no rosette or the angle is already that)."""
     if piece.rosette is None:
         return piece
-    angle = piece_weft(project.surface, project.rosettes if rosettes is None else rosettes, piece)
+    surface = project.surface if piece.surface is None else piece.surface
+    angle = piece_weft(surface, project.rosettes if rosettes is None else rosettes, piece)
     if angle == piece.settings.angle_deg:
         return piece
     return replace(piece, settings=replace(piece.settings, angle_deg=angle))
@@ -276,7 +344,7 @@ def orient(project, k, rosette: str | None, orientation: float | None = None):
         return _changed(project, i, lambda p: replace(p, rosette=None, orientation=None))
     r = rosette_named(project.rosettes, rosette)
     if orientation is None:
-        orientation = orientation_for(project.surface, piece.settings.seed, r.zero, piece.settings.angle_deg)
+        orientation = orientation_for(piece.surface, piece.settings.seed, r.zero, piece.settings.angle_deg)
         if orientation is None:
             raise SettingsError(f"rosette {r.name!r}'s 0-degree direction is along the surface's normal at "
                                 f"{piece.name!r}'s seed: it sets no direction there")

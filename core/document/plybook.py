@@ -189,8 +189,7 @@ def _segments_path(c, a, b):
 class _ToolPicture:
     """The tool seen in one view, mapped into a box of the page (points): the same for every page."""
 
-    def __init__(self, project, pieces, box_mm):
-        surf = project.surface
+    def __init__(self, surf, pieces, box_mm):
         dom = np.asarray(surf.domain, dtype=float)
         k = 25
         s = np.linspace(0.0, 1.0, k)
@@ -437,7 +436,7 @@ def _piece_page(c, project, piece, row, sheet, picture, others, paper, number, t
     r = _current(piece)
     if r is not None:
         picture.draw_piece(c, r)
-    picture.draw_rosette(c, project.surface, piece.settings)
+    picture.draw_rosette(c, piece.surface, piece.settings)
     _text(c, pic[0], pic[1] - 4, "the tool: this piece filled, its weft (red) and warp (blue) threads, the arrows "
                                  "at its seed; the other pieces dashed", 6.5, rgb=(0.3, 0.3, 0.3))
     # the numbers, right of the picture
@@ -497,11 +496,18 @@ def plybook_bytes(project, paper: str = "a4", seam_allowance_mm: float = 0.0, ti
     _cover(c, project, rows, project_checks(project), pw, ph, title)
     c.showPage()
     top = ph - MARGIN
-    picture = _ToolPicture(project, order, (MARGIN, 0.50 * ph, 0.56 * (pw - 2 * MARGIN), top - 18 - 0.50 * ph))
+    box = (MARGIN, 0.50 * ph, 0.56 * (pw - 2 * MARGIN), top - 18 - 0.50 * ph)
+    # one picture per surface the pieces lie on (a job's faces, its files), the same on each of its pages
+    pictures = {}
+    for p in order:
+        if id(p.surface) not in pictures:
+            pictures[id(p.surface)] = _ToolPicture(p.surface, [q for q in order if q.surface is p.surface], box)
     solved = {p.name: _current(p) for p in order}
     for k, (piece, row) in enumerate(zip(order, rows)):
-        others = [r for name, r in solved.items() if r is not None and name != piece.name]
-        _piece_page(c, project, piece, row, sheets[piece.name], picture, others, paper, k + 1, len(order), title)
+        others = [r for name, r in solved.items() if r is not None and name != piece.name
+                  and r.surface is piece.surface]
+        _piece_page(c, project, piece, row, sheets[piece.name], pictures[id(piece.surface)], others, paper, k + 1,
+                    len(order), title)
         c.showPage()
     c.save()
     return buf.getvalue()

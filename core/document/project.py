@@ -9,12 +9,17 @@ them (:mod:`flatweave.document.history`) and an autosave writes one without lock
 
 The file (``.flatweave``) is JSON::
 
-    {"format": "flatweave-project", "version": 5, "flatweave": "0.1.0",
-     "name": "octant", "source": "resources/surfaces/octant.json",
-     "surface": {geomdl JSON document},
+    {"format": "flatweave-project", "version": 6, "flatweave": "0.1.0",
+     "name": "octant",
+     "sources": [
+       {"source": "resources/surfaces/octant.json" (where it came from: a file, "FILE#face=3", or null),
+        "surface": {geomdl JSON document},
+        "surface_fit": optional, a mesh fit's record (flatweave.geometry.meshfit.MeshFit)},
+       ...],
      "display": {"units": "m", "shear_warning_deg": 15.0, "shear_limit_deg": 30.0},
      "pieces": [
-       {"name": "octant", "quantity": 1, "sequence": null (or its place in a laminate, 1 first),
+       {"name": "octant", "source": the index of its surface in "sources",
+        "quantity": 1, "sequence": null (or its place in a laminate, 1 first),
         "settings": {spacing, spacing_warp, material, seed, angle_deg, paths,
                      solver, tol, max_iter, max_seconds, max_nodes,
                      region: null (the whole domain) or {"loops": [[[u, v], ...], ...]
@@ -44,7 +49,9 @@ explicit index. Version 4 added ``settings.region`` (the piece's region of
 the surface's domain: a trimmed CAD face, or a region given in (u, v)); an
 older file's is null, the whole domain. Version 5 holds a list of pieces
 (:mod:`flatweave.document.pieces`); an older file's settings, darts, yarns,
-result and candidates are its one piece, named after the project. A dart's ``visible``, ``handles``
+result and candidates are its one piece, named after the project. Version 6
+holds a list of sources (the surfaces its pieces lie on: faces of one CAD
+file, other files); an older file's surface is its only source. A dart's ``visible``, ``handles``
 and ``view_dir`` came during version 1 and are optional (a dart without them
 is visible and has no drawn points). Older files are read by upgrading their
 document one version at a time (:data:`UPGRADES`) before it is read as the
@@ -95,7 +102,8 @@ from flatweave.document.candidates import candidates_to_dict
 from flatweave.geometry.meshfit import MeshFit, with_fit
 from flatweave.geometry.region import cover_for
 from flatweave.document.candidates import candidates_from_dict
-from flatweave.document.pieces import MAX_PIECES, Piece, check_piece, check_pieces, pieces_of, with_pieces
+from flatweave.document.pieces import (MAX_PIECES, Piece, check_piece, check_pieces, pieces_of, placed, sources_of,
+                                      with_pieces)
 from flatweave.document.rosettes import MAX_ROSETTES, ToolRosette, check_rosettes
 
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
@@ -104,7 +112,7 @@ __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSIO
            "load_project", "result_from_dict", "project_problems", "new_project", "UPGRADES"]
 
 PROJECT_FORMAT = "flatweave-project"
-PROJECT_VERSION = 5
+PROJECT_VERSION = 6
 PROJECT_SUFFIX = ".flatweave"
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
@@ -123,10 +131,11 @@ class ProjectError(FlatweaveError, ValueError):
 class Project:
     """One flattening job, immutable.
 
-    surface : the NURBS surface
+    surface : the NURBS surface the active piece lies on (the other pieces carry their own:
+        :func:`flatweave.document.pieces.sources_of` lists the distinct ones)
     settings : FlattenSettings (darts and yarn constraints included)
     name : a short name (the surface file's stem or the example's name)
-    source : where the surface came from (a path), or None
+    source : where the active piece's surface came from (a path), or None
     units : model units, a key of :data:`UNITS` (what one coordinate unit is)
     shear_warning_deg, shear_limit_deg : shear display thresholds, 0 < warning < limit <= 90
     result : the last FlattenResult, or None; it may be stale (made with other
@@ -173,6 +182,8 @@ class Project:
             raise SettingsError(f"the active piece's position {self.piece_index!r:.20} is not among the "
                                 f"{len(self.others) + 1} pieces")
         if self.others:
+            # a piece made without a surface lies on the active one's (a project of one source)
+            object.__setattr__(self, "others", placed(self.others, self.surface, self.source))
             check_pieces(pieces_of(self))
         if not self.materials:
             object.__setattr__(self, "materials", table_for(pieces_of(self)))
@@ -455,35 +466,42 @@ def warm_start(project: Project) -> State | None:
 def project_to_dict(project: Project) -> dict:
     """The project file's content (see the module docstring)."""
     p = project
+    sources = sources_of(p)
+    where = {k: i for i, (_, _, ks) in enumerate(sources) for k in ks}
     return {
         "format": PROJECT_FORMAT,
         "version": PROJECT_VERSION,
         "flatweave": __version__,
         "name": p.name,
-        "source": p.source,
-        "surface": surface_to_json_dict(p.surface),
+        "sources": [_source_doc(surface, source) for surface, source, _ in sources],
         "display": {"units": p.units, "shear_warning_deg": float(p.shear_warning_deg),
                     "shear_limit_deg": float(p.shear_limit_deg), **({"view": dict(p.view)} if p.view else {})},
-        # a surface fitted to a mesh: which mesh and how closely (flatweave.geometry.meshfit.MeshFit); optional key
-        **({"surface_fit": p.surface.fit.to_dict()} if getattr(p.surface, "fit", None) is not None else {}),
-        "pieces": [_piece_doc(piece, p.source) for piece in p.pieces],
+        "pieces": [_piece_doc(piece, where[k]) for k, piece in enumerate(p.pieces)],
         "current": p.piece_index,
         "materials": [f.to_dict() for f in p.materials],
         **({"rosettes": [r.to_dict() for r in p.rosettes]} if p.rosettes else {}),
     }
 
 
-def _piece_doc(piece: Piece, source: str | None) -> dict:
-    """One entry of the file's ``pieces``."""
+def _source_doc(surface: NurbsSurface, source: str | None) -> dict:
+    """One entry of the file's ``sources``: where the surface came from, the surface, and a mesh
+    fit's record (flatweave.geometry.meshfit.MeshFit) when it was fitted to a mesh."""
+    return {"source": source, "surface": surface_to_json_dict(surface),
+            **({"surface_fit": surface.fit.to_dict()} if getattr(surface, "fit", None) is not None else {})}
+
+
+def _piece_doc(piece: Piece, source: int) -> dict:
+    """One entry of the file's ``pieces``; ``source`` the index of its surface in ``sources``."""
     return {
         "name": piece.name,
+        "source": source,
         "quantity": piece.quantity,
         "sequence": piece.sequence,
         **({"rosette": piece.rosette, "orientation": float(piece.orientation)} if piece.rosette is not None else {}),
         "settings": settings_to_dict(piece.settings, "project"),
         "darts": _darts_to_list(piece.settings.darts),
         "yarns": _yarns_to_list(piece.settings.yarns),
-        "result": None if piece.result is None else _result_doc(piece.result, source),
+        "result": None if piece.result is None else _result_doc(piece.result, piece.source),
         **_candidates_entry(piece),
     }
 
@@ -539,7 +557,20 @@ def _upgrade_4_to_5(d: dict) -> dict:
     return d
 
 
-UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3, 3: _upgrade_3_to_4, 4: _upgrade_4_to_5}
+def _upgrade_5_to_6(d: dict) -> dict:
+    """Version 5 had one surface for every piece: the only source, every piece on it."""
+    d = dict(d)
+    source = {"source": d.pop("source", None), "surface": d.pop("surface", None)}
+    if "surface_fit" in d:
+        source["surface_fit"] = d.pop("surface_fit")
+    d["sources"] = [source]
+    if isinstance(d.get("pieces"), list):
+        d["pieces"] = [{**p, "source": 0} if isinstance(p, dict) else p for p in d["pieces"]]
+    d["version"] = 6
+    return d
+
+
+UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3, 3: _upgrade_3_to_4, 4: _upgrade_4_to_5, 5: _upgrade_5_to_6}
 """Version -> the function that turns a document of that version into one of the next."""
 
 
@@ -625,22 +656,15 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
     while version < PROJECT_VERSION:
         d = UPGRADES[version](d)
         version = d["version"]
-    surface_doc = f.get(d, "surface", "project")
-    try:
-        surface = surface_from_json_dict(surface_doc, source=f"{where}: surface")
-    except FlatweaveError as exc:
-        raise ProjectError(str(exc)) from None
-    if d.get("surface_fit") is not None:  # fitted to a mesh: the mesh file is not needed again
-        try:
-            surface = with_fit(surface, MeshFit.from_dict(d["surface_fit"]))
-        except FlatweaveError as exc:
-            raise ProjectError(f"{where}: {exc}") from None
+    docs = f.get(d, "sources", "project")
+    if not isinstance(docs, list) or not 1 <= len(docs) <= MAX_PIECES:
+        raise f.fail(f"sources must be a list of 1 to {MAX_PIECES} surfaces")
+    sources = [_source_from(f, doc, k, where) for k, doc in enumerate(docs)]
     display = f.obj(d.get("display", {}), "display")
     view = f.obj(display.get("view", {}), "display.view")
     if not all(isinstance(k, str) and isinstance(v, (str, bool)) for k, v in view.items()):
         raise f.fail("display.view must map names to strings or true/false")
     name = d.get("name", "untitled")
-    source = d.get("source")
     docs = f.get(d, "pieces", "project")
     if not isinstance(docs, list) or not 1 <= len(docs) <= MAX_PIECES:
         raise f.fail(f"pieces must be a list of 1 to {MAX_PIECES} pieces")
@@ -653,11 +677,11 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
     try:
         # the pieces' weft angles are read as saved (as they were solved), not recomputed from the rosettes
         rosettes = tuple(ToolRosette.from_dict(r, f"rosettes[{k}]") for k, r in enumerate(rows))
-        pieces = [_piece_from(f, doc, k, surface, where) for k, doc in enumerate(docs)]
+        pieces = [_piece_from(f, doc, k, sources, where) for k, doc in enumerate(docs)]
         project = Project(
-            surface, pieces[current].settings,
+            pieces[current].surface, pieces[current].settings,
             name=f.string(name, "name"),
-            source=None if source is None else f.string(source, "source"),
+            source=pieces[current].source,
             units=f.string(display.get("units", "m"), "display.units"),
             shear_warning_deg=f.number(display.get("shear_warning_deg", 15.0), "display.shear_warning_deg"),
             shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"),
@@ -674,10 +698,29 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
     return project
 
 
-def _piece_from(f: _Fields, doc: Any, k: int, surface: NurbsSurface, where: str) -> Piece:
-    """Piece ``k`` of the file's ``pieces``."""
+def _source_from(f: _Fields, doc: Any, k: int, where: str) -> tuple[NurbsSurface, str | None]:
+    """Source ``k`` of the file's ``sources``: its surface (with its mesh fit) and where it came from."""
+    what = f"sources[{k}]"
+    doc = f.obj(doc, what)
+    source = doc.get("source")
+    source = None if source is None else f.string(source, f"{what}.source")
+    try:
+        surface = surface_from_json_dict(f.get(doc, "surface", what), source=f"{where}: {what}.surface")
+        if doc.get("surface_fit") is not None:  # fitted to a mesh: the mesh file is not needed again
+            surface = with_fit(surface, MeshFit.from_dict(doc["surface_fit"]))
+    except FlatweaveError as exc:
+        raise ProjectError(f"{where}: {exc}" if not str(exc).startswith(where) else str(exc)) from None
+    return surface, source
+
+
+def _piece_from(f: _Fields, doc: Any, k: int, sources: list, where: str) -> Piece:
+    """Piece ``k`` of the file's ``pieces``, on its source of ``sources``."""
     what = f"pieces[{k}]"
     doc = f.obj(doc, what)
+    at = f.integer(doc.get("source", 0), f"{what}.source")
+    if not 0 <= at < len(sources):
+        raise f.fail(f"{what}.source is {at}, but the project has {len(sources)} sources")
+    surface, source = sources[at]
     name = f.string(f.get(doc, "name", what), f"{what}.name")
     here = f"{where}: piece {name!r}"
     settings = settings_from_dict(f.get(doc, "settings", what), doc.get("darts", []), doc.get("yarns", []), here)
@@ -686,7 +729,7 @@ def _piece_from(f: _Fields, doc: Any, k: int, surface: NurbsSurface, where: str)
     rosette = doc.get("rosette")
     orientation = None if rosette is None else f.number(doc.get("orientation"), f"{what}.orientation")
     piece = Piece(name, settings, None, region_name, kept, doc.get("quantity", 1),
-                  None if sequence is None else sequence, rosette, orientation)
+                  None if sequence is None else sequence, rosette, orientation, surface, source)
     if doc.get("result") is not None:
         piece = replace(piece, result=result_from_dict(doc["result"], surface, here))
     return piece

@@ -5,7 +5,7 @@ scheduler's address; issue 41, "Beyond one machine"), results gathered into
 the project as they finish.
 
 A piece is solved exactly as alone (:func:`flatweave.method.pipeline.flatten`
-on the project's surface with the piece's settings, from a new drape), so its
+on the piece's surface with its settings, from a new drape), so its
 result is the same bit for bit in the pool, on a cluster (whose workers run
 the same flatweave, numpy and scipy) and in this process. A piece whose
 solve fails (a one-line FlatweaveError) fails alone, with its message; a
@@ -29,15 +29,43 @@ from typing import Callable
 
 from flatweave.document.pieces import index_of, with_pieces
 from flatweave.errors import FlatweaveError, SettingsError
+from flatweave.geometry.quadrature import region_area
+from flatweave.geometry.region import cover_for
+from flatweave.method import drape
 from flatweave.method.pipeline import flatten
 from flatweave.method.result import FlattenResult
 from flatweave.studies.sweep import default_workers, pool_context
 
-__all__ = ["PieceOutcome", "solve_pieces", "solve_piece"]
+__all__ = ["PieceOutcome", "solve_pieces", "solve_piece", "piece_nodes", "memory_workers", "WORKER_BYTES"]
 
 WORKER_DIED = "its worker process died (killed, or out of memory)"
 TASK_LOST = "its task was lost on the Dask cluster (the scheduler went away)"
 CONNECT_SECONDS = 10.0  # how long a scheduler (and a first worker) is waited for before it is said unreachable
+WORKER_BYTES = 100_000_000  # a worker before its piece: flatweave, numpy and scipy imported (70 MB measured)
+
+
+def piece_nodes(surface, settings) -> int:
+    """The nodes a piece's mesh will about have: its region's area over a cell's, at most its
+    ``max_nodes`` (:func:`flatweave.method.drape.estimate_node_count`)."""
+    area = region_area(surface) if settings.region is None else cover_for(surface, settings.region).area
+    warp = settings.spacing if settings.spacing_warp is None else settings.spacing_warp
+    return min(int(settings.max_nodes), drape.estimate_node_count(float(area), settings.spacing, warp))
+
+
+def memory_workers(workers: int, nodes) -> int:
+    """How many of ``workers`` processes the available memory holds at once, each solving one of
+    pieces of ``nodes`` nodes (the largest together, at :data:`flatweave.method.drape.BYTES_PER_NODE`
+    each, plus :data:`WORKER_BYTES`); at least 1, ``workers`` when the memory is not known."""
+    memory = drape.available_memory()
+    if memory is None:
+        return workers
+    n, used = 0, 0
+    for k in sorted(nodes, reverse=True)[:workers]:
+        used += WORKER_BYTES + drape.BYTES_PER_NODE * int(k)
+        if used > memory:
+            break
+        n += 1
+    return max(1, n)
 
 
 @dataclass(frozen=True)
@@ -70,7 +98,8 @@ def solve_pieces(project, pieces=None, workers: int | None = None,
     solved, and the outcomes in the order given: (project, [PieceOutcome]).
 
     ``workers`` processes (None: :func:`flatweave.studies.sweep.default_workers`;
-    1: here, one after another). ``cluster``: the address of an existing Dask
+    1: here, one after another), fewer when the available memory does not hold
+    that many of the largest pieces at once (:func:`memory_workers`). ``cluster``: the address of an existing Dask
     cluster's scheduler (``"tcp://host:8786"``; needs ``flatweave[cluster]``),
     whose workers solve the pieces instead (not with ``workers``); its
     client is closed at the end, the cluster left running. ``on_done(outcome)``
@@ -82,15 +111,18 @@ def solve_pieces(project, pieces=None, workers: int | None = None,
     all_pieces = list(project.pieces)
     chosen = range(len(all_pieces)) if pieces is None else [index_of(project, k) for k in pieces]
     chosen = list(dict.fromkeys(chosen))  # each piece once, in the order first given
-    jobs = {all_pieces[i].name: (all_pieces[i].name, project.surface, all_pieces[i].settings) for i in chosen}
+    jobs = {all_pieces[i].name: (all_pieces[i].name, all_pieces[i].surface, all_pieces[i].settings) for i in chosen}
+    surfaces = {name: job[1] for name, job in jobs.items()}
     if cluster is not None and workers is not None:
         raise SettingsError("give worker processes or a Dask cluster, not both: the cluster's workers solve the pieces")
     workers = default_workers() if workers is None else max(1, int(workers))
+    if cluster is None and workers > 1 and len(jobs) > 1:  # as many as the memory holds with the largest at once
+        workers = memory_workers(workers, [piece_nodes(surface, settings) for _, surface, settings in jobs.values()])
     outcomes: dict[str, PieceOutcome] = {}
 
     def done(name, result, error, seconds):
-        if result is not None and result.surface is not project.surface:  # a copy from a worker: same numbers
-            result = replace(result, surface=project.surface)
+        if result is not None and result.surface is not surfaces[name]:  # a copy from a worker: same numbers
+            result = replace(result, surface=surfaces[name])
         outcomes[name] = out = PieceOutcome(name, result, error, seconds)
         if on_done is not None:
             on_done(out)

@@ -1,4 +1,4 @@
-"""Job files (issue 41): a laminate, or any set of pieces on one surface, as a
+"""Job files (issue 41): a laminate, or any set of pieces on a tool's surfaces, as a
 TOML file, so a hundred plies need no clicking. Read into a project
 (:func:`load_job`, the reader of ``.toml`` in :mod:`flatweave.reading.registry`),
 then solved like any project (``flatweave-cli solve JOB.toml``)::
@@ -26,6 +26,8 @@ then solved like any project (``flatweave-cli solve JOB.toml``)::
     material = "my twill"      # rosette, spacing, quantity too
     boundary = { uv = [[0.2, 0.2], [0.8, 0.2], [0.8, 0.8], [0.2, 0.8]] }   # any --region form
     offset = -0.005            # the boundary moved along the surface (negative: inwards)
+    face = 2                   # on another face of the source (or source = "OTHER FILE"): the
+                               # job's sources are every (source, face) its plies name, each opened once
 
 A ply's orientation is measured at its seed (its region's point farthest from
 the edge) from the rosette's 0 direction projected on the tangent plane there
@@ -54,7 +56,8 @@ from flatweave.method.settings import FlattenSettings
 __all__ = ["load_job", "JOB_SUFFIX"]
 
 JOB_SUFFIX = ".toml"
-PLY_KEYS = {"name", "sequence", "orientation", "material", "rosette", "spacing", "quantity", "boundary", "offset"}
+PLY_KEYS = {"name", "sequence", "orientation", "material", "rosette", "spacing", "quantity", "boundary", "offset",
+            "source", "face"}
 
 
 class _Lines:
@@ -130,14 +133,25 @@ def load_job(path, open_path) -> Project:
     source = data.get("source")
     if not isinstance(source, str) or not source:
         raise top('a job names its surface: source = "FILE" (relative to the job file) or a bundled example')
-    src = path.parent / source
+    opened_once: dict = {}
+
+    def surface_of(source, face):
+        """(surface, region, opened, where) of ``source``'s ``face``, each opened once (its pieces share it)."""
+        key = (source, _key(face))
+        if key not in opened_once:
+            src = path.parent / source
+            opened = open_path(src if src.exists() else source, surface_only=True)
+            opened = opened.choose_face(face)
+            where = str(src if src.exists() else source)
+            if face is not None:
+                where = f"{where}#face={face}"
+            opened_once[key] = (opened.surface, opened.region, opened, where)
+        return opened_once[key]
+
     try:
-        opened = open_path(src if src.exists() else source, surface_only=True)
-        face = data.get("face")
-        opened = opened.choose_face(face)
+        surface, base_region, opened, _ = surface_of(source, data.get("face"))
     except FlatweaveError as exc:
         raise top(f"source {source!r}: {exc}") from None
-    surface, base_region = opened.surface, opened.region
     units = data.get("units", getattr(opened, "units", None) or "m")
     if units not in UNITS:
         raise top(f"units must be one of {', '.join(UNITS)}, got {units!r:.20}")
@@ -176,7 +190,17 @@ def load_job(path, open_path) -> Project:
     pieces, names = [], set()
     for k, ply in enumerate(plies):
         try:
-            pieces.append(_ply(ply, surface, base_region, table, named, default_spacing, default_material))
+            own = (ply.get("source", source), ply.get("face", data.get("face"))) if isinstance(ply, dict) \
+                else (source, data.get("face"))
+            if not isinstance(own[0], str) or not own[0]:
+                raise SettingsError(f'its source must be a file name or a bundled example, got {own[0]!r:.40}')
+            try:
+                here = surface_of(*own)
+            except FlatweaveError as exc:
+                raise SettingsError(f"source {own[0]!r}" + (f" face {own[1]!r}" if own[1] is not None else "")
+                                    + f": {exc}") from None
+            piece = _ply(ply, here[0], here[1], table, named, default_spacing, default_material)
+            pieces.append(replace(piece, surface=here[0], source=here[3]))
         except SettingsError as exc:
             name = ply.get("name") if isinstance(ply, dict) else None
             raise lines.fail("ply", k, f"ply {name!r}: {exc}" if isinstance(name, str) else str(exc)) from None
@@ -188,11 +212,16 @@ def load_job(path, open_path) -> Project:
     materials = tuple(f for f in table.values() if f.name in used or f.name in FABRICS)
     name = data.get("name", path.stem)
     try:
-        project = Project(surface, pieces[0].settings, name=str(name), source=str(path), units=units,
+        project = Project(pieces[0].surface, pieces[0].settings, name=str(name), source=pieces[0].source, units=units,
                           piece_name=pieces[0].name, materials=materials, rosettes=tuple(named.values()))
         return with_pieces(project, pieces, 0)
     except SettingsError as exc:
         raise top(str(exc)) from None
+
+
+def _key(value: Any) -> str:
+    """A hashable key of a TOML value (a face: a number, or a list of numbers)."""
+    return repr(value)
 
 
 def _ply(ply: Any, surface, base_region, table: dict, rosettes: dict, default_spacing, default_material) -> Piece:
