@@ -37,13 +37,13 @@ from flatweave.export.registry import exporters
 from flatweave.method.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
 from flatweave.method.energy import parse_yarn
 from flatweave.method.darts import PlaneDart
-from flatweave.files import parse_json, read_input, write_json
+from flatweave.files import check_output, exists, json_bytes, parse_json, read_input, same_file, write_json
 from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten, state_from_dict
 from flatweave.method.result import result_to_dict
 from flatweave.geometry.quadrature import region_area
-from flatweave.export.registry import (ExportOption, ExportOptions, check_target, export_all, export_options,
-                                       option_formats, surprises)
+from flatweave.export.registry import (MAX_SEAM_MM, ExportOption, ExportOptions, check_target, export_files,
+                                       export_options, option_formats, surprises)
 from flatweave.export.sheet import UNITS
 from flatweave.geometry.region import cover_for
 from flatweave.method.lattice import parse_material
@@ -167,10 +167,7 @@ def _mesh_piece(args, opened, path: str, what: str, cut, tolerance):
 
 def _fit_tolerance(args) -> float | None:
     """``--fit-tolerance T`` (model units), or None without it."""
-    tol = getattr(args, "fit_tolerance", None)
-    if tol is not None and not (math.isfinite(tol) and tol > 0):
-        raise SettingsError(f"--fit-tolerance must be a positive length in model units, got {tol:g}")
-    return tol
+    return getattr(args, "fit_tolerance", None)  # finite and positive: its option's type (LENGTH)
 
 
 def _face_list(args):
@@ -218,7 +215,7 @@ def _add_export_option(parser, option: ExportOption) -> None:
     kw = dict(dest=option.name, default=None,
               help=f"{option.help} ({' '.join(option_formats(option.name))}; default {default})")
     if option.kind == "number":
-        kw.update(type=float, metavar=option.unit.upper() or "X")
+        kw.update(type=_number(option.minimum, min(option.maximum, 1e15)), metavar=option.unit.upper() or "X")
     elif option.kind == "choice":
         kw.update(choices=list(option.choices))
     else:
@@ -274,9 +271,9 @@ def build_parser() -> argparse.ArgumentParser:
     f = sub.add_parser("flatten", **exact, help="drape a spring mesh on a surface, minimise it, write the result")
     f.add_argument("surface", metavar="SURFACE", help=_surface_help())
     f.add_argument("--method", choices=method_names(), default="spring", help=method_help())
-    f.add_argument("--spacing", type=float, required=True, metavar="R",
+    f.add_argument("--spacing", type=LENGTH, required=True, metavar="R",
                    help="rest length of the weft springs (and of the warp springs unless --spacing-warp)")
-    f.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
+    f.add_argument("--spacing-warp", type=LENGTH, default=None, metavar="R", help="rest length of the warp springs")
     f.add_argument("--material", default="woven", metavar="NAME",
                    help="woven (500:500:1), isotropic (100:100:50), paper-isotropic (the paper's 100:100:100) "
                         "or a ratio WEFT:WARP:DIAG (default woven)")
@@ -285,13 +282,13 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--seed", default=None, metavar="U,V",
                    help="seed point as fractions of the parameter domain (default 0.5,0.5; on a trimmed "
                         "piece the point farthest from its edge)")
-    f.add_argument("--face", type=int, default=None, metavar="N",
+    f.add_argument("--face", type=FACE, default=None, metavar="N",
                    help="the face of a STEP or IGES file to flatten (needed when it has several; "
                         "'info FILE' lists them)")
     f.add_argument("--faces", default=None, metavar="A,B,...",
                    help="join adjacent faces of a STEP or IGES file into one surface (tessellated, welded "
                         "along their shared edges and fitted as a mesh), so that a piece can cross a fillet")
-    f.add_argument("--fit-tolerance", type=float, default=None, metavar="T",
+    f.add_argument("--fit-tolerance", type=LENGTH, default=None, metavar="T",
                    help="a mesh (or --faces): refine the fitted surface until no vertex is farther than T "
                         "(model units) from it, or say in one line why it cannot be (default 0.02 %% of the "
                         "piece's size, as near as the mesh's vertices allow)")
@@ -305,7 +302,7 @@ def build_parser() -> argparse.ArgumentParser:
                         'seam drawn from one end to the other, {"seam3d": [[x, y, z], ...]} (points on it) or '
                         '{"points": [[x, y, z], ...], "view_direction": [dx, dy, dz]} (projected onto it); the '
                         "pattern's two edges along the seam sew back together")
-    f.add_argument("--region-offset", type=float, default=None, metavar="D",
+    f.add_argument("--region-offset", type=OFFSET, default=None, metavar="D",
                    help="move the region's boundary (or the face's edge) by D along the surface, in model "
                         "units: positive outwards, negative inwards; clipped to the surface")
     f.add_argument("--angle", type=_angle, default=0.0, metavar="DEG|auto",
@@ -314,10 +311,10 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--paths", choices=("plane", "geodesic"), default="plane",
                    help="constrained paths: the paper's normal-section planes or geodesics (default plane)")
     f.add_argument("--solver", choices=solver_names("spring"), default=DEFAULT_SOLVER, help=solver_help("spring"))
-    f.add_argument("--tol", type=float, default=1e-9, metavar="T",
+    f.add_argument("--tol", type=TOL, default=1e-9, metavar="T",
                    help="stop when an iteration lowers the energy by less than T times the energy (default 1e-9)")
-    f.add_argument("--max-iter", type=int, default=1000, metavar="N", help="iteration budget (default 1000)")
-    f.add_argument("--max-seconds", type=float, default=None, metavar="S", help="time budget of the solver")
+    f.add_argument("--max-iter", type=ITERATIONS, default=1000, metavar="N", help="iteration budget (default 1000)")
+    f.add_argument("--max-seconds", type=SECONDS, default=None, metavar="S", help="time budget of the solver")
     f.add_argument("--warm-start", metavar="RESULT.json", default=None,
                    help="start the solver from the nodes of an earlier result instead of a new drape")
     f.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -327,19 +324,19 @@ def build_parser() -> argparse.ArgumentParser:
                         "same thread at any spacing), to --yarn-plane (repeatable)")
     f.add_argument("--yarn-plane", action="append", default=[], metavar="A,B,C,D",
                    help="plane A x + B y + C z + D = 0 for the matching --yarn")
-    f.add_argument("--yarn-k", action="append", type=float, default=[], metavar="K",
+    f.add_argument("--yarn-k", action="append", type=WEIGHT, default=[], metavar="K",
                    help="weight of the matching --yarn (default 1000)")
     f.add_argument("--plane-dart", action="append", default=[], metavar="A,B,C,D[:XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX]",
                    help="cut a plane dart: the plane A x + B y + C z + D = 0 inside the box (repeatable)")
     f.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json",
                    help="cut a curve dart: a 3D polyline and a view direction (see README; repeatable)")
-    f.add_argument("--auto-darts", type=int, default=0, metavar="N",
+    f.add_argument("--auto-darts", type=AUTO_DARTS, default=0, metavar="N",
                    help="after the solve, add up to N suggested darts, from the edge inwards: none when every "
                         "metric is within its warning limit; each the best by the pattern's usability, then the "
                         "metrics past their limits, then the energy; never one that takes a metric past a limit "
                         "it was within or whose solve does not converge. Listed in the result's darts with "
                         "\"auto\": true")
-    f.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
+    f.add_argument("--max-nodes", type=NODES, default=2_000_000, metavar="N",
                    help="refuse meshes estimated larger than N nodes, or than the available memory holds "
                         "(default 2,000,000)")
     f.add_argument("--out", metavar="RESULT.json", help="result file to write")
@@ -352,29 +349,29 @@ def build_parser() -> argparse.ArgumentParser:
                             "(no metric past its bad limit) first, then area beyond the lock angle, "
                             "then max shear, then boundary error")
     w.add_argument("surface", metavar="SURFACE", help=_surface_help())
-    w.add_argument("--spacing", type=float, required=True, metavar="R", help="rest length of the weft springs")
-    w.add_argument("--spacing-warp", type=float, default=None, metavar="R", help="rest length of the warp springs")
+    w.add_argument("--spacing", type=LENGTH, required=True, metavar="R", help="rest length of the weft springs")
+    w.add_argument("--spacing-warp", type=LENGTH, default=None, metavar="R", help="rest length of the warp springs")
     w.add_argument("--material", default="woven", metavar="NAME", help="as for flatten (default woven)")
     w.add_argument("--seed", default=None, metavar="U,V", help="the first seed (default as for flatten)")
-    w.add_argument("--face", type=int, default=None, metavar="N", help="as for flatten")
+    w.add_argument("--face", type=FACE, default=None, metavar="N", help="as for flatten")
     w.add_argument("--faces", default=None, metavar="A,B,...", help="as for flatten")
     w.add_argument("--region", default=None, metavar="REGION.json", help="as for flatten")
     w.add_argument("--seam", default=None, metavar="SEAM.json", help="as for flatten")
-    w.add_argument("--fit-tolerance", type=float, default=None, metavar="T", help="as for flatten")
-    w.add_argument("--angles", type=int, default=12, metavar="K",
+    w.add_argument("--fit-tolerance", type=LENGTH, default=None, metavar="T", help="as for flatten")
+    w.add_argument("--angles", type=ANGLES, default=12, metavar="K",
                    help="weft angles, evenly over a period (90 degrees when weft and warp are alike, else 180; "
                         "default 12)")
-    w.add_argument("--seeds", type=int, default=1, metavar="M",
+    w.add_argument("--seeds", type=SEEDS, default=1, metavar="M",
                    help="seeds: the first, then points well inside the piece, far apart (default 1)")
     w.add_argument("--refine", action="store_true", help="narrow the best angle down to a quarter degree")
-    w.add_argument("--lock-angle", type=float, default=None, metavar="DEG",
+    w.add_argument("--lock-angle", type=LOCK, default=None, metavar="DEG",
                    help="shear lock angle of the cloth (default the material's, 30 for the presets)")
-    w.add_argument("--workers", type=int, default=None, metavar="N",
+    w.add_argument("--workers", type=WORKERS, default=None, metavar="N",
                    help="solves at once, in worker processes (default: the number of cores, at most 4)")
     w.add_argument("--paths", choices=("plane", "geodesic"), default="plane", help="as for flatten")
     w.add_argument("--solver", choices=solver_names("spring"), default=DEFAULT_SOLVER, help=solver_help("spring"))
-    w.add_argument("--tol", type=float, default=1e-9, metavar="T", help="as for flatten")
-    w.add_argument("--max-iter", type=int, default=1000, metavar="N", help="as for flatten")
+    w.add_argument("--tol", type=TOL, default=1e-9, metavar="T", help="as for flatten")
+    w.add_argument("--max-iter", type=ITERATIONS, default=1000, metavar="N", help="as for flatten")
     w.add_argument("--plane-dart", action="append", default=[], metavar="A,B,C,D[:BOX]", help="as for flatten")
     w.add_argument("--curve-dart", action="append", default=[], metavar="FILE.json", help="as for flatten")
     w.add_argument("--out", metavar="SWEEP.json", help="write the ranked rows as JSON")
@@ -384,11 +381,11 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("surface", metavar="SURFACE", help=_surface_help())
     i.add_argument("--json", action="store_true",
                    help="print JSON (a STEP or IGES file: {\"units\": ..., \"faces\": [...]})")
-    i.add_argument("--face", type=int, default=None, metavar="N",
+    i.add_argument("--face", type=FACE, default=None, metavar="N",
                    help="a mesh of several parts: describe part N (0 = the largest); a STEP or IGES file: face N")
     i.add_argument("--faces", default=None, metavar="A,B,...",
                    help="a STEP or IGES file's faces joined as flatten --faces joins them: the piece and the fit")
-    i.add_argument("--fit-tolerance", type=float, default=None, metavar="T",
+    i.add_argument("--fit-tolerance", type=LENGTH, default=None, metavar="T",
                    help="as for flatten: the fit refined until no vertex is farther than T from the surface")
 
     sub.add_parser("examples", help="list the bundled example surfaces and jobs")
@@ -400,7 +397,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "bundled example job by name (flatweave-cli examples lists them)")
     v.add_argument("--piece", action="append", default=[], metavar="NAME",
                    help="solve this piece (repeatable; default every piece)")
-    v.add_argument("--workers", type=int, default=None, metavar="N",
+    v.add_argument("--workers", type=WORKERS, default=None, metavar="N",
                    help="worker processes (default one per core, at most 4; never more than the available memory "
                         "holds; 1: one piece after another here)")
     v.add_argument("--dask", default=None, metavar="ADDRESS",
@@ -415,12 +412,48 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--export", default=None, metavar="DIR",
                    help="also write every solved piece's cut files into DIR (made if missing): one DXF with a block "
                         "per piece, an SVG and a tiled 1:1 PDF per piece, named by piece")
-    v.add_argument("--seam-allowance", type=float, default=0.0, metavar="MM",
+    v.add_argument("--seam-allowance", type=SEAM_MM, default=0.0, metavar="MM",
                    help="seam allowance of the cut files and the ply book's patterns, mm (default 0: a laminate's "
                         "plies are cut net)")
     v.add_argument("--paper", default="a4", choices=["a4", "letter"], help="paper of the ply book and tiled PDFs")
     v.add_argument("--quiet", action="store_true", help="no table on stdout, no progress on stderr")
     return p
+
+
+def _number(lo: float, hi: float, whole: bool = False, above: bool = False):
+    """An option's value type: a finite number from ``lo`` to ``hi`` (above ``lo`` when ``above``), a
+    whole one when ``whole``; argparse names the option in the one-line refusal (issue 45, item 2)."""
+    span = f"{'above' if above else 'from'} {lo:g} {'and at most' if above else 'to'} {hi:g}"
+    kind = "a whole number" if whole else "a number"
+
+    def parse(text: str):
+        try:
+            value = int(text) if whole else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r:.40} is not {kind} ({span})") from None
+        if not math.isfinite(value) or value > hi or value < lo or (above and value == lo):
+            raise argparse.ArgumentTypeError(f"{text!r:.40} is out of range: {kind} {span}")
+        return value
+    parse.__name__ = "whole number" if whole else "number"  # argparse's fallback message names the type
+    return parse
+
+
+# the ranges of the options' numbers (issue 45, item 2); a spacing and an offset are checked again
+# against the piece's size once it is read
+LENGTH = _number(0.0, 1e15, above=True)  # a length in model units (a spacing, a tolerance)
+OFFSET = _number(-1e15, 1e15)
+FACE = _number(0, 1_000_000, whole=True)
+TOL = _number(0.0, 1.0, above=True)
+ITERATIONS = _number(0, 10_000_000, whole=True)
+SECONDS = _number(0.0, 1e7, above=True)
+WEIGHT = _number(0.0, 1e12)
+AUTO_DARTS = _number(0, 100, whole=True)
+NODES = _number(1, 1_000_000_000, whole=True)
+ANGLES = _number(1, 360, whole=True)
+SEEDS = _number(1, 100, whole=True)
+LOCK = _number(0.0, 90.0, above=True)
+WORKERS = _number(1, 256, whole=True)
+SEAM_MM = _number(0.0, MAX_SEAM_MM)
 
 
 def _angle(text: str):
@@ -430,6 +463,8 @@ def _angle(text: str):
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is neither a number of degrees nor 'auto'") from None
+    if not math.isfinite(value) or abs(value) > 1e6:
+        raise argparse.ArgumentTypeError(f"{text!r:.40} is out of range: degrees from -1e+06 to 1e+06, or 'auto'")
     return value
 
 
@@ -454,12 +489,30 @@ def _darts(args, surface) -> tuple:
     return tuple(darts)
 
 
+def _inputs(args) -> list[str]:
+    """The files a command reads (its surface when it is a file, regions, darts, warm start, seam)."""
+    named = [getattr(args, "surface", None), getattr(args, "region", None), getattr(args, "warm_start", None),
+             getattr(args, "seam", None), *getattr(args, "curve_dart", [])]
+    return [p for p in named if p and exists(p)]
+
+
+def _check_outputs(args, outputs) -> None:
+    """Refuse, before any work, an output that is one of the inputs (it would be overwritten) or
+    that is not a regular file where one is (a device, a pipe: never replaced); one line each."""
+    for path in outputs:
+        check_output(path, SettingsError)
+        for source in _inputs(args):
+            if same_file(path, source):
+                raise SettingsError(f"{path} is one of this run's inputs ({source}): write to another name")
+
+
 def _cmd_flatten(args) -> int:
     if not args.out and not args.export:
         raise SettingsError("nothing to write: give --out RESULT.json and/or --export PATH")
     out = Path(args.out) if args.out else None
     if out is not None and out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
+    _check_outputs(args, [out] if out else [])
     if args.method == "planar":
         if args.export:
             raise SettingsError("--export writes spring-method patterns; drop it or use --method spring")
@@ -468,6 +521,7 @@ def _cmd_flatten(args) -> int:
         return _cmd_flatten_planar(args, out)
     # refuse bad export targets and options before the solve, not after it
     targets = [check_target(p) for p in args.export]
+    _check_outputs(args, ([out] if out else []) + targets)
     opened = resolve_piece(args)
     options = ExportOptions.from_values(_export_values(args, opened))
     # warnings about the input: said at once (before a long solve) and kept in the result file
@@ -501,8 +555,6 @@ def _cmd_flatten(args) -> int:
         if not args.quiet:
             print(f"angle auto: {swept.best['angle_deg']:.4g} deg, the best of {len(swept.rows)} solves "
                   f"({swept.seconds:.1f} s)" + _no_usable_angle(swept.best), file=sys.stderr)
-    if args.auto_darts < 0:
-        raise SettingsError(f"--auto-darts must be 0 or more, got {args.auto_darts}")
     result = flatten(surface, settings, initial=initial, area=cover.area if cover.trimmed else region_area(surface),
                      callback=None if args.quiet else _Progress())
     suggested = []
@@ -532,12 +584,16 @@ def _cmd_flatten(args) -> int:
             doc["settings"]["units"] = opened.cad.units
         elif opened.units_guess is not None or args.units is not None:  # a mesh: the units taken, kept
             doc["settings"]["units"] = units
-        write_json(out, doc)
+        files = [(out, json_bytes(doc, out))]
+    else:
+        files = []
     # a surprising export (hundreds of pages, a piece metres across) is written, but said first
     assumed = args.units is None and opened.cad is None  # a mesh or surface file's units are taken as m
     hint = f"; --units gives the model's units if they are not {units}" if assumed else ""
     _print_warnings(s.line() + hint for s in surprises(result, targets, options))
-    written = export_all(result, targets, options) if targets else []
+    # the result and the exports all or nothing: an export that fails leaves --out as it was
+    atomic_write_many(files + (export_files(result, targets, options) if targets else []))
+    written = targets
     m = result.metrics
     if not args.quiet:
         print(f"{m['nodes']} nodes, {m['springs']} springs, energy {m['energy']:.6g}, "
@@ -665,8 +721,7 @@ def _cmd_sweep(args) -> int:
     out = Path(args.out) if args.out else None
     if out is not None and out.parent and not out.parent.exists():
         raise SettingsError(f"cannot write {out}: folder {out.parent} does not exist")
-    if args.workers is not None and args.workers < 1:
-        raise SettingsError(f"--workers must be 1 or more, got {args.workers}")
+    _check_outputs(args, [out] if out else [])
     opened = resolve_piece(args)
     _print_warnings(opened.notes)
     surface, region = opened.surface, opened.region
@@ -813,15 +868,13 @@ def _cmd_solve(args) -> int:
     (flatweave.document.solving), the project saved with their results, a table of them on stdout.
     Exit 0 when every piece was solved, 1 when one failed (its line on stderr; the others are saved)."""
     src = Path(args.project)
-    bundled = not src.exists() and src.parent == Path(".") and src.stem in job_names()
+    bundled = not exists(src) and src.parent == Path(".") and src.stem in job_names()
     if bundled:  # a bundled example job by name: its project is written here, not beside the package's file
         src = job_path(src.name)
     job = src.suffix.lower() == JOB_SUFFIX
     if src.suffix.lower() != PROJECT_SUFFIX and not job:
         raise SettingsError(f"{src.name}: solve takes a project ({PROJECT_SUFFIX}, saved by the window) or a job "
                             f"file ({JOB_SUFFIX})")
-    if args.workers is not None and not 1 <= args.workers <= 256:
-        raise SettingsError(f"--workers must be 1 to 256, got {args.workers}")
     if args.dask is not None and args.workers is not None:
         raise SettingsError("--dask and --workers contradict: the Dask cluster's workers solve the pieces")
     out = Path(args.out) if args.out else Path(src.with_suffix(PROJECT_SUFFIX).name) if bundled \
@@ -835,6 +888,7 @@ def _cmd_solve(args) -> int:
         if book.suffix.lower() != ".pdf":
             raise SettingsError(f"--ply-book {book.name}: a ply book is a PDF (.pdf)")
         check_target(book)
+    check_output(out, SettingsError)  # a project over a device, or a pipe, is never written
     folder = check_folder(args.export) if args.export else None
     options = ExportOptions(seam_allowance_mm=args.seam_allowance, paper=args.paper)
     project = open_path(src).project  # the registry's project readers: .flatweave and .toml

@@ -3,19 +3,21 @@ file is read (``read_input``, ``parse_json``), atomic writes, JSON encoding."""
 
 from __future__ import annotations
 
+import glob
 import json
 import os
 import re
 import stat
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
 
 from flatweave.errors import FlatweaveError
 
-__all__ = ["atomic_write_bytes", "atomic_write_many", "json_bytes", "write_json", "check_input", "read_input",
-           "parse_json", "check_json_depth", "READ_LIMITS", "MAX_JSON_DEPTH"]
+__all__ = ["exists", "check_output", "same_file", "atomic_write_bytes", "atomic_write_many", "json_bytes",
+           "write_json", "check_input", "read_input", "parse_json", "check_json_depth", "READ_LIMITS", "MAX_JSON_DEPTH"]
 
 MB = 1 << 20
 READ_LIMITS = {
@@ -37,6 +39,15 @@ of ours, a trimmed surface's containers of curves, is under 10)."""
 
 _KINDS = ((stat.S_ISFIFO, "a pipe (FIFO)"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
           (stat.S_ISSOCK, "a socket"), (stat.S_ISDIR, "a folder"))
+
+
+def exists(path) -> bool:
+    """Whether ``path`` names something, False for a name the system cannot even look up (too long,
+    a NUL in it), where ``Path.exists`` raises: the reader then says why in one line."""
+    try:
+        return Path(path).exists()
+    except (OSError, ValueError):
+        return False
 
 
 def check_input(path, limit: str, error=FlatweaveError) -> int:
@@ -110,6 +121,34 @@ def check_json_depth(raw: bytes, name: str, what: str, error=FlatweaveError) -> 
         raise error(_line(f"{name}: not a {what}: JSON nested more than {MAX_JSON_DEPTH} levels deep"))
 
 
+def check_output(path, error=FlatweaveError) -> Path:
+    """``path`` if a file may be written there: nothing there yet, or a regular file (replaced
+    atomically). A pipe, a device, a socket or a folder there is never replaced (the rename
+    would put an ordinary file in its place: ``--out /dev/null`` run as root): one line."""
+    path = Path(path)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        return path
+    except (OSError, ValueError) as exc:
+        raise error(_line(f"cannot write {path}: {getattr(exc, 'strerror', None) or exc}")) from None
+    for test, what in _KINDS:
+        if test(st.st_mode):
+            raise error(_line(f"cannot write {path}: it is {what}, not a file, and is not replaced"))
+    return path
+
+
+def same_file(a, b) -> bool:
+    """Whether ``a`` and ``b`` name one file (both there: the same inode; else the same absolute path)."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        try:
+            return Path(a).resolve() == Path(b).resolve()
+        except (OSError, ValueError, RuntimeError):
+            return False
+
+
 def _line(text: str, limit: int = 400) -> str:
     """One line, at most ``limit`` characters (a 300-character file name stays readable)."""
     text = " ".join(text.split())
@@ -141,9 +180,9 @@ def atomic_write_many(items, before_replace=None) -> None:
     one-line FlatweaveError names the files already written.
     """
     staged: list[tuple[Path, str]] = []
+    items = [(check_output(path), data) for path, data in items]  # before a byte is written anywhere
     try:
         for path, data in items:
-            path = Path(path)
             staged.append((path, _stage(path, data)))
         if before_replace is not None:
             before_replace()
@@ -163,10 +202,30 @@ def atomic_write_many(items, before_replace=None) -> None:
         done.append(path)
 
 
+STALE_SECONDS = 60.0  # a temporary file of a save this old is a killed save's (a save writes and renames at once)
+
+
+def _sweep_stale(folder: Path, name: str) -> None:
+    """Remove the temporary files earlier saves of ``name`` left in ``folder`` when killed mid-way
+    (``.NAME.*.tmp`` older than :data:`STALE_SECONDS`)."""
+    now = time.time()
+    try:
+        for tmp in folder.glob(f".{glob.escape(name)}.*.tmp"):
+            try:
+                if now - tmp.lstat().st_mtime > STALE_SECONDS and tmp.is_file():
+                    tmp.unlink()
+            except OSError:
+                pass
+    except OSError:
+        pass
+
+
 def _stage(path: Path, data: bytes) -> str:
     """Write ``data`` to a new temporary file beside ``path``, flushed to disk;
-    its name. On failure nothing is left and a one-line FlatweaveError says why."""
+    its name. On failure nothing is left and a one-line FlatweaveError says why.
+    A killed save's stale temporary files of the same name go first."""
     folder = path.parent if str(path.parent) else Path(".")
+    _sweep_stale(folder, path.name)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     except OSError as exc:

@@ -134,4 +134,6 @@ def test_cli_auto_darts(tmp_path, capsys):
     assert len(autos) == 1 and len(d["suggested_darts"]) == 1
     assert d["metrics"]["energy"] == pytest.approx(d["suggested_darts"][0]["metrics"]["energy"])
     assert "suggested" in capsys.readouterr().err
-    assert main(["flatten", "octant", "--spacing", "0.1", "--auto-darts", "-1", "--out", str(out)]) == 2
+    with pytest.raises(SystemExit) as e:  # refused by the option's range
+        main(["flatten", "octant", "--spacing", "0.1", "--auto-darts", "-1", "--out", str(out)])
+    assert e.value.code == 2

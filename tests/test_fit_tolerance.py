@@ -97,7 +97,7 @@ def test_the_cli_fits_to_the_tolerance_or_exits_2_in_one_line(sheet, tmp_path):
     p = _cli("info", path, "--json")  # the default: no tolerance stated, none recorded
     assert "tolerance" not in json.loads(p.stdout)["fit"]
     for args, says in ((["--fit-tolerance", "1e-9"], "over the fit tolerance 1e-09"),
-                       (["--fit-tolerance", "-2"], "--fit-tolerance must be a positive length")):
+                       (["--fit-tolerance", "-2"], "argument --fit-tolerance: '-2' is out of range")):
         p = _cli("flatten", path, "--spacing", "5", *args, "--out", out)
         assert p.returncode == 2 and says in p.stderr and p.stderr.count("\n") == 1, p.stderr
     p = _cli("flatten", "octant", "--spacing", "0.1", "--fit-tolerance", "0.01", "--out", out)

@@ -110,7 +110,7 @@ def test_brackets_inside_strings_do_not_count_and_a_long_name_stays_one_short_li
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["flatten", "octant", "--spacing", "abc"], "flatten: argument --spacing: invalid float value: 'abc'"),
+    (["flatten", "octant", "--spacing", "abc"], "flatten: argument --spacing: 'abc' is not a number (above 0"),
     (["flatten", "octant"], "flatten: the following arguments are required: --spacing"),
     (["frobnicate"], "invalid choice: 'frobnicate'"),
 ])
@@ -125,9 +125,9 @@ def test_a_bad_option_is_one_line_naming_it_not_the_usage_block(capsys, argv, wo
 def test_numbers_that_overflow_print_nothing_above_the_one_line(tmp_path):
     """Run in a child, where Python shows numpy's RuntimeWarnings as a user would see them."""
     out = tmp_path / "r.json"
-    p = subprocess.run([sys.executable, "-m", "flatweave", "flatten", "octant", "--spacing", "1e308", "--out",
+    p = subprocess.run([sys.executable, "-m", "flatweave", "flatten", "octant", "--spacing", "1e15", "--out",
                         str(out)], capture_output=True, text=True, timeout=300)
     assert p.returncode == 2
     (line,) = p.stderr.splitlines()
-    assert line.startswith("flatweave: error: ") and "spacing 1e+308 is too large" in line
+    assert line.startswith("flatweave: error: ") and "spacing 1e+15 is too large" in line
     assert not out.exists()

@@ -164,8 +164,10 @@ def test_an_offset_clips_to_the_surface_and_refuses_to_vanish(cyl):
     with pytest.raises(SettingsError, match="leaves nothing"):
         region_from_spec(cyl, {"uv": [[0.4, 0.4], [0.6, 0.4], [0.6, 0.6], [0.4, 0.6]]}, offset=-0.3)
     with pytest.raises(SettingsError, match="leaves nothing"):  # geodesics far past the domain's edge
-        offset_region(cyl, None, -5.0)
-    grown = offset_region(cyl, None, 3.0)  # clipped: the whole domain
+        offset_region(cyl, None, -1.8)
+    with pytest.raises(SettingsError, match=r"a distance from -1\.871 to 1\.871 \(the surface's size\)"):
+        offset_region(cyl, None, -5.0)  # beyond the surface's size: refused before any geodesic is traced
+    grown = offset_region(cyl, None, 1.8)  # clipped: the whole domain
     assert cover_for(cyl, grown).area == pytest.approx(w * 1.5, rel=1e-9)
 
 

@@ -94,7 +94,7 @@ def test_the_built_in_export_options_are_declared_once():
     assert "separator" not in names
     with pytest.raises(SettingsError, match="no export format has an option 'separator'"):
         ExportOptions(extra={"separator": "comma"})
-    with pytest.raises(SettingsError, match="seam allowance -1 mm must be a number of at least 0"):
+    with pytest.raises(SettingsError, match="seam allowance -1 mm must be a number from 0 to 500"):
         ExportOptions(seam_allowance_mm=-1)
 
 

@@ -130,7 +130,9 @@ def test_cli_flatten_angle_auto_records_the_sweep(tmp_path, capsys):
     (["sweep", "saddle", "--spacing", "0.2", "--workers", "0"], "--workers"),
 ])
 def test_cli_sweep_bad_input_is_one_line(argv, words, capsys):
-    assert main(argv) == 2
+    with pytest.raises(SystemExit) as e:  # refused by the option's range, before anything is read
+        main(argv)
+    assert e.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("flatweave: error:") and words in err[0]
 

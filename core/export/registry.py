@@ -38,7 +38,7 @@ from flatweave.export.dxf import VARIANTS as DXF_VARIANTS
 from flatweave.export.mesh3d import OBJ_TEXTURES
 from flatweave.export.pdf import PAPERS, page_count
 from flatweave.export.sheet import UNITS, Sheet, build_sheet, mm_per_unit
-from flatweave.files import atomic_write_many
+from flatweave.files import atomic_write_many, check_output
 from flatweave.export.dxf import dxf_bytes
 from flatweave.export.svg import svg_text
 from flatweave.export.pdf import pdf_bytes
@@ -47,9 +47,10 @@ from flatweave.export.mesh3d import vtp_files
 from flatweave.method.fibres import fibres_csv
 from flatweave.export.mesh3d import obj_files
 
-__all__ = ["ExportOptions", "ExportOption", "export_options", "option_formats", "Exporter", "FORMATS", "UNITS",
+__all__ = ["MAX_SEAM_MM", "ExportOptions", "ExportOption", "export_options", "option_formats", "Exporter", "FORMATS",
+           "UNITS",
            "PAPERS", "DXF_VARIANTS", "OBJ_TEXTURES",
-           "export", "export_all", "export_bytes",
+           "export", "export_all", "export_bytes", "export_files",
            "check_target", "register_exporter", "unregister_exporter", "exporters", "exporter_for",
            "dialog_filter", "build_sheet", "Sheet", "mm_per_unit", "Surprise", "surprises", "MAX_QUIET_PAGES",
            "MAX_QUIET_PIECE_MM"]
@@ -311,6 +312,7 @@ def check_target(path) -> Path:
         raise SettingsError(f"cannot export {path}: folder {folder} is not writable")
     if path.is_dir():
         raise SettingsError(f"cannot export {path}: it is a folder")
+    check_output(path, SettingsError)  # a device or a pipe there is never replaced
     return path
 
 
@@ -342,11 +344,19 @@ def export_all(result, paths, options: ExportOptions = ExportOptions()) -> list[
     was (see :func:`flatweave.files.atomic_write_many` for a failed rename).
     """
     paths = [check_target(p) for p in paths]
+    atomic_write_many(export_files(result, paths, options))
+    return paths
+
+
+def export_files(result, paths, options: ExportOptions = ExportOptions()) -> list[tuple[Path, bytes]]:
+    """Every file exporting ``result`` to ``paths`` writes, as (path, bytes), nothing written: for a
+    caller that writes them with its own files, all or nothing (the command's ``--out`` and
+    ``--export``). The 2D sheet is built once."""
+    paths = [check_target(p) for p in paths]
     sheet = None
     if _needs_sheet(p.suffix for p in paths):
         sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
-    atomic_write_many([f for p in paths for f in _files(result, p, options, sheet)])
-    return paths
+    return [f for p in paths for f in _files(result, p, options, sheet)]
 
 
 @dataclass(frozen=True)
@@ -451,8 +461,10 @@ def _obj_files(result, options: ExportOptions, sheet: None, path: Path) -> list:
     return obj_files(result, path, options.name, options.obj_texture)
 
 
+MAX_SEAM_MM = 500.0  # a seam allowance past half a metre is a slip of the units, not a seam
 SEAM_ALLOWANCE = ExportOption("seam_allowance_mm", "number", 10.0, "seam allowance of exported patterns in mm "
-                              "(0 for none)", "Seam allowance", flag="--seam-allowance", unit="mm")
+                              "(0 for none)", "Seam allowance", flag="--seam-allowance", unit="mm",
+                              maximum=MAX_SEAM_MM)
 MODEL_UNITS = ExportOption("units", "choice", "m", "units of the surface model (what one coordinate unit is); 2D "
                            "files are written in mm", "Model units", choices={u: u for u in UNITS})
 PIECE_NAME = ExportOption("name", "text", "piece", "piece name in exported labels and DXF blocks", "Piece name")

@@ -68,6 +68,7 @@ _ACCEPT = 1e-12          # |F| accepted as a hit, relative to the scene size
 _GRAZE = 0.15            # |n . d| below which a hit counts as glancing
 _MAX_SWEEP = 0.9 * np.pi  # largest sweep of an arc the fit proposes
 _MAX_POINTS = 1_000_000   # densified polyline size refused up front
+_REACH = 1e6  # drawn points farther from the origin than this many times the surface's size are not drawn on it
 
 _tess_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # NurbsSurface -> Tessellation
 
@@ -344,8 +345,9 @@ def tessellation(surface: NurbsSurface) -> Tessellation:
 def _view_frame(view_dir) -> tuple[np.ndarray, np.ndarray]:
     """Unit view direction d (3,) and E (2, 3), an orthonormal basis of its normal plane."""
     d = np.asarray(view_dir, dtype=float).reshape(-1)
-    if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.linalg.norm(d) > 0:
+    if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.any(d):
         raise SettingsError(f"view direction must be a non-zero 3-vector, got {view_dir!r}")
+    d = d / np.abs(d).max()  # first to about 1: components like 1e308 do not overflow the norm
     d = d / np.linalg.norm(d)
     helper = np.eye(3)[int(np.argmin(np.abs(d)))]
     e1 = np.cross(d, helper)
@@ -648,6 +650,10 @@ def project_polyline(surface: NurbsSurface, points, view_dir, max_step: float | 
     min_gap = 1e-9 * scale
     k = P.shape[0]
     h_refine = 0.997 * h                    # room for the thinning below
+    reach = np.abs(P).max()
+    if reach > _REACH * (scale + np.abs(surface.ctrlpts).max()):
+        raise SettingsError(f"the drawn points reach {reach:.3g} from the origin, more than {_REACH:g} times the "
+                            f"surface's size: they are not drawn on it")
     seg2 = np.linalg.norm(np.diff(P, axis=0) @ E.T, axis=1)
     n = np.maximum(1, np.ceil(seg2 / h)).astype(int)
     if n.sum() > _MAX_POINTS:

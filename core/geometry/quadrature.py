@@ -24,6 +24,7 @@ An edge whose image has zero length (collapsed to a pole) is skipped by
 
 from __future__ import annotations
 
+import math
 import weakref
 from functools import lru_cache
 
@@ -44,6 +45,9 @@ __all__ = [
 ]
 
 DEFAULT_N = 16
+AREA_NODES = 1_000_000  # an area's Gauss nodes at most, but for AREA_MIN_N a cell (a net of 250 x 250 spans)
+AREA_MIN_N = 4  # nodes a knot-span cell and direction at the least: exact for the cubic spans' polynomial parts
+AREA_CHUNK = 250_000  # nodes evaluated at once
 
 
 @lru_cache(maxsize=64)
@@ -170,11 +174,19 @@ def _edge_rules(surface: NurbsSurface, n: int, sub: int = 1):
 def region_area(surface: NurbsSurface, n: int = DEFAULT_N) -> float:
     """Area of the surface over its whole parameter domain.
 
-    The integral of |S_u x S_v| by Gauss-Legendre, n x n nodes per knot-span cell.
+    The integral of |S_u x S_v| by Gauss-Legendre, n x n nodes per knot-span cell, fewer (down to
+    :data:`AREA_MIN_N`, never more than n) on a net of more than :data:`AREA_NODES` / n^2 cells.
     """
+    bu, bv = _breaks(surface)
+    cells = (len(bu) - 1) * (len(bv) - 1)
+    # a fine net's cells are small: fewer nodes each keep the sum within AREA_NODES (memory, time)
+    n = min(int(n), max(AREA_MIN_N, int(math.sqrt(AREA_NODES / max(cells, 1)))))
     uv, w = domain_gauss_rule(surface, n)
-    _, su, sv = surface.derivatives(uv)  # no normals: a degenerate surface has none
-    return float(np.sum(w * np.linalg.norm(np.cross(su, sv), axis=1)))
+    total = 0.0
+    for k in range(0, len(uv), AREA_CHUNK):  # in chunks: a 400 x 400 net's nodes at once took 20 GB
+        _, su, sv = surface.derivatives(uv[k:k + AREA_CHUNK])  # no normals: a degenerate surface has none
+        total += float(np.sum(w[k:k + AREA_CHUNK] * np.linalg.norm(np.cross(su, sv), axis=1)))
+    return total
 
 
 def edge_lengths(surface: NurbsSurface, n: int = DEFAULT_N) -> np.ndarray:

@@ -871,8 +871,10 @@ def offset_region(surface: NurbsSurface, region: Region | None, distance: float,
     import shapely
 
     d = float(distance)
-    if not math.isfinite(d):
-        raise SettingsError(f"the region offset must be a finite distance, got {distance!r}")
+    size = surface.bbox_diagonal()
+    if not math.isfinite(d) or abs(d) > size:  # beyond the surface's size: nothing left, or all of it
+        raise SettingsError(f"the region offset must be a distance from {-size:.4g} to {size:.4g} (the surface's "
+                            f"size), got {distance!r:.30}")
     dom = surface.domain
     box = shapely.box(dom[0, 0], dom[1, 0], dom[0, 1], dom[1, 1])
     if region is None:

@@ -39,6 +39,8 @@ import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
+import math
+
 import numpy as np
 
 from flatweave.errors import SettingsError
@@ -311,7 +313,10 @@ class PlaneDart(Dart):
                    None if box is None else read.numbers(box, 6, f"{what}.box"), name=name, visible=visible)
 
     def F(self, xyz: np.ndarray) -> np.ndarray:
+        """The plane function at ``xyz``, scaled by the normal's largest component (the same plane and
+        sides; coefficients like 1e308 do not overflow)."""
         p = np.asarray(self.plane, dtype=float)
+        p = p / np.abs(p[:3]).max()
         return xyz @ p[:3] + p[3]
 
     def in_box(self, xyz: np.ndarray) -> np.ndarray:
@@ -691,4 +696,9 @@ def curve_dart_from_file(surface: NurbsSurface, path, name: str = "curve dart") 
                             f"'view_direction' ([dx, dy, dz]): {exc}") from None
     if points.ndim != 2 or points.shape[1] != 3 or view.shape != (3,):
         raise SettingsError(f"curve dart {path}: 'points' must be [[x, y, z], ...] and 'view_direction' [dx, dy, dz]")
-    return curve_dart(surface, points, view, tol=None if tol is None else float(tol), name=name)
+    if tol is not None:
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not math.isfinite(tol) or tol <= 0:
+            raise SettingsError(f"curve dart {path}: 'tolerance' must be a positive number of parameter units, "
+                                f"got {tol!r:.40}")
+        tol = float(tol)
+    return curve_dart(surface, points, view, tol=tol, name=name)

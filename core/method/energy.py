@@ -65,7 +65,7 @@ class YarnConstraint:
                 raise SettingsError(f"yarn point {self.point!r} must be three finite numbers X,Y,Z")
             object.__setattr__(self, "point", tuple(float(x) for x in q))
         p = np.asarray(self.plane, dtype=float)
-        if p.shape != (4,) or not np.all(np.isfinite(p)) or np.linalg.norm(p[:3]) == 0:
+        if p.shape != (4,) or not np.all(np.isfinite(p)) or not np.any(p[:3]):
             raise SettingsError(f"yarn plane {self.plane!r} must be four numbers A,B,C,D with (A,B,C) != 0")
         if not (np.isfinite(self.k) and self.k >= 0):
             raise SettingsError(f"yarn weight k must be a non-negative number, got {self.k!r}")
@@ -125,6 +125,7 @@ class YarnConstraint:
     def unit_plane(self) -> np.ndarray:
         """(4,) plane scaled so (a, b, c) is a unit normal: f is a signed distance."""
         p = np.asarray(self.plane, dtype=float)
+        p = p / np.abs(p[:3]).max()  # first to about 1: coefficients like 1e308 do not overflow the norm
         return p / np.linalg.norm(p[:3])
 
 

@@ -300,6 +300,19 @@ def _check_area(surface: NurbsSurface, area: float) -> None:
                             f"across): it is a curve or a point, not a sheet")
 
 
+MIN_SPACING_SHARE = 1e-6  # a spacing below this share of the piece's size is a slip of the units
+
+
+def _check_spacing(settings: FlattenSettings, area: float) -> None:
+    """SettingsError unless both spacings are at least :data:`MIN_SPACING_SHARE` of the piece's size
+    (the square root of its area): a smaller one would need more nodes than any memory holds."""
+    size = math.sqrt(area)
+    least = min(settings.spacing, settings.spacing_warp or settings.spacing)
+    if least < MIN_SPACING_SHARE * size:
+        raise SettingsError(f"the spacing {least:g} is below a millionth of the piece's size (about {size:.4g}, "
+                            f"the square root of its area): give one from {MIN_SPACING_SHARE * size:.3g}")
+
+
 def _uncovered_share(surface: NurbsSurface, xyz: np.ndarray, reach: float, inside=None) -> float:
     """Share of the surface's area farther than ``reach`` from every point of ``xyz``
     (Gauss points of the domain, at most ~200,000 of them, weighted by area)."""
@@ -398,6 +411,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     cover = cover_for(surface, settings.region)
     A3 = (cover.area if cover.trimmed else region_area(surface)) if area is None else area
     _check_area(surface, A3)
+    _check_spacing(settings, A3)
     if not solver_entry(settings.solver).warm_start:
         initial = None  # the solver declares it starts from a drape only
     if cover.trimmed and initial is None and not cover.contains(cover.seed_uv(settings.seed)[None])[0]:
@@ -531,12 +545,21 @@ def _ended(history, energy: float) -> tuple[float, ...]:
 def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:
     """The mesh state stored in a result file (for a warm start)."""
     try:
-        ij = np.asarray(d["nodes"]["ij"], dtype=np.int64).reshape(-1, 2)
+        ij = np.asarray(d["nodes"]["ij"], dtype=float).reshape(-1, 2)
         uv = np.asarray(d["nodes"]["uv"], dtype=float).reshape(-1, 2)
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, OverflowError):
         raise SettingsError("the warm-start file has no nodes.ij and nodes.uv") from None
+    if not (np.isfinite(ij).all() and (np.abs(ij) < 2.0 ** 52).all() and (ij == np.round(ij)).all()):
+        raise SettingsError("the warm-start file's nodes.ij must be whole lattice indices")
+    ij = ij.astype(np.int64)
     if len(ij) != len(uv) or len(ij) == 0:
         raise SettingsError("the warm-start file's nodes.ij and nodes.uv differ in length or are empty")
+    span = int((ij.max(axis=0) - ij.min(axis=0)).max()) + 1  # rows or columns the nodes reach over
+    if span > len(ij):  # a lattice of n connected nodes reaches over at most n rows or columns
+        raise SettingsError(f"the warm-start file's nodes.ij reach over {span:,} lattice rows or columns with "
+                            f"{len(ij):,} nodes: they are not one lattice")
+    if not np.isfinite(uv).all():
+        raise SettingsError("the warm-start file's nodes.uv must be finite numbers")
     if not surface.in_domain(uv).all():
         raise SettingsError("the warm-start file's nodes lie outside this surface's domain")
     mesh = make_problem(surface, settings).build(ij, uv)

@@ -47,7 +47,7 @@ from flatweave.document.pieces import Piece, with_pieces
 from flatweave.document.rosettes import ToolRosette, piece_weft
 from flatweave.document.project import Project, UNITS
 from flatweave.errors import FlatweaveError, SettingsError
-from flatweave.files import read_input
+from flatweave.files import exists, read_input
 from flatweave.geometry.region import cover_for, offset_region, region_from_spec
 from flatweave.method.lattice import MATERIALS, Material, parse_material
 from flatweave.method.materials import FABRICS, Fabric
@@ -140,9 +140,9 @@ def load_job(path, open_path) -> Project:
         key = (source, _key(face))
         if key not in opened_once:
             src = path.parent / source
-            opened = open_path(src if src.exists() else source, surface_only=True)
+            opened = open_path(src if exists(src) else source, surface_only=True)
             opened = opened.choose_face(face)
-            where = str(src if src.exists() else source)
+            where = str(src if exists(src) else source)
             if face is not None:
                 where = f"{where}#face={face}"
             opened_once[key] = (opened.surface, opened.region, opened, where)

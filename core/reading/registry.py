@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from flatweave.errors import SettingsError
+from flatweave.files import exists
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.reading.opened import Opened
 from flatweave.reading.examples import example_info, example_names, example_path
@@ -160,7 +161,7 @@ def open_path(path: str | os.PathLike, *, surface_only: bool = False) -> Opened:
     """
     p = Path(path)
     example = None
-    if not p.exists() and not p.suffix:
+    if not exists(p) and not p.suffix:
         found = _example(str(path))
         if found is None:
 
