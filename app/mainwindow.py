@@ -346,6 +346,10 @@ class MainWindow(QMainWindow):
     def _solve_all_finished(self, summary: str) -> None:
         self.last_solve_all = summary
         self.statusBar().showMessage(summary, 20000)
+        # a result attached (cause "result") is drawn by the run that made it; Solve all's come from no
+        # run of the window, so the active piece's is drawn here (not over a run of the user's under way)
+        if self.document is not None and self.project.result_is_current and not self.runner.active:
+            self.presenter.show_result(self.project)
 
     def undo(self) -> None:
         if self.document is not None:

@@ -107,6 +107,7 @@ def test_solve_all_solves_every_piece_in_workers_while_the_window_stays_live(mak
     assert all(text == "converged" for _, text in reported)
     assert win.last_solve_all == "Solve all: 3 of 3 pieces solved" and panel.solve_button.isEnabled()
     p = win.project
+    assert win.metrics.text("boundary") == f"{p.result.metrics['boundary_error_pct']:.3f} %"  # shown at once
     assert p.result_is_current and [x.name for x in p.pieces] == ["octant", "octant +45", "ply 90"]
     for piece in p.pieces:
         alone = flatten(p.surface, piece.settings)
@@ -239,6 +240,9 @@ def test_pieces_of_another_file_join_the_project_on_their_own_surface(make_windo
     for piece in win.project.pieces:
         alone = flatten(piece.surface, piece.settings)
         assert piece.result is not None and (piece.result.pattern.xy == alone.pattern.xy).all()
+    # the active piece's result is shown at once, as a run's is (it was drawn only on reselecting)
+    m = win.project.result.metrics
+    assert win.metrics.text("boundary") == f"{m['boundary_error_pct']:.3f} %"
     win.pieces_panel.list.setCurrentRow(0)
     assert win.project.surface is octant and win.project.result_is_current
     assert np.allclose(win.view.surface_points, octant_view)
