@@ -33,6 +33,7 @@ from flatweave.app.shortlist import ShortList
 
 __all__ = ["PiecesPanel", "piece_state"]
 
+CHECKS_SHOWN = 4  # the project's warnings listed under the list; more are counted (a laminate's 24 filled the tab)
 ANGLES = (45.0, -45.0, 90.0)  # the duplicate menu's turns, degrees added to the piece's orientation (or weft angle)
 COLOURS = {"usable": "#1b7a1b", "warnings": "#b86e00", "unusable": "#b00020", "unsolved": "#707070",
            "stale": "#707070"}
@@ -328,7 +329,10 @@ class PiecesPanel(QWidget):
         self._show_material(project)
         self._show_rosette(project)
         warnings = project_checks(project) if project is not None else []
-        self.checks.setText("\n".join(warnings))
+        shown = warnings if len(warnings) <= CHECKS_SHOWN else warnings[:CHECKS_SHOWN - 1] + [
+            f"... and {len(warnings) - CHECKS_SHOWN + 1} more (the tip lists them all)"]
+        self.checks.setText("\n".join(shown))
+        self.checks.setToolTip("\n".join(w[:200] for w in warnings[:200]))
         self.checks.setVisible(bool(warnings))
         self._update_buttons()
 

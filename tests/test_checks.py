@@ -6,6 +6,7 @@ consistent project of a developable piece; shown by the CLI's solve."""
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +15,10 @@ from flatweave import flatten
 from flatweave.document import pieces as P
 from flatweave.document.checks import FIBRE_TOL_DEG, project_checks
 from flatweave.document.project import new_project
+from flatweave.document.solving import solve_pieces
 from flatweave.geometry.region import Region
 from flatweave.method.fibres import result_fibres
+from flatweave.reading.registry import open_path
 from flatweave.reading.examples import load_example
 
 
@@ -62,3 +65,17 @@ def test_the_pieces_tab_shows_the_checks(make_window):
     panel.duplicate_at(0, 45.0)
     win.piece_edit("Sequence", lambda p: P.set_sequence(P.set_sequence(p, 0, 1), 1, 1), False)
     assert panel.checks.isVisibleTo(panel) and "share sequence 1" in panel.checks.text()
+    assert panel.checks.toolTip() == panel.checks.text()  # few: all listed
+
+
+def test_many_checks_are_counted_under_the_list_and_listed_in_the_tip(make_window):
+    """The bundled 24-ply job once solved warns of every ply's fibre turn: four lines under the list,
+    the last counting the rest, and the tip holding all of them."""
+    job = Path(__file__).resolve().parent.parent / "resources" / "jobs" / "dome-laminate.toml"
+    solved, _ = solve_pieces(open_path(job).project, [f"P{k:02d}" for k in range(1, 9)], workers=1)
+    warnings = project_checks(solved)
+    assert len(warnings) == 8
+    win = make_window(project=solved)
+    lines = win.pieces_panel.checks.text().splitlines()
+    assert lines[:3] == warnings[:3] and lines[3] == "... and 5 more (the tip lists them all)"
+    assert win.pieces_panel.checks.toolTip().splitlines() == warnings
