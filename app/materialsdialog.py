@@ -22,9 +22,9 @@ from PySide6.QtCore import QSignalBlocker, Qt
 from PySide6.QtGui import QBrush, QColor
 from PySide6.QtWidgets import QFileDialog, QMenu, QTableWidgetItem, QToolButton
 
-from flatweave.app.tabledialog import RIGHT, TableDialog, free_name
+from flatweave.app.tabledialog import RIGHT, TableDialog
 
-from flatweave.document.pieces import pieces_of
+from flatweave.document.pieces import free_name, pieces_of
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.method.materials import FABRICS, Fabric, check_table, load_materials, save_materials
 

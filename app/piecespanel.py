@@ -134,7 +134,7 @@ class PiecesPanel(QWidget):
         self.orientation.setWrapping(True)
         self.orientation.setKeyboardTracking(False)  # one edit when the value is entered, not one per key
         self.orientation.setToolTip("The active piece's orientation from its rosette: 0, +45, -45, 90 or any angle")
-        self.orientation.valueChanged.connect(self._orientation_entered)
+        self.orientation.valueChanged.connect(self.set_orientation)
         line.addWidget(self.orientation)
         self.rosettes_button = QToolButton(text="Rosettes...")
         self.rosettes_button.setToolTip("Edit the tool's rosettes: origin and 0-degree direction as numbers, or "
@@ -285,9 +285,6 @@ class PiecesPanel(QWidget):
             k = p.piece_index
             label = f"Orient {p.piece_name} from {name}" if name else f"{p.piece_name} by its weft angle"
             self.piece_edit.emit(label, lambda q: P.orient(q, k, name), True)
-
-    def _orientation_entered(self, value: float) -> None:
-        self.set_orientation(value)
 
     def set_orientation(self, value: float) -> None:
         """The active piece at ``value`` degrees from its rosette (what the orientation box asks)."""

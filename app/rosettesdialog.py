@@ -22,9 +22,9 @@ from PySide6.QtCore import QSignalBlocker, Qt
 from PySide6.QtGui import QBrush, QColor
 from PySide6.QtWidgets import QTableWidgetItem
 
-from flatweave.app.tabledialog import ERROR_COLOUR, RIGHT, TableDialog, free_name
+from flatweave.app.tabledialog import ERROR_COLOUR, RIGHT, TableDialog
 
-from flatweave.document.pieces import pieces_of
+from flatweave.document.pieces import free_name, pieces_of
 from flatweave.document.rosettes import MAX_ROSETTES, ToolRosette, check_rosettes
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.method.rosette import rosette

@@ -11,22 +11,10 @@ from PySide6.QtCore import QSignalBlocker, Qt
 from PySide6.QtWidgets import (QAbstractItemView, QDialog, QDialogButtonBox, QHBoxLayout, QHeaderView, QLabel,
                                QTableWidget, QTableWidgetItem, QToolButton, QVBoxLayout)
 
-__all__ = ["TableDialog", "ERROR_COLOUR", "RIGHT", "free_name"]
+__all__ = ["TableDialog", "ERROR_COLOUR", "RIGHT"]
 
 ERROR_COLOUR = "#b00020"
 RIGHT = Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter  # numbers read right-aligned
-
-
-def free_name(taken, base: str, numbered: bool = False) -> str:
-    """``base``, or "``base`` N" with the first N from 2 (from 1 when ``numbered``) that no name in
-    ``taken`` has, case and outer spaces aside (as the project matches names)."""
-    keys = {n.strip().casefold() for n in taken}
-    if not numbered and base.strip().casefold() not in keys:
-        return base
-    n = 1 if numbered else 2
-    while f"{base} {n}".casefold() in keys:
-        n += 1
-    return f"{base} {n}"
 
 
 class TableDialog(QDialog):

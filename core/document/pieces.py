@@ -27,8 +27,8 @@ from flatweave.method.settings import FlattenSettings
 
 __all__ = ["Piece", "MAX_PIECES", "MAX_QUANTITY", "check_piece", "pieces_of", "with_pieces", "select", "add",
            "duplicate", "remove", "rename", "move", "set_quantity", "set_sequence", "index_of", "use_material",
-           "set_materials", "orient", "set_rosettes", "follow_rosettes", "placed", "sources_of", "add_from",
-           "resurface"]
+           "set_materials", "free_name", "orient", "set_rosettes", "follow_rosettes", "placed", "sources_of",
+           "add_from", "resurface"]
 
 MAX_PIECES = 1000  # a laminate has 10 to 200 plies, a product 5 to 30 panels
 MAX_QUANTITY = 100_000  # copies of one piece cut for a job
@@ -165,12 +165,15 @@ def select(project, k):
     return with_pieces(project, pieces_of(project), index_of(project, k))
 
 
-def _free_name(pieces, base: str) -> str:
-    taken = {p.name.strip().casefold() for p in pieces}
-    if base.strip().casefold() not in taken:
+def free_name(taken, base: str, numbered: bool = False) -> str:
+    """``base``, or "``base`` N" with the first N from 2 (from 1 when ``numbered``) that no name in
+    ``taken`` has, case and outer spaces aside (as a project matches the names of its pieces,
+    materials and rosettes)."""
+    keys = {n.strip().casefold() for n in taken}
+    if not numbered and base.strip().casefold() not in keys:
         return base
-    n = 2
-    while f"{base} {n}".casefold() in taken:
+    n = 1 if numbered else 2
+    while f"{base} {n}".casefold() in keys:
         n += 1
     return f"{base} {n}"
 
@@ -188,7 +191,7 @@ def add(project, name: str | None = None, settings: FlattenSettings | None = Non
             raise SettingsError("a piece on another surface needs its own settings (its region and seed are "
                                 "that surface's)")
         settings = replace(project.settings, darts=(), yarns=())
-    name = _free_name(pieces, f"piece {len(pieces) + 1}") if name is None else name
+    name = free_name((q.name for q in pieces), f"piece {len(pieces) + 1}") if name is None else name
     if surface is None:
         surface, source = project.surface, project.source
     new = pieces + (Piece(name, settings, surface=surface, source=source),)
@@ -213,7 +216,7 @@ def add_from(project, other, select_it: bool = True):
         rosettes.setdefault(r.name.strip().casefold(), r)
     first = len(pieces)
     for p in pieces_of(other):
-        pieces.append(replace(p, name=_free_name(pieces, p.name)))
+        pieces.append(replace(p, name=free_name((q.name for q in pieces), p.name)))
     out = replace(project, materials=tuple(materials.values()), rosettes=tuple(rosettes.values()))
     return with_pieces(out, pieces, first if select_it else project.piece_index)
 
@@ -247,7 +250,8 @@ def duplicate(project, k, name: str | None = None, angle_deg: float | None = Non
         label = f" {src.settings.angle_deg if src.rosette is None else src.orientation:+g}"
         if angle_deg is not None and base.endswith(label) and len(base) > len(label):
             base = base[:-len(label)]
-        name = _free_name(pieces, f"{base} {angle_deg:+g}" if angle_deg is not None else f"{base} copy")
+        name = free_name((q.name for q in pieces),
+                         f"{base} {angle_deg:+g}" if angle_deg is not None else f"{base} copy")
     copy = replace(copy, name=name)
     return with_pieces(project, pieces[:i + 1] + (copy,) + pieces[i + 1:], i + 1)
 

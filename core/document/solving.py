@@ -30,7 +30,6 @@ from typing import Callable
 from flatweave.document.pieces import index_of, with_pieces
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.geometry.quadrature import region_area
-from flatweave.geometry.region import cover_for
 from flatweave.method import drape
 from flatweave.method.pipeline import flatten
 from flatweave.method.result import FlattenResult
@@ -44,10 +43,11 @@ CONNECT_SECONDS = 10.0  # how long a scheduler (and a first worker) is waited fo
 WORKER_BYTES = 100_000_000  # a worker before its piece: flatweave, numpy and scipy imported (70 MB measured)
 
 
-def piece_nodes(surface, settings) -> int:
-    """The nodes a piece's mesh will about have: its region's area over a cell's, at most its
+def piece_nodes(surface, settings, area: float | None = None) -> int:
+    """At most the nodes a piece's mesh will have: ``area`` (default its surface's whole area, a
+    bound for any region of it that costs no region's quadrature) over a cell's, at most its
     ``max_nodes`` (:func:`flatweave.method.drape.estimate_node_count`)."""
-    area = region_area(surface) if settings.region is None else cover_for(surface, settings.region).area
+    area = region_area(surface) if area is None else area
     warp = settings.spacing if settings.spacing_warp is None else settings.spacing_warp
     return min(int(settings.max_nodes), drape.estimate_node_count(float(area), settings.spacing, warp))
 
@@ -117,7 +117,9 @@ def solve_pieces(project, pieces=None, workers: int | None = None,
         raise SettingsError("give worker processes or a Dask cluster, not both: the cluster's workers solve the pieces")
     workers = default_workers() if workers is None else max(1, int(workers))
     if cluster is None and workers > 1 and len(jobs) > 1:  # as many as the memory holds with the largest at once
-        workers = memory_workers(workers, [piece_nodes(surface, settings) for _, surface, settings in jobs.values()])
+        areas = {id(surface): region_area(surface) for surface in surfaces.values()}  # once a source
+        workers = memory_workers(workers, [piece_nodes(surface, settings, areas[id(surface)])
+                                           for _, surface, settings in jobs.values()])
     outcomes: dict[str, PieceOutcome] = {}
 
     def done(name, result, error, seconds):
