@@ -67,7 +67,9 @@ from flatweave.method.darts import curve_dart_from_file
 from flatweave.geometry.region import check_region_size
 from flatweave.studies.autodarts import suggest_darts
 from flatweave.reading.cad import cad_info
-from flatweave.geometry.meshfit import FitTolerance, SeveralParts, boundary_loops, clean_mesh, open_ends
+from flatweave.geometry import meshfit
+from flatweave.geometry.meshfit import FitTolerance, SeveralParts, boundary_loops, clean_mesh, edge_table
+from flatweave.geometry.meshfit import open_ends
 from flatweave.geometry.region import offset_region
 
 __all__ = ["main", "build_parser"]
@@ -821,12 +823,15 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
         import numpy as np
 
         mesh = opened.mesh
-        try:  # described, not refused: its non-manifold edges set aside, its largest part when they split it
-            V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name, aside=[])
-        except SeveralParts:
-            V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name, 0, aside=[])
+        if mesh.cleaned is not None:  # the open repaired it already
+            V, F, repairs = mesh.cleaned
+        else:
+            try:  # described, not refused: its non-manifold edges set aside, its largest part when they split it
+                V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name, aside=[])
+            except SeveralParts:
+                V, F, repairs = clean_mesh(mesh.vertices, mesh.triangles, mesh.path.name, 0, aside=[])
         n_loops = len(boundary_loops(F, mesh.path.name))
-        n_edges = len(np.unique(np.sort(np.r_[F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=1), axis=0))
+        n_edges = len(edge_table(F)[0])
         genus = (2 - (len(V) - n_edges + len(F)) - n_loops) // 2  # Euler: V - E + F = 2 - 2g - loops
         size = float(np.linalg.norm(np.ptp(V, axis=0)))
         area = float(0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum())
@@ -843,8 +848,11 @@ def _info_mesh(opened, fit, as_json: bool) -> int:
         print(f"{shape}, genus {genus} ({handles}); size {size:.6g} (bounding-box diagonal), area {area:.10g}")
         if opened.units_guess is not None:
             print(f"{units_note(mesh.path.name, size, opened.units_guess)}; flatten --units chooses")
-        print("it needs a region to flatten: give flatten --region with a loop3d drawn on it, "
-              "or cut the piece out of the mesh (the window's Open does)")
+        if len(F) > meshfit.MAX_FIT_TRIANGLES:  # too detailed to fit whole (meshfit.TooDetailed): a panel, or decimate
+            print(mesh.needs_region)
+        else:
+            print("it needs a region to flatten: give flatten --region with a loop3d drawn on it, "
+                  "or cut the piece out of the mesh (the window's Open does)")
         return 0
     cover = cover_for(opened.surface, opened.region)
     if as_json:
@@ -922,7 +930,7 @@ def _cmd_solve(args) -> int:
     failed = [o for o in outcomes if o.result is None]
     for o in failed:
         print(f"flatweave: piece {o.name!r} failed: {o.error}", file=sys.stderr)
-    return 1 if failed else 0
+    return PIECES_FAILED if failed else 0
 
 
 def _save_solved(project, out: Path, book: Path | None, folder: Path | None, options: ExportOptions,
@@ -957,8 +965,14 @@ def _cmd_examples(args) -> int:
     return 0
 
 
+PIECES_FAILED = 3
+"""``solve``'s exit status when some pieces failed (each says why in a line; the others' results are
+saved): neither bad input (2: nothing written) nor an internal error (1)."""
+
+
 def main(argv=None) -> int:
-    """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 internal error)."""
+    """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 internal error, 3 ``solve``: some
+    pieces failed, the others saved)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

@@ -91,7 +91,9 @@ def make_inputs(folder: Path) -> dict[str, list[Path]]:
     mesh picker), ``cad face`` (one trimmed face, with its region: STEP and
     IGES in mm, STEP in metres) and ``cad faces`` (several faces: the face
     picker). CAD files only with Open CASCADE."""
-    files: dict[str, list[Path]] = {"mesh": [], "closed mesh": [], "cad face": [], "cad faces": []}
+    data = Path(__file__).parent / "data"
+    files: dict[str, list[Path]] = {"mesh": [], "closed mesh": [], "cad face": [], "cad faces": [],
+                                    "hostile": sorted([*(data / "bad").iterdir(), *(data / "hostile").glob("*.json")])}
     try:
         import trimesh
     except ImportError:
@@ -359,7 +361,7 @@ class Soak:
              "rerun", "stop", "pause", "undo", "undo", "redo", "save", "open", "autosave",
              # other documents, the tools, the dialogs, the view
              "example", "cad face", "cad faces", "mesh", "mesh", "closed mesh", "region", "region", "curve tool",
-             "suggest", "sweep", "export", "view", "view", "zoom", "zoom", "turn", "reset view"]
+             "suggest", "sweep", "export", "view", "view", "zoom", "zoom", "turn", "reset view", "hostile"]
 
     def edit(self) -> str:
         kind = self.rng.choice(self.KINDS)
@@ -497,6 +499,8 @@ class Soak:
             return path.name + self.run_new_document()
         if kind == "cad faces" and self.inputs.get(kind):
             return self.pick_faces(rng.choice(self.inputs[kind])) + self.run_new_document()
+        if kind == "hostile" and self.inputs.get(kind):
+            return self.open_hostile(rng.choice(self.inputs[kind]))
         if kind == "closed mesh" and self.inputs.get(kind):
             return self.draw_on_mesh(rng.choice(self.inputs[kind])) + self.run_new_document()
         if kind == "region":
@@ -531,6 +535,27 @@ class Soak:
             self.settle()
             return ", run to its end"
         return ", run"
+
+    def open_hostile(self, path: Path) -> str:
+        """Open a file of the hostile corpus (tests/data/bad, tests/data/hostile; issue 45) through
+        File > Open: it must be refused with one line shown and the document left as it was."""
+        from flatweave.document.project import project_to_dict
+
+        win = self.win
+        if win.runner.state != "idle":
+            win.stop()
+            self.settle()
+        before, revision = project_to_dict(win.project), win.document.revision
+        shown, show = [], win.show_error
+        win.show_error = shown.append
+        try:
+            opened = win.open_file(path)
+        finally:
+            win.show_error = show
+        if opened or len(shown) != 1 or "\n" in shown[0] or win.document.revision != revision \
+                or project_to_dict(win.project) != before:
+            self.errors[f"hostile {path.name} not refused cleanly"] += 1
+        return f"{path.name} refused"
 
     def pick_faces(self, path: Path) -> str | None:
         """Open a CAD file of several faces: in the face picker choose one, or
@@ -955,7 +980,9 @@ def main(argv=None) -> int:
             if first_blank is None:
                 first_blank = k
         if threading.active_count() > base_threads + 4:
-            failures.append(f"edit {k}: {threading.active_count()} threads (started with {base_threads})")
+            names = Counter(t.name.rstrip("0123456789_") for t in threading.enumerate())
+            failures.append(f"edit {k}: {threading.active_count()} threads (started with {base_threads}): "
+                            + ", ".join(f"{n} x{c}" for n, c in sorted(names.items())))
         memory.append(rss_mb())
         if (k + 1) % 25 == 0:
             log_path.write_text("\n".join(f"{i}: {e}" for i, e in enumerate(soak.log)) + "\n")

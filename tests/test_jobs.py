@@ -120,3 +120,18 @@ def test_the_cli_solves_a_job_into_a_project_beside_it(tmp_path):
     assert path.read_text().startswith('source = "octant"')  # the job file itself untouched
     p = _cli("solve", path, "--out", tmp_path / "x.json")
     assert p.returncode == 2 and "written as a .flatweave file" in p.stderr
+
+
+def test_a_piece_that_fails_fails_alone_with_its_own_exit_status(tmp_path, capsys):
+    """A ply too small for the spacing fails in its solve (the drape's one line), the other is solved and the
+    project saved: exit 3, neither 1 (an internal error) nor 2 (bad input, nothing written)."""
+    from flatweave.cli import PIECES_FAILED, main
+
+    tiny = 'boundary = { uv = [[0.5, 0.5], [0.51, 0.5], [0.51, 0.51], [0.5, 0.51]] }\n'
+    path = _job(tmp_path, PLY.format(name="whole", o=0) + PLY.format(name="tiny", o=45) + tiny)
+    assert main(["solve", str(path), "--workers", "1", "--quiet"]) == PIECES_FAILED == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    failed = [line for line in err if line.startswith("flatweave: piece ")]
+    assert len(failed) == 1 and failed[0].startswith("flatweave: piece 'tiny' failed: ") and "spacing" in failed[0]
+    project = load_project(tmp_path / "job.flatweave")
+    assert [x.result is not None for x in project.pieces] == [True, False]

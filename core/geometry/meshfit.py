@@ -50,12 +50,19 @@ __all__ = ["MeshFit", "FittedSurface", "MeshPiece", "MAX_TRIANGLES", "clean_mesh
            "FitTolerance", "clamped_knots",
            "edge_table",
            "map_distortion", "MAP_DISTORTION_LIMIT", "MAX_COORDINATE", "with_fit", "FitMesh", "vertex_deviation",
-           "weld_parts", "densify", "split_pinched", "check_coordinates"]
+           "weld_parts", "densify", "split_pinched", "check_coordinates", "used_vertices",
+           "MAX_FIT_TRIANGLES", "TooDetailed"]
 
 
 MAX_TRIANGLES = 2_000_000
-"""Most triangles a mesh file may have (a 100,000-triangle mesh takes a few
-seconds; docs/decisions/0034-meshes-fitted-by-lscm-and-p-splines.md)."""
+"""Most triangles a mesh file may have: read, repaired and checked (``info``) in
+about 16 s here, a panel drawn on it and cut out (docs/decisions/0066-mesh-limits-read-and-fit.md)."""
+
+MAX_FIT_TRIANGLES = 500_000
+"""Most triangles of one piece mapped and fitted as a surface (the whole mesh,
+or a panel cut from it): about 27 s here and 2.2 GB (benchmarks/results/limits.md), most of it the conformal
+map's sparse factorisation, which grows as n^1.6. A larger piece is refused in
+one line asking for a panel (:class:`TooDetailed`)."""
 
 FIT_TOL = 2e-4
 """The fit is refined until its largest deviation is below this fraction of
@@ -221,7 +228,24 @@ class NeedsRegion(SurfaceError):
     """A closed mesh, or one with handles: it cannot be covered whole."""
 
 
+class TooDetailed(SurfaceError):
+    """A piece of more than :data:`MAX_FIT_TRIANGLES` triangles: a panel drawn
+    on the mesh (or a smaller one) can be fitted."""
+
+
 # --------------------------------------------------------------------------- repair and checks
+def used_vertices(F: np.ndarray, n: int | None = None) -> np.ndarray:
+    """The sorted indices of the vertices triangles ``F`` use (``np.unique(F)``,
+    by a mask: linear, where numpy's hash-based unique took 6 s on the
+    6,000,000 corners of a 2,000,000-triangle mesh)."""
+    F = np.asarray(F)
+    if F.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    mask = np.zeros(int(F.max()) + 1 if n is None else n, dtype=bool)
+    mask[F.ravel()] = True
+    return np.flatnonzero(mask)
+
+
 def _edges(F: np.ndarray) -> np.ndarray:
     """(3m, 2) directed edges of the triangles, edge k of triangle t at row 3t + k."""
     return np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)
@@ -237,13 +261,14 @@ def edge_table(F: np.ndarray):
     return np.stack([uniq // n, uniq % n], axis=1), inv.reshape(-1), count
 
 
-def _orient(F: np.ndarray, name: str) -> tuple[np.ndarray, int]:
+def _orient(F: np.ndarray, name: str, table=None) -> tuple[np.ndarray, np.ndarray]:
     """The triangles wound consistently within each part (triangles sharing
-    an edge traverse it in opposite senses); returns (F, flipped count).
+    an edge traverse it in opposite senses); returns (F, the flipped rows' mask).
+    ``table``: :func:`edge_table` of ``F`` when it is at hand.
     SurfaceError when a part cannot be oriented (a Moebius strip)."""
     m = len(F)
     E = _edges(F)
-    _, inv, count = edge_table(F)
+    _, inv, count = edge_table(F) if table is None else table
     # pairs of triangles across each interior edge (two directed edges per undirected one)
     order = np.argsort(inv, kind="stable")
     inner = count[inv[order]] == 2
@@ -276,7 +301,17 @@ def _orient(F: np.ndarray, name: str) -> tuple[np.ndarray, int]:
     if np.any(bad):
         raise SurfaceError(f"{name} cannot be oriented (its triangles' winding cannot be made consistent, "
                            f"as on a Moebius strip)")
-    return F, int(flip.sum())
+    return F, flip
+
+
+def _flipped_table(table, flip: np.ndarray):
+    """:func:`edge_table` of the triangles after the rows ``flip`` marks were
+    reversed ((a, b, c) to (c, b, a)): the same undirected edges, a reversed
+    row's directed edges being its old edges 1, 0 and 2."""
+    edges, inv, count = table
+    inv = inv.reshape(-1, 3).copy()
+    inv[flip] = inv[flip][:, [1, 0, 2]]
+    return edges, inv.reshape(-1), count
 
 
 def check_coordinates(V: np.ndarray, name: str = "the mesh") -> None:
@@ -311,7 +346,7 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None, aside
     repairs = []
     if len(F) == 0:
         raise SurfaceError(f"{name} has no triangles")
-    used = np.unique(F)
+    used = used_vertices(F)
     check_coordinates(V[used], name)
     V = V[used]
     F = np.searchsorted(used, F)
@@ -379,26 +414,31 @@ def clean_mesh(V, F, name: str = "the mesh", component: int | None = None, aside
         repairs.append(f"part {component} of {n_parts}")
     elif component is not None and np.ndim(component) == 0 and component != 0:  # a point: the only part
         raise SettingsError(f"{name} has one part; --face must be 0")
-    used = np.unique(F)
+    used = used_vertices(F)
+    same = n_parts == 1 and len(used) == len(V)  # F as edge_table saw it: its table holds
     V, F = V[used], np.searchsorted(used, F)
-    F, flipped = _orient(F, name)
+    table = (edges, inv_e, count) if same else edge_table(F)
+    F, flip = _orient(F, name, table)
+    flipped = int(flip.sum())
     if flipped and flipped < len(F):
         repairs.append(f"re-wound {flipped} triangles")
-    V, F, n_split = split_pinched(V, F)
+    V, F, n_split = split_pinched(V, F, table=_flipped_table(table, flip))
     if n_split:
         repairs.append(f"split {n_split} vertices where separate fans of triangles touched")
     return V, F, tuple(repairs)
 
 
-def split_pinched(V: np.ndarray, F: np.ndarray, cut: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+def split_pinched(V: np.ndarray, F: np.ndarray, cut: np.ndarray | None = None,
+                  table=None) -> tuple[np.ndarray, np.ndarray, int]:
     """A vertex whose triangles form several fans (joined through it alone, as
     where two holes of a scan touch) becomes one vertex per fan, at the same
     place. ``cut`` (e,) bool, over :func:`edge_table`'s edges: edges the
     triangles do not meet across (a seam), so the mesh opens along them.
+    ``table``: :func:`edge_table` of ``F`` when it is at hand.
     Returns (V, F, how many vertices were split)."""
     m = len(F)
     corner_vertex = F.ravel()
-    _, inv, count = edge_table(F)
+    _, inv, count = edge_table(F) if table is None else table
     order = np.argsort(inv, kind="stable")
     inner = count[inv[order]] == 2
     if cut is not None:
@@ -617,7 +657,8 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
     between too few vertices, noise, or detail finer than the net); the
     default one, not met, leaves the deviation to be judged with the result.
 
-    A closed mesh, or one of higher genus, is refused (it needs a region).
+    A closed mesh, or one of higher genus, is refused (it needs a region); a
+    piece of more than :data:`MAX_FIT_TRIANGLES` triangles too (:class:`TooDetailed`).
     """
     stated = tolerance is not None
     if stated and not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and tolerance > 0):
@@ -625,6 +666,13 @@ def mesh_surface(V, F, source: str = "", name: str = "the mesh", repairs: tuple 
 
     V = np.asarray(V, dtype=float)
     F = np.asarray(F, dtype=np.int64)
+    if len(F) > MAX_FIT_TRIANGLES:
+        if any(r.startswith("cut along") for r in repairs):
+            raise TooDetailed(f"the piece cut from {name} has {len(F):,} triangles, more than the "
+                              f"{MAX_FIT_TRIANGLES:,} one piece is fitted from: draw a smaller panel, or "
+                              f"decimate the mesh")
+        raise TooDetailed(f"{name} has {len(F):,} triangles, more than the {MAX_FIT_TRIANGLES:,} one piece is "
+                          f"fitted from: draw a panel on it (--region), or decimate the mesh")
     loops = boundary_loops(F, name)
     E = edge_table(F)[0]
     chi = len(V) - len(E) + len(F)

@@ -27,6 +27,7 @@ from flatweave.geometry.meshfit import MAP_DISTORTION_LIMIT
 from flatweave.geometry.meshfit import MAX_TRIANGLES
 from flatweave.geometry.meshfit import MeshPiece
 from flatweave.geometry.meshfit import NeedsRegion
+from flatweave.geometry.meshfit import TooDetailed
 from flatweave.geometry.meshfit import NonManifold
 from flatweave.geometry.meshfit import SeveralParts
 from flatweave.geometry.meshcut import closest_on_mesh
@@ -36,6 +37,7 @@ from flatweave.geometry.meshfit import check_coordinates
 from flatweave.geometry.meshfit import clean_mesh
 from flatweave.geometry.meshfit import mesh_surface
 from flatweave.geometry.meshfit import open_ends
+from flatweave.geometry.meshfit import used_vertices
 from flatweave.document.project import UNITS
 from flatweave.geometry.region import RegionDrawing
 from flatweave.reading.opened import Opened
@@ -196,6 +198,7 @@ class MeshFile:
     needs_region: str = ""
     advice: str = ""
     n_ends: int = 0  # open ends (2 or more: a seam can open it, meshfit.open_ends); 0: not counted
+    cleaned: tuple | None = None  # (V, F, repairs) of clean_mesh when the open made them (info need not again)
 
     def piece(self, component: int, tolerance: float | None = None) -> MeshPiece:
         """Part ``component`` (0 = the largest) whole, fitted to ``tolerance``
@@ -221,7 +224,7 @@ class MeshFile:
         if isinstance(spec, dict) and "points" in spec and "loop3d" not in spec:
             drawing = RegionDrawing.from_dict(spec)  # validated as a drawn region on a surface is
             V, F = self.vertices, self.triangles
-            check_coordinates(V[np.unique(F)], name)  # before any arithmetic on them
+            check_coordinates(V[used_vertices(F)], name)  # before any arithmetic on them
             view = drawing.view_direction
             loop = drawn_loop_on_mesh(V, F, drawing.outer, view, name)
             holes3d = [drawn_loop_on_mesh(V, F, h, view, name, f"hole {k + 1} of the region")
@@ -246,7 +249,7 @@ class MeshFile:
             if view is None or view.shape != (3,) or not np.isfinite(view).all() or not np.linalg.norm(view) > 0:
                 raise SettingsError('a drawn seam\'s "view_direction" must be a nonzero [dx, dy, dz]')
             V, F = self.vertices, self.triangles
-            check_coordinates(V[np.unique(F)], name)  # before any arithmetic on them
+            check_coordinates(V[used_vertices(F)], name)  # before any arithmetic on them
             seam = drawn_loop_on_mesh(V, F, spec["points"], view, name, "the seam", closed=False)
             return self.cut_along(seam, component, tolerance)
         raise SettingsError(f"a seam on {name} (a mesh) is {{\"seam3d\": [[x, y, z], ...]}} (points on it from one "
@@ -317,7 +320,7 @@ def mesh_to_cut(path) -> Opened:
 
 
 def _units_guess(V, F) -> str | None:
-    used = V[np.unique(F)]
+    used = V[used_vertices(F)]
     try:
         check_coordinates(used)
     except SurfaceError:  # no guess: clean_mesh refuses the file in one line
@@ -345,8 +348,8 @@ def open_mesh(path):
                                                 f"can be cut (--region); or repair the mesh"), units_guess=guess)
     try:
         piece = mesh_surface(V2, F2, source=os.fspath(p), name=p.name, repairs=repairs)
-    except NeedsRegion as exc:  # closed, or handles: a loop drawn on it (--region) says which piece
-        return Opened(mesh=MeshFile(p, V, F, 1, str(exc)), units_guess=guess)
+    except (NeedsRegion, TooDetailed) as exc:  # closed, handles, too detailed: a panel drawn on it says which piece
+        return Opened(mesh=MeshFile(p, V, F, 1, str(exc), cleaned=(V2, F2, repairs)), units_guess=guess)
     ends = open_ends(V2, F2)
     advice = panel_advice(p.name, piece.fit, ends)
     return Opened(surface=piece.surface, region=piece.region, mesh=MeshFile(p, V, F, 1, advice=advice, n_ends=ends),
