@@ -27,6 +27,7 @@ from pathlib import Path
 from flatweave.app.choices import VIEW_KINDS, solver_labels, view_setting  # no Qt or VTK: checked before either loads
 from flatweave.reading.registry import open_path
 from flatweave.app.nonefix import keep_none_alive
+from flatweave.cli import LENGTH, SECONDS, OneLineParser  # the command line's one-line refusals and ranges
 from flatweave.errors import FlatweaveError, SettingsError
 
 DEFAULT_EXAMPLE = "octant"
@@ -45,13 +46,13 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="flatweave",
         description="Flat cutting patterns for fabric covering NURBS surfaces (desktop app).")
     parser.add_argument("file", nargs="?", type=Path, metavar="FILE",
                         help="project (.flatweave), surface (geomdl JSON, STEP, IGES) or mesh (STL, OBJ, PLY, OFF); "
                              "a file of several faces opens the face picker; default: the sphere-octant example")
-    parser.add_argument("--spacing", type=float, default=None, metavar="R",
+    parser.add_argument("--spacing", type=LENGTH, default=None, metavar="R",
                         help="mesh spacing for a surface (default: the example's, or about sqrt(area)/25)")
     parser.add_argument("--solver", choices=tuple(solver_labels()), default=None, help="solver to use")
     parser.add_argument("--run", action="store_true", help="solve once the window is up")
@@ -60,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--quit", action="store_true",
                         help="quit after start-up (after the solve and the screenshot, if any)")
     parser.add_argument("--size", type=_size, default=None, metavar="WxH", help="window size in pixels")
-    parser.add_argument("--timeout", type=float, default=600.0, metavar="S",
+    parser.add_argument("--timeout", type=SECONDS, default=600.0, metavar="S",
                         help="with --run --quit: give up (status 1) after S seconds (default 600)")
     parser.add_argument("--view", choices=VIEW_KINDS, default=None,
                         help="render widget of the views: pyvistaqt's OpenGL widget (gl), a raster canvas "

@@ -41,6 +41,9 @@ from flatweave.files import check_output, exists, json_bytes, parse_json, read_i
 from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten, state_from_dict
 from flatweave.method.result import result_to_dict
+from flatweave.method.seams import MATCH_MM, MATCH_PCT, match_sews
+from flatweave.geometry.panels import seam_from_spec, split_region
+from flatweave.version import __version__
 from flatweave.geometry.quadrature import region_area
 from flatweave.export.registry import (MAX_SEAM_MM, ExportOption, ExportOptions, check_target, export_files,
                                        export_options, option_formats, surprises)
@@ -106,6 +109,11 @@ def resolve_piece(args):
     faces = _face_list(args)  # before the file is read: a bad list is refused at once
     tolerance = _fit_tolerance(args)
     seam = getattr(args, "seam", None)
+    if isinstance(seam, list):  # flatten's: repeatable (panels on a surface); a mesh opens along one
+        if len(seam) > 1 and is_mesh_path(args.surface):
+            raise SettingsError(f"{Path(args.surface).name}: a mesh opens along one seam (--seam once); panels "
+                                f"split by seams are for surfaces")
+        seam = seam[0] if seam and is_mesh_path(args.surface) else None
     if seam and args.region:
         raise SettingsError("a region drawn on a mesh is one piece already; a seam is for a tube-shaped mesh "
                             "covered whole (give --region or --seam, not both)")
@@ -120,8 +128,8 @@ def resolve_piece(args):
         return _mesh_piece(args, opened, args.region, "region", opened.mesh.cut_spec, tolerance)
     if seam:
         if opened.mesh is None:
-            raise SettingsError(f"{Path(args.surface).name}: --seam is for meshes (STL, OBJ, PLY, OFF) shaped "
-                                f"like a tube; a closed CAD face opens along its own seam")
+            raise SettingsError(f"{Path(args.surface).name}: here --seam opens a mesh (STL, OBJ, PLY, OFF) shaped "
+                                f"like a tube; seams splitting a surface into panels are for flatten")
         return _mesh_piece(args, opened, seam, "seam", opened.mesh.seam_spec, tolerance)
     if faces is not None:
         opened = _join_faces(args, opened, faces)
@@ -252,18 +260,20 @@ def _export_help() -> str:
     return _help(f"write the pattern to PATH, the suffix picks the format: {formats}; repeatable")
 
 
-class _Parser(argparse.ArgumentParser):
+class OneLineParser(argparse.ArgumentParser):
     """argparse's parser whose refusals are one line naming the option, not the
-    usage block (subcommands' parsers are of this class too)."""
+    usage block (subcommands' parsers are of this class too; the window's
+    launcher, :mod:`flatweave.app.main`, uses it as well)."""
 
     def error(self, message):
         command = self.prog.removeprefix("python -m flatweave").strip()
+        command = "" if command == self.prog else command
         where = f"{command}: " if command else ""
         self.exit(2, f"flatweave: error: {where}{message}; see {self.prog} --help\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = OneLineParser(
         prog="python -m flatweave",
         description="flatweave: flat patterns of woven fabric or isotropic sheets covering NURBS surfaces.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
@@ -299,10 +309,13 @@ def build_parser() -> argparse.ArgumentParser:
                         '"view_direction": [dx, dy, dz]} (projected as curve darts are), or {"uv": [[s, t], '
                         '...]} (fractions of the domain), or {"outer": [[u, v], ...]} (domain coordinates); '
                         'each with optional "holes": [loop, ...] in the same form')
-    f.add_argument("--seam", default=None, metavar="SEAM.json",
-                   help='a mesh shaped like a tube (a sleeve, a leg, a pipe: open at two ends): open it along a '
-                        'seam drawn from one end to the other, {"seam3d": [[x, y, z], ...]} (points on it) or '
-                        '{"points": [[x, y, z], ...], "view_direction": [dx, dy, dz]} (projected onto it); the '
+    f.add_argument("--seam", action="append", default=[], metavar="SEAM.json",
+                   help='on a surface: a seam line that splits it (or its region) into panels, each flattened, '
+                        'their sew lines matched; {"points": [[x, y, z], ...], "view_direction": [dx, dy, dz]} '
+                        '(drawn, projected onto it) or {"uv": [[u, v], ...]}, optional "name" and "closed"; from '
+                        'edge to edge, edge to seam, or closed; repeatable. On a mesh shaped like a tube (a sleeve, '
+                        'a leg, a pipe: open at two ends): open it along one seam drawn from one end to the other, '
+                        '{"seam3d": [[x, y, z], ...]} (points on it) or the drawn form; the '
                         "pattern's two edges along the seam sew back together")
     f.add_argument("--region-offset", type=OFFSET, default=None, metavar="D",
                    help="move the region's boundary (or the face's edge) by D along the surface, in model "
@@ -493,8 +506,9 @@ def _darts(args, surface) -> tuple:
 
 def _inputs(args) -> list[str]:
     """The files a command reads (its surface when it is a file, regions, darts, warm start, seam)."""
+    seam = getattr(args, "seam", None)
     named = [getattr(args, "surface", None), getattr(args, "region", None), getattr(args, "warm_start", None),
-             getattr(args, "seam", None), *getattr(args, "curve_dart", [])]
+             *(seam if isinstance(seam, list) else [seam]), *getattr(args, "curve_dart", [])]
     return [p for p in named if p and exists(p)]
 
 
@@ -537,6 +551,8 @@ def _cmd_flatten(args) -> int:
         _check_face_size(opened, args.spacing)
     if region is not None:
         check_region_size(surface, region, args.spacing, args.spacing_warp)
+    if args.seam and opened.mesh is None:  # seams on a surface: panels
+        return _flatten_panels(args, opened, out, targets, notes, options)
     seed = _floats(args.seed, 2, "seed") if args.seed is not None else cover.default_seed
     settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args),
@@ -611,6 +627,66 @@ def _cmd_flatten(args) -> int:
     return 0
 
 
+def _flatten_panels(args, opened, out: Path | None, targets, notes: list, options) -> int:
+    """``flatten --seam ...`` on a surface: the region split into panels by the seams
+    (:func:`flatweave.geometry.panels.split_region`), each flattened with the settings
+    given (its own seed, at its middle), their sew lines matched
+    (:func:`flatweave.method.seams.match_sews`); ``--out`` the panels' result file."""
+    used = [name for name, given in (("--seed", args.seed is not None), ("--angle auto", args.angle == "auto"),
+                                      ("--warm-start", bool(args.warm_start)), ("--auto-darts", bool(args.auto_darts)),
+                                      ("--plane-dart", bool(args.plane_dart)), ("--curve-dart", bool(args.curve_dart)),
+                                      ("--yarn", bool(args.yarn)), ("--export", bool(targets))) if given]
+    if used:
+        raise SettingsError(f"{', '.join(used)} {'is' if len(used) == 1 else 'are'} not taken with --seam on a "
+                            f"surface yet: each panel is flattened at its middle with the settings given; write "
+                            f"the panels with --out")
+    if out is None:
+        raise SettingsError("the panels are written with --out PANELS.json")
+    surface, source = opened.surface, opened.source
+    seams = [seam_from_spec(surface, _read_json(path, "seam"), f"seam {k + 1}") for k, path in enumerate(args.seam)]
+    split = split_region(surface, opened.region, seams, args.spacing)
+    base = FlattenSettings(
+        spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args), angle_deg=args.angle,
+        paths=args.paths, solver=args.solver, tol=args.tol, max_iter=args.max_iter,
+        max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"), max_nodes=args.max_nodes)
+    results = {}
+    for panel in split.panels:
+        cover = cover_for(surface, panel.region)
+        settings = dataclasses.replace(base, region=panel.region, seed=cover.default_seed)
+        try:
+            results[panel.name] = flatten(surface, settings, area=cover.area)
+        except SettingsError as exc:
+            raise SettingsError(f"{panel.name}: {exc}") from None
+    matches = match_sews(split, results)
+    to_mm = UNITS.get(options.units, 1000.0)  # millimetres a model unit
+    warnings = list(notes) + [f"{p.name}: {w}" for p in split.panels for w in results[p.name].warnings]
+    warnings += [f"sew line {m.name}: {m.panels[0]} {m.lengths[0]:.6g} and {m.panels[1]} {m.lengths[1]:.6g} long "
+                 f"in the flat, {m.difference_pct:.3g} % apart (over {MATCH_PCT:g} % and {MATCH_MM:g} mm)"
+                 for m in matches if m.difference_pct > MATCH_PCT and m.difference * to_mm > MATCH_MM]
+    doc = {"format": "flatweave-panels", "version": 1, "flatweave": __version__, "surface": source,
+           "units": options.units,
+           "seams": [m.to_dict() for m in matches],
+           "panels": [{"name": p.name, "sews": sorted(p.sew), "result": result_to_dict(results[p.name], source)}
+                      for p in split.panels],
+           "pattern": {"pieces": [{"panel": p.name, **pc.to_dict()} for p in split.panels
+                                  for pc in results[p.name].pattern.pieces]},
+           "warnings": warnings}
+    atomic_write_many([(out, json_bytes(doc, out))])
+    if not args.quiet:
+        for p in split.panels:
+            m = results[p.name].metrics
+            print(f"{p.name}: {m['nodes']} nodes, boundary error {m['boundary_error_pct']:.3f} %, area error "
+                  f"{m['area_error_pct']:.3f} %, max shear {m['max_shear_deg']:.3g} deg ({results[p.name].status})",
+                  file=sys.stderr)
+        for m in matches:
+            print(f"sew line {m.name} ({m.panels[0]} / {m.panels[1]}): {m.lengths[0]:.6g} / {m.lengths[1]:.6g}, "
+                  f"{m.difference_pct:.3g} % apart", file=sys.stderr)
+        print(f"{len(split.panels)} panel{'s' if len(split.panels) != 1 else ''}, {len(matches)} sew "
+              f"line{'s' if len(matches) != 1 else ''} -> {out}", file=sys.stderr)
+    _print_warnings(warnings[len(notes):])
+    return 0
+
+
 def _coarse_note(m: dict) -> str:
     """The summary line's words on the iterations spent before the fine solve."""
     if m.get("coarse_levels"):
@@ -668,7 +744,7 @@ def _cmd_flatten_planar(args, out: Path) -> int:
         ("--spacing-warp", args.spacing_warp, None), ("--material", args.material, "woven"),
         ("--shear-angles", args.shear_angles, None),
         ("--seed", args.seed, None), ("--angle", args.angle, 0.0), ("--paths", args.paths, "plane"),
-        ("--region", args.region, None), ("--seam", args.seam, None), ("--region-offset", args.region_offset, None),
+        ("--region", args.region, None), ("--seam", args.seam, []), ("--region-offset", args.region_offset, None),
         ("--face", args.face, None),
         ("--faces", args.faces, None),
         ("--yarn", args.yarn, []), ("--warm-start", args.warm_start, None),

@@ -249,3 +249,30 @@ def test_a_damaged_file_of_any_kind_is_read_or_refused_in_one_line(tmp_path_fact
     argv = _argv_for(kind, path, tmp)
     outputs = [a for a in argv if isinstance(a, Path) and a != path]
     _run(argv, capsys, tmp, outputs)
+
+
+# --------------------------------------------------------------------------- the window's own command line
+@hsettings(**SETTINGS)
+@given(chosen=st.lists(st.sampled_from(["--spacing", "--timeout", "--size", "--solver", "--view"]), min_size=1,
+                       max_size=3, unique=True), data=st.data())
+def test_the_windows_options_parse_or_are_one_line(capsys, chosen, data):
+    """The launcher's values (flatweave.app.main): valid ones parse in range, any other is argparse's
+    one line naming the option, exit 2, before any window or file is opened."""
+    import math
+
+    from flatweave.app.main import build_parser
+
+    argv = []
+    for name in chosen:
+        value = data.draw(st.one_of(VALUES, st.sampled_from(["1600x1000", "10x10", "axb", "auto", "gl", "canvas"])))
+        argv += [name, _not_an_option(value)]
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as e:
+        lines = capsys.readouterr().err.splitlines()
+        assert e.code == 2 and len(lines) == 1 and lines[0].startswith("flatweave: error: argument "), lines
+        assert lines[0].endswith("; see flatweave --help")
+        return
+    assert args.spacing is None or (math.isfinite(args.spacing) and 0 < args.spacing <= 1e15)
+    assert math.isfinite(args.timeout) and 0 < args.timeout <= 1e7
+    assert args.size is None or all(200 <= x <= 10000 for x in args.size)

@@ -341,6 +341,8 @@ class Piece:
     holes : closed 2D polygons inside the piece: first the region's holes
         (a trimmed face's inner loops, clockwise; ``n_region_holes`` of them,
         part of the boundary), then the darts lying inside the piece.
+    holes_uv : the (u, v) of the region's holes' points, one array per region
+        hole (what a sew line along a hole is found by; not kept in result files)
     """
 
     outline: np.ndarray
@@ -350,6 +352,7 @@ class Piece:
     nodes: np.ndarray
     holes: tuple = ()
     n_region_holes: int = 0
+    holes_uv: tuple = ()
 
     @property
     def perimeter(self) -> float:
@@ -624,7 +627,7 @@ def _oriented(p: Piece) -> Piece:
     if polygon_area(p.outline) >= 0:
         return p
     return Piece(p.outline[::-1], p.outline3d[::-1], p.outline_uv[::-1], p.on_boundary[::-1], p.nodes, p.holes,
-                 p.n_region_holes)
+                 p.n_region_holes, p.holes_uv)
 
 
 def _region_holes(pieces, hole_samples, surface, mesh, xyz, xy, frames, uv, spacing, darts, comp, tree=None):
@@ -645,16 +648,17 @@ def _region_holes(pieces, hole_samples, surface, mesh, xyz, xy, frames, uv, spac
         h2, near = map_points(hq, mesh, xyz, xy, valid=valid, frames=frames, nearest=True, tree=tree)
         good = np.isfinite(h2).all(axis=1)
         lost += int((~good).sum())
-        h2 = h2[good]
+        h2, h_uv = h2[good], np.asarray(huv, dtype=float)[good]
         if len(h2) < 3:
             continue
         if polygon_area(h2) > 0:
-            h2 = h2[::-1]
+            h2, h_uv = h2[::-1], h_uv[::-1]
         c = np.bincount(comp[near[near >= 0]]).argmax()
         for n_, p in enumerate(pieces):
             if len(p.nodes) and comp[p.nodes[0]] == c:
                 k = p.n_region_holes
-                pieces[n_] = replace(p, holes=p.holes[:k] + (h2,) + p.holes[k:], n_region_holes=k + 1)
+                pieces[n_] = replace(p, holes=p.holes[:k] + (h2,) + p.holes[k:], n_region_holes=k + 1,
+                                     holes_uv=p.holes_uv[:k] + (h_uv,))
                 break
     return pieces, lost
 

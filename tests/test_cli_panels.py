@@ -1,0 +1,73 @@
+"""``flatten --seam`` on a surface (issue 42): the seams split it into panels, each flattened, their
+sew lines matched in the panels' result file; a mismatch past the tolerance is a warning; what the
+panels do not take yet, and bad seams, are one line with nothing written."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from flatweave.cli import main
+
+
+def _write(path, doc):
+    path.write_text(json.dumps(doc))
+    return str(path)
+
+
+def test_the_half_cylinder_cut_in_three_panels_whose_sew_lines_match(tmp_path, capsys):
+    left = _write(tmp_path / "left.json", {"uv": [[1 / 3, 0.0], [1 / 3, 1.0]], "name": "left"})
+    # drawn from above, beyond both ends of the cylinder: projected onto its top generator and clipped to it
+    top = _write(tmp_path / "top.json", {"points": [[0.0, -0.2, 0.6], [0.0, 1.7, 0.6]],
+                                         "view_direction": [0, 0, -1], "name": "top"})
+    out = tmp_path / "panels.json"
+    assert main(["flatten", "half_cylinder", "--spacing", "0.05", "--seam", left, "--seam", top,
+                 "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "3 panels, 2 sew lines ->" in err and "warning" not in err
+    doc = json.loads(out.read_text())
+    assert doc["format"] == "flatweave-panels" and doc["units"] == "m"
+    assert [p["name"] for p in doc["panels"]] == ["panel 1", "panel 2", "panel 3"]
+    seams = {s["name"]: s for s in doc["seams"]}
+    assert sorted(seams) == ["left", "top"]
+    for s in seams.values():
+        assert s["lengths"] == pytest.approx([1.5, 1.5], rel=1e-5) and s["difference_pct"] < 0.01
+    assert seams["left"]["panels"] == ["panel 1", "panel 2"] and seams["top"]["panels"] == ["panel 2", "panel 3"]
+    # each panel a piece of the pattern, named; the three areas make the half cylinder's pi R L
+    pieces = doc["pattern"]["pieces"]
+    assert [p["panel"] for p in pieces] == ["panel 1", "panel 2", "panel 3"]
+    assert sum(p["area"] for p in pieces) == pytest.approx(np.pi * 0.5 * 1.5, rel=1e-4)
+    for p in doc["panels"]:
+        assert p["result"]["format"] == "flatweave-result" and p["result"]["status"] == "converged"
+
+
+def test_a_sew_line_apart_past_the_tolerance_is_a_warning(tmp_path, capsys):
+    """On the octant (doubly curved) the two sides of a seam come out of their solves 0.6 % apart."""
+    mid = _write(tmp_path / "mid.json", {"uv": [[0.5, 0.0], [0.5, 1.0]], "name": "mid"})
+    out = tmp_path / "panels.json"
+    assert main(["flatten", "octant", "--spacing", "0.05", "--seam", mid, "--out", str(out), "--quiet"]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if "sew line mid" in line]
+    doc = json.loads(out.read_text())
+    (s,) = doc["seams"]
+    assert s["difference_pct"] > 0.5 and len(warned) == 1 and warned[0].startswith("flatweave: warning: ")
+    assert any(w.startswith("sew line mid: ") for w in doc["warnings"])
+
+
+@pytest.mark.parametrize("extra, seam, says", [
+    (["--export", "{t}/p.svg"], {"uv": [[0.5, 0], [0.5, 1]]}, "--export is not taken with --seam on a surface yet"),
+    (["--seed", "0.5,0.5"], {"uv": [[0.5, 0], [0.5, 1]]}, "--seed is not taken with --seam"),
+    ([], {"uv": [[0.5, 0], [0.5, 0.5]], "name": "short"}, "seam 'short' does not reach an edge or another seam"),
+    ([], {"uv": [[0.5, 0], [0.501, 1]], "closed": "yes"}, '"closed" must be true or false'),
+    ([], [1, 2, 3], "a seam is an object"),
+    ([], {"points": [[0, 0, 9], [1, 1, 9]], "view_direction": [0, 0, 0]}, '"view_direction" must be a nonzero'),
+])
+def test_what_the_panels_refuse_is_one_line_and_nothing_written(tmp_path, capsys, extra, seam, says):
+    path = _write(tmp_path / "seam.json", seam)
+    out = tmp_path / "panels.json"
+    extra = [a.replace("{t}", str(tmp_path)) for a in extra]
+    code = main(["flatten", "half_cylinder", "--spacing", "0.05", "--seam", path, *extra, "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and says in err[0], err
+    assert not out.exists() and not (tmp_path / "p.svg").exists()
