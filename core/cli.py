@@ -33,7 +33,7 @@ from flatweave.reading.cad import is_cad_path, parse_face_list
 from flatweave.reading.cadjoin import join_faces
 from flatweave.reading.meshes import is_mesh_path, mesh_to_cut, panel_advice, units_note
 from flatweave.reading.registry import readers
-from flatweave.export.registry import exporters
+from flatweave.export.registry import exporter_for, exporters
 from flatweave.method.solvers import DEFAULT_SOLVER, method_help, method_names, solver_help, solver_names
 from flatweave.method.energy import parse_yarn
 from flatweave.method.darts import PlaneDart
@@ -41,13 +41,13 @@ from flatweave.files import check_output, exists, json_bytes, parse_json, read_i
 from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten, state_from_dict
 from flatweave.method.result import result_to_dict
-from flatweave.method.seams import MATCH_MM, MATCH_PCT, match_sews
+from flatweave.method.seams import MATCH_MM, MATCH_PCT, flat_notches, match_sews, notches_along
 from flatweave.geometry.panels import seam_from_spec, split_region
 from flatweave.version import __version__
 from flatweave.geometry.quadrature import region_area
 from flatweave.export.registry import (MAX_SEAM_MM, ExportOption, ExportOptions, check_target, export_files,
                                        export_options, option_formats, surprises)
-from flatweave.export.sheet import UNITS
+from flatweave.export.sheet import UNITS, build_sheet, join_sheets
 from flatweave.geometry.region import cover_for
 from flatweave.method.lattice import parse_material
 from flatweave.studies.planar import PlanarSettings, flatten_planar, planar_result_to_dict
@@ -317,6 +317,9 @@ def build_parser() -> argparse.ArgumentParser:
                         'a leg, a pipe: open at two ends): open it along one seam drawn from one end to the other, '
                         '{"seam3d": [[x, y, z], ...]} (points on it) or the drawn form; the '
                         "pattern's two edges along the seam sew back together")
+    f.add_argument("--notch-every", type=NOTCH_MM, default=0.0, metavar="MM",
+                   help="with --seam on a surface: a notch on both panels every MM millimetres along each sew "
+                        "line, besides its two ends (default 0: the ends only)")
     f.add_argument("--region-offset", type=OFFSET, default=None, metavar="D",
                    help="move the region's boundary (or the face's edge) by D along the surface, in model "
                         "units: positive outwards, negative inwards; clipped to the surface")
@@ -469,6 +472,7 @@ SEEDS = _number(1, 100, whole=True)
 LOCK = _number(0.0, 90.0, above=True)
 WORKERS = _number(1, 256, whole=True)
 SEAM_MM = _number(0.0, MAX_SEAM_MM)
+NOTCH_MM = _number(0.0, 1e6)
 
 
 def _angle(text: str):
@@ -635,13 +639,14 @@ def _flatten_panels(args, opened, out: Path | None, targets, notes: list, option
     used = [name for name, given in (("--seed", args.seed is not None), ("--angle auto", args.angle == "auto"),
                                       ("--warm-start", bool(args.warm_start)), ("--auto-darts", bool(args.auto_darts)),
                                       ("--plane-dart", bool(args.plane_dart)), ("--curve-dart", bool(args.curve_dart)),
-                                      ("--yarn", bool(args.yarn)), ("--export", bool(targets))) if given]
+                                      ("--yarn", bool(args.yarn))) if given]
     if used:
         raise SettingsError(f"{', '.join(used)} {'is' if len(used) == 1 else 'are'} not taken with --seam on a "
-                            f"surface yet: each panel is flattened at its middle with the settings given; write "
-                            f"the panels with --out")
-    if out is None:
-        raise SettingsError("the panels are written with --out PANELS.json")
+                            f"surface yet: each panel is flattened at its middle with the settings given")
+    flat_only = [p.name for p in targets if not exporter_for(p.suffix).needs_sheet]
+    if flat_only:
+        raise SettingsError(f"{', '.join(flat_only)}: panels are exported as flat patterns (DXF, SVG, PDF), not "
+                            f"yet in 3D formats")
     surface, source = opened.surface, opened.source
     seams = [seam_from_spec(surface, _read_json(path, "seam"), f"seam {k + 1}") for k, path in enumerate(args.seam)]
     split = split_region(surface, opened.region, seams, args.spacing)
@@ -663,6 +668,7 @@ def _flatten_panels(args, opened, out: Path | None, targets, notes: list, option
     warnings += [f"sew line {m.name}: {m.panels[0]} {m.lengths[0]:.6g} and {m.panels[1]} {m.lengths[1]:.6g} long "
                  f"in the flat, {m.difference_pct:.3g} % apart (over {MATCH_PCT:g} % and {MATCH_MM:g} mm)"
                  for m in matches if m.difference_pct > MATCH_PCT and m.difference * to_mm > MATCH_MM]
+    exports = _panel_exports(args, surface, split, results, targets, options, to_mm) if targets else []
     doc = {"format": "flatweave-panels", "version": 1, "flatweave": __version__, "surface": source,
            "units": options.units,
            "seams": [m.to_dict() for m in matches],
@@ -671,7 +677,8 @@ def _flatten_panels(args, opened, out: Path | None, targets, notes: list, option
            "pattern": {"pieces": [{"panel": p.name, **pc.to_dict()} for p in split.panels
                                   for pc in results[p.name].pattern.pieces]},
            "warnings": warnings}
-    atomic_write_many([(out, json_bytes(doc, out))])
+    files = [(out, json_bytes(doc, out))] if out is not None else []
+    atomic_write_many(files + exports)  # the result file and every export, all or nothing
     if not args.quiet:
         for p in split.panels:
             m = results[p.name].metrics
@@ -681,10 +688,29 @@ def _flatten_panels(args, opened, out: Path | None, targets, notes: list, option
         for m in matches:
             print(f"sew line {m.name} ({m.panels[0]} / {m.panels[1]}): {m.lengths[0]:.6g} / {m.lengths[1]:.6g}, "
                   f"{m.difference_pct:.3g} % apart", file=sys.stderr)
+        written = ([out] if out is not None else []) + list(targets)
         print(f"{len(split.panels)} panel{'s' if len(split.panels) != 1 else ''}, {len(matches)} sew "
-              f"line{'s' if len(matches) != 1 else ''} -> {out}", file=sys.stderr)
+              f"line{'s' if len(matches) != 1 else ''}" + "".join(f" -> {p}" for p in written), file=sys.stderr)
     _print_warnings(warnings[len(notes):])
     return 0
+
+
+def _panel_exports(args, surface, split, results, targets, options, to_mm: float) -> list:
+    """The panels' flat patterns on one sheet (a DXF block each, side by side in an SVG or PDF),
+    each with a notch at every end of its sew lines and every ``--notch-every`` mm along them, on
+    both sides at the same point of the seam: (path, bytes) of each target, nothing written."""
+    every = args.notch_every / to_mm  # model units
+    marks = {p.name: [] for p in split.panels}
+    for sew in split.sews:
+        at = notches_along(surface, sew.uv, every)
+        for name in sew.panels:
+            xy, _, along = flat_notches(results[name], sew.uv, at, with_tangents=True)
+            marks[name].extend((q, t) for q, t in zip(xy, along) if np.isfinite(q).all() and np.isfinite(t).all())
+    sheets = [build_sheet(results[p.name], options.units, options.seam_allowance_mm, f"{options.name} {p.name}",
+                          sew_notches=tuple(marks[p.name])) for p in split.panels]
+    joined = join_sheets(sheets, options.name)
+    first = results[split.panels[0].name]
+    return [f for path in targets for f in exporter_for(path.suffix).files(first, options, joined, path)]
 
 
 def _coarse_note(m: dict) -> str:

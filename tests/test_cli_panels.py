@@ -56,7 +56,6 @@ def test_a_sew_line_apart_past_the_tolerance_is_a_warning(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("extra, seam, says", [
-    (["--export", "{t}/p.svg"], {"uv": [[0.5, 0], [0.5, 1]]}, "--export is not taken with --seam on a surface yet"),
     (["--seed", "0.5,0.5"], {"uv": [[0.5, 0], [0.5, 1]]}, "--seed is not taken with --seam"),
     ([], {"uv": [[0.5, 0], [0.5, 0.5]], "name": "short"}, "seam 'short' does not reach an edge or another seam"),
     ([], {"uv": [[0.5, 0], [0.501, 1]], "closed": "yes"}, '"closed" must be true or false'),
@@ -71,3 +70,43 @@ def test_what_the_panels_refuse_is_one_line_and_nothing_written(tmp_path, capsys
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and says in err[0], err
     assert not out.exists() and not (tmp_path / "p.svg").exists()
+
+
+def test_the_panels_cut_files_carry_matching_notches_on_the_astm_notch_layer(tmp_path, capsys):
+    """Notches every 100 mm along both seams and at their ends, read back from the DXF with ezdxf: on
+    layer 4 (ASTM D6673's notches), at the same heights on both sides of a seam within 0.1 mm."""
+    import ezdxf
+
+    left = _write(tmp_path / "left.json", {"uv": [[1 / 3, 0.0], [1 / 3, 1.0]], "name": "left"})
+    top = _write(tmp_path / "top.json", {"uv": [[0.5, 0.0], [0.5, 1.0]], "name": "top"})
+    dxf, svg = tmp_path / "p.dxf", tmp_path / "p.svg"
+    assert main(["flatten", "half_cylinder", "--spacing", "0.05", "--seam", left, "--seam", top, "--export",
+                 str(dxf), "--export", str(svg), "--notch-every", "100", "--seam-allowance", "10", "--quiet"]) == 0
+    doc = ezdxf.readfile(dxf)
+    blocks = {b.name: b for b in doc.blocks if not b.name.startswith("*")}
+    names = sorted(blocks)
+    assert names == ["half_cylinder_panel_1", "half_cylinder_panel_2", "half_cylinder_panel_3"]
+
+    def notches(block):
+        lines = [e for e in blocks[block] if e.dxf.layer == "4" and e.dxftype() == "LINE"]
+        return np.array([[e.dxf.start[0], e.dxf.start[1], e.dxf.end[0], e.dxf.end[1]] for e in lines])
+
+    n1, n2, n3 = (notches(b) for b in names)
+    assert (len(n1), len(n2), len(n3)) == (16, 32, 16)  # 1.5 m: 0, 100, ..., 1400, 1500 mm on each side
+    assert np.allclose(np.hypot(n1[:, 2] - n1[:, 0], n1[:, 3] - n1[:, 1]), 6.0)  # a 6 mm slit each
+    # panel 2's notches on its left edge are the left seam's, on its right edge the top seam's
+    mid = 0.5 * (n2[:, 0].min() + n2[:, 0].max())
+    for a, b in ((n1, n2[n2[:, 0] < mid]), (n2[n2[:, 0] > mid], n3)):
+        ya, yb = np.sort(a[:, 1]), np.sort(b[:, 1])
+        assert np.abs((ya - ya[0]) - (yb - yb[0])).max() < 0.1  # the same heights on both sides, mm
+        assert np.allclose(np.diff(ya)[:-1], 100.0, atol=0.1)
+    assert svg.read_text().count('id="layer-4-notch"') == 1 and "layer-4-notch" in svg.read_text()
+
+
+def test_panels_are_not_exported_in_3d_formats_yet(tmp_path, capsys):
+    seam = _write(tmp_path / "s.json", {"uv": [[0.5, 0.0], [0.5, 1.0]]})
+    code = main(["flatten", "half_cylinder", "--spacing", "0.05", "--seam", seam, "--export",
+                 str(tmp_path / "p.vtp"), "--out", str(tmp_path / "p.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "not yet in 3D formats" in err[0]
+    assert not (tmp_path / "p.json").exists()

@@ -83,7 +83,7 @@ NUMBERS = st.sampled_from(["0", "-0", "1", "-1", "0.5", "1e-300", "1e-9", "1e308
 WORDS = st.text(alphabet=st.characters(codec="utf-8", exclude_categories=["Cs", "Cc"]), max_size=8)
 VALUES = st.one_of(NUMBERS, NUMBERS.map(lambda x: f"{x},{x}"), WORDS)
 NUMERIC = ["--spacing", "--spacing-warp", "--angle", "--region-offset", "--tol", "--max-iter", "--auto-darts",
-           "--fit-tolerance", "--seam-allowance", "--face", "--yarn-k"]
+           "--fit-tolerance", "--seam-allowance", "--face", "--yarn-k", "--notch-every"]
 LISTS = {"--seed": 2, "--plane-dart": 4, "--shear-angles": 2}
 
 

@@ -278,14 +278,22 @@ def _arrow_heads(grain: np.ndarray, size: float) -> tuple:
     return tuple(heads)
 
 
-def _outward_normal(poly: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Outward unit normal of a CCW polygon at its point nearest to p."""
+def _nearest_edge(poly: np.ndarray, p: np.ndarray) -> tuple[int, float]:
+    """The edge of the closed polygon ``poly`` nearest to p: (its index, the distance)."""
     a, b = poly, np.roll(poly, -1, axis=0)
     ab = b - a
     t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
     d = np.linalg.norm(a + t[:, None] * ab - p, axis=1)
     k = int(np.argmin(d))
-    e = ab[k] / max(np.linalg.norm(ab[k]), 1e-300)
+    return k, float(d[k])
+
+
+def _outward_normal(poly: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Outward unit normal of a CCW polygon at its point nearest to p (of a clockwise one, the
+    inward: into a hole)."""
+    k, _ = _nearest_edge(poly, p)
+    e = np.roll(poly, -1, axis=0)[k] - poly[k]
+    e = e / max(np.linalg.norm(e), 1e-300)
     return np.array([e[1], -e[0]])
 
 
@@ -324,9 +332,12 @@ def _label_text(name: str, style: str, result, units: str, seam_mm: float, metri
 
 
 def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name: str = "piece",
-                quantity: int = QUANTITY) -> Sheet:
+                quantity: int = QUANTITY, sew_notches=()) -> Sheet:
     """The pieces of a :class:`flatweave.method.pipeline.FlattenResult` in mm, with all their lines;
-    ``quantity``: how many of it are cut (the labels' ``Quantity``)."""
+    ``quantity``: how many of it are cut (the labels' ``Quantity``); ``sew_notches``: (point, unit
+    direction of the sew line there) of the pattern (model units) on a piece's outline or region
+    hole where a notch is cut (a seam's match points: :func:`flatweave.method.seams.flat_notches`),
+    each a slit across the sew line from the cut line towards the piece, as at a dart's mouth."""
     if not np.isfinite(seam_allowance_mm) or seam_allowance_mm < 0:
         raise SettingsError(f"seam allowance {seam_allowance_mm!r} mm must be zero or a positive number")
     scale = mm_per_unit(units)
@@ -368,6 +379,19 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
                 L = np.linalg.norm(axis)
                 inset = min(DRILL_INSET_MM, 0.25 * L) if dart.mouth else 0.0
                 drills.append(tip + (axis / L * inset if L > 0 else 0.0))
+        cloth = _polygon(sew, holes[:src.n_region_holes])
+        reach = 1e-6 * max(float(np.ptp(sew, axis=0).max()), 1e-300)
+        for q, along in sew_notches:
+            q = np.asarray(q, dtype=float) * scale
+            if not any(_nearest_edge(ring, q)[1] <= reach for ring in (sew, *holes[:src.n_region_holes])):
+                continue  # another piece's
+            n = np.array([along[1], -along[0]], dtype=float)  # across the sew line, away from the cloth
+            if cloth.contains(Point(q + 1e-3 * float(np.ptp(sew, axis=0).max()) * n)):
+                n = -n
+            start = q + seam_allowance_mm * n
+            slit = np.array([start, start - NOTCH_MM * n])
+            if not any(np.abs(slit - o).max() <= 1e-6 for o in notches):  # two sew lines ending where one did
+                notches.append(slit)
         direction = warp_direction(result.mesh, xy_mm, src.nodes if len(src.nodes) else None)
         extent = float(np.ptp(sew, axis=0).max())
         label_h = float(np.clip(0.012 * extent, 2.5, 8.0))

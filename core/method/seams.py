@@ -154,19 +154,27 @@ def _from_the_lines_start(xy: np.ndarray, uv: np.ndarray, line: np.ndarray):
     return xy, uv
 
 
-def flat_notches(result, uv_line: np.ndarray, notches_uv: np.ndarray, tol: float | None = None):
+def flat_notches(result, uv_line: np.ndarray, notches_uv: np.ndarray, tol: float | None = None,
+                 with_tangents: bool = False):
     """Where notches (their (u, v) on the sew line ``uv_line``) fall on ``result``'s
     flat pattern: (xy (k, 2), s (k,)), s the flat length along the sew line from
-    its first point (the same end on both panels, whichever way each outline runs)."""
+    its first point (the same end on both panels, whichever way each outline runs);
+    ``with_tangents``: also the flat sew line's unit direction at each (k, 2), which
+    a notch is cut across (at a seam's end, a corner, the outline turns)."""
     xy, uv = _flat_run(result, uv_line, tol)
     line = np.asarray(uv_line, dtype=float)
     if len(xy) < 2:
-        return np.full((len(notches_uv), 2), np.nan), np.full(len(notches_uv), np.nan)
+        nan = np.full((len(notches_uv), 2), np.nan)
+        return (nan, nan[:, 0], nan) if with_tangents else (nan, nan[:, 0])
     xy, uv = _from_the_lines_start(xy, uv, line)
     s2 = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))]
     # each notch on the run's (u, v) polyline: its segment and the fraction along it, the same in the flat
     k, tk, _ = _on_polyline(np.asarray(notches_uv, dtype=float).reshape(-1, 2), uv)
-    out_xy = xy[k] + tk[:, None] * (xy[k + 1] - xy[k])
+    seg = xy[k + 1] - xy[k]
+    out_xy = xy[k] + tk[:, None] * seg
+    if with_tangents:
+        tangent = seg / np.maximum(np.linalg.norm(seg, axis=1), 1e-300)[:, None]
+        return out_xy, s2[k] + tk * (s2[k + 1] - s2[k]), tangent
     return out_xy, s2[k] + tk * (s2[k + 1] - s2[k])
 
 
