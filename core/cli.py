@@ -53,14 +53,14 @@ from flatweave.method.lattice import parse_material
 from flatweave.studies.planar import PlanarSettings, flatten_planar, planar_result_to_dict
 from flatweave.method.solvers import solver_entry
 from flatweave.studies.sweep import sweep
-from flatweave.document.project import PROJECT_SUFFIX
+from flatweave.document.project import PROJECT_SUFFIX, Project, project_to_dict
 from flatweave.document.recovery import save_with_backups
 from flatweave.document.solving import solve_pieces
 from flatweave.document.checks import project_checks
 from flatweave.document.cutfiles import check_folder, export_pieces
 from flatweave.document.plybook import plybook_bytes
 from flatweave.files import atomic_write_many
-from flatweave.document.pieces import index_of
+from flatweave.document.pieces import Piece, index_of, with_pieces
 from flatweave.document.rosettes import orientation_text
 from flatweave.reading.jobs import JOB_SUFFIX
 from flatweave.geometry.quadrature import boundary_length
@@ -654,14 +654,16 @@ def _flatten_panels(args, opened, out: Path | None, targets, notes: list, option
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args), angle_deg=args.angle,
         paths=args.paths, solver=args.solver, tol=args.tol, max_iter=args.max_iter,
         max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"), max_nodes=args.max_nodes)
-    results = {}
-    for panel in split.panels:
-        cover = cover_for(surface, panel.region)
-        settings = dataclasses.replace(base, region=panel.region, seed=cover.default_seed)
-        try:
-            results[panel.name] = flatten(surface, settings, area=cover.area)
-        except SettingsError as exc:
-            raise SettingsError(f"{panel.name}: {exc}") from None
+    # the panels are the pieces of a project, solved at once in worker processes (as solve does)
+    pieces = [Piece(p.name, dataclasses.replace(base, region=p.region, seed=cover_for(surface, p.region).default_seed),
+                    surface=surface, source=source) for p in split.panels]
+    project = with_pieces(Project(surface, pieces[0].settings, name=Path(args.surface).stem, source=source,
+                                  units=options.units, piece_name=pieces[0].name), pieces, 0)
+    project, outcomes = solve_pieces(project)
+    failed = [o for o in outcomes if o.result is None]
+    if failed:
+        raise SettingsError(f"{failed[0].name}: {failed[0].error}")
+    results = {o.name: o.result for o in outcomes}
     matches = match_sews(split, results)
     to_mm = UNITS.get(options.units, 1000.0)  # millimetres a model unit
     warnings = list(notes) + [f"{p.name}: {w}" for p in split.panels for w in results[p.name].warnings]
@@ -677,7 +679,10 @@ def _flatten_panels(args, opened, out: Path | None, targets, notes: list, option
            "pattern": {"pieces": [{"panel": p.name, **pc.to_dict()} for p in split.panels
                                   for pc in results[p.name].pattern.pieces]},
            "warnings": warnings}
-    files = [(out, json_bytes(doc, out))] if out is not None else []
+    if out is not None and out.suffix.lower() == PROJECT_SUFFIX:  # the panels as a project's pieces
+        files = [(out, json_bytes(project_to_dict(project), out))]
+    else:
+        files = [(out, json_bytes(doc, out))] if out is not None else []
     atomic_write_many(files + exports)  # the result file and every export, all or nothing
     if not args.quiet:
         for p in split.panels:

@@ -110,3 +110,18 @@ def test_panels_are_not_exported_in_3d_formats_yet(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "not yet in 3D formats" in err[0]
     assert not (tmp_path / "p.json").exists()
+
+
+def test_the_panels_saved_as_a_project_are_its_pieces_solved(tmp_path, capsys):
+    """--out NAME.flatweave: the panels are the project's pieces, each with its region and current result
+    (solved in worker processes, as solve does); the window and solve open it as any project."""
+    from flatweave.document.project import load_project
+
+    seam = _write(tmp_path / "s.json", {"uv": [[0.5, 0.0], [0.5, 1.0]], "name": "mid"})
+    out = tmp_path / "panels.flatweave"
+    assert main(["flatten", "half_cylinder", "--spacing", "0.05", "--seam", seam, "--out", str(out), "--quiet"]) == 0
+    project = load_project(out)
+    assert [p.name for p in project.pieces] == ["panel 1", "panel 2"]
+    assert all(p.result is not None and p.result.status == "converged" for p in project.pieces)
+    assert all(p.settings.region is not None for p in project.pieces)
+    assert sum(p.result.pattern.area for p in project.pieces) == pytest.approx(np.pi * 0.5 * 1.5, rel=1e-4)

@@ -191,6 +191,12 @@ def valid_files(tmp_path_factory, small_mesh) -> dict[str, bytes]:
     files["job.toml"] = JOB.format(**JOB_FIELDS).encode()
     files["region.json"] = json.dumps({"points": [[0.2, 0.2], [0.8, 0.2], [0.8, 0.8], [0.2, 0.8]]}).encode()
     files["dart.json"] = json.dumps({"points": [[0.3, 0.3], [0.5, 0.6]], "tolerance": 0.01}).encode()
+    try:  # a STEP file of one trimmed face, written by Open CASCADE (the CAD child reads every damaged copy)
+        from tests import cadfiles as cf
+
+        files["face.step"] = cf.write_step(cf.face_circle_hole(), folder / "face.step").read_bytes()
+    except ImportError:  # no Open CASCADE here: its kind is skipped below, saying so
+        pass
     warm = folder / "warm.json"
     assert main(["flatten", "octant", "--spacing", "0.3", "--quiet", "--out", str(warm)]) == 0
     files["warm.json"] = warm.read_bytes()
@@ -276,3 +282,14 @@ def test_the_windows_options_parse_or_are_one_line(capsys, chosen, data):
     assert args.spacing is None or (math.isfinite(args.spacing) and 0 < args.spacing <= 1e15)
     assert math.isfinite(args.timeout) and 0 < args.timeout <= 1e7
     assert args.size is None or all(200 <= x <= 10000 for x in args.size)
+
+
+@hsettings(**{**SETTINGS, "max_examples": EXAMPLES or 6})  # each read is a CAD child process of a second or two
+@given(data=st.data())
+def test_a_damaged_step_file_is_read_or_refused_in_one_line(tmp_path_factory, capsys, valid_files, data):
+    if "face.step" not in valid_files:
+        pytest.skip("no STEP file to damage here: Open CASCADE is not installed")
+    tmp = tmp_path_factory.mktemp("step")
+    path = tmp / "face.step"
+    path.write_bytes(_mutate(data, valid_files["face.step"]))
+    _run(["info", path], capsys, tmp)
