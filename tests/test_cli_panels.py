@@ -125,3 +125,16 @@ def test_the_panels_saved_as_a_project_are_its_pieces_solved(tmp_path, capsys):
     assert all(p.result is not None and p.result.status == "converged" for p in project.pieces)
     assert all(p.settings.region is not None for p in project.pieces)
     assert sum(p.result.pattern.area for p in project.pieces) == pytest.approx(np.pi * 0.5 * 1.5, rel=1e-4)
+
+
+def test_a_panels_file_is_not_a_warm_start(tmp_path, capsys):
+    seam = _write(tmp_path / "s.json", {"uv": [[0.5, 0.0], [0.5, 1.0]]})
+    panels = tmp_path / "panels.json"
+    assert main(["flatten", "half_cylinder", "--spacing", "0.05", "--seam", seam, "--out", str(panels),
+                 "--quiet"]) == 0
+    capsys.readouterr()
+    code = main(["flatten", "half_cylinder", "--spacing", "0.05", "--warm-start", str(panels), "--out",
+                 str(tmp_path / "r.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "holds panels (flatten --seam), not one result" in err[0]
+    assert not (tmp_path / "r.json").exists()

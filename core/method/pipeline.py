@@ -544,6 +544,9 @@ def _ended(history, energy: float) -> tuple[float, ...]:
 
 def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -> State:
     """The mesh state stored in a result file (for a warm start)."""
+    if isinstance(d, dict) and d.get("format") == "flatweave-panels":
+        raise SettingsError("the warm-start file holds panels (flatten --seam), not one result: a warm start "
+                            "takes one piece's result file")
     try:
         ij = np.asarray(d["nodes"]["ij"], dtype=float).reshape(-1, 2)
         uv = np.asarray(d["nodes"]["uv"], dtype=float).reshape(-1, 2)
