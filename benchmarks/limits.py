@@ -36,14 +36,9 @@ _CHILD = ("import resource, sys\n"
 def write_sheet_stl(path: Path, triangles: int) -> int:
     """A binary STL of a wavy open sheet, 1 unit square, of about ``triangles``
     triangles (2 n^2), written straight from arrays; returns its count."""
-    n = max(int(round(np.sqrt(triangles / 2))), 1)
-    x = np.linspace(0.0, 1.0, n + 1)
-    X, Y = np.meshgrid(x, x, indexing="ij")
-    V = np.stack([X, Y, 0.15 * np.sin(3 * X) * np.cos(2 * Y)], axis=-1).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    a = (i * (n + 1) + j).ravel()
-    b = a + n + 1
-    F = np.concatenate([np.stack([a, b, a + 1], 1), np.stack([a + 1, b, b + 1], 1)])
+    from tests.helpers import wavy_sheet
+
+    V, F = wavy_sheet(max(int(round(np.sqrt(triangles / 2))), 1), amp=0.15)
     rec = np.zeros(len(F), dtype=[("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
     rec["corners"] = V[F]
     with open(path, "wb") as fh:

@@ -261,3 +261,16 @@ def tube(n: int = 128, m: int = 48, jitter: float = 0.0, seed: int = 3):
         F += [np.where(flip[:, None], np.column_stack([a, b, d]), np.column_stack([a, b, c])),
               np.where(flip[:, None], np.column_stack([b, c, d]), np.column_stack([a, c, d]))]
     return V, np.concatenate(F)
+
+
+def wavy_sheet(n: int, amp: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """(V, F) of an open square sheet 1 unit across, z = amp sin(3x) cos(2y), of
+    2 n^2 triangles on an (n + 1) x (n + 1) grid (the mesh tests' and benchmarks'
+    plain, developable-ish mesh of any size)."""
+    x = np.linspace(0.0, 1.0, n + 1)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    V = np.stack([X, Y, amp * np.sin(3 * X) * np.cos(2 * Y)], axis=-1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = (i * (n + 1) + j).ravel()
+    b = a + n + 1
+    return V, np.concatenate([np.stack([a, b, a + 1], 1), np.stack([a + 1, b, b + 1], 1)])

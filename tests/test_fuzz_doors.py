@@ -15,12 +15,12 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
 import pytest
 import trimesh
 from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
 
 from flatweave.cli import PIECES_FAILED, main
+from tests.helpers import wavy_sheet
 from tests.test_fuzz_cli import NUMBERS, VALUES, WORDS
 
 HANG_S = 120  # a run here takes a second or two; this long is a hang, not a slow machine
@@ -167,12 +167,7 @@ def test_a_job_of_any_values_and_solve_options_end_in_a_project_or_one_line(tmp_
 @pytest.fixture(scope="module")
 def small_mesh(tmp_path_factory) -> str:
     folder = tmp_path_factory.mktemp("mesh")
-    x = np.linspace(0.0, 1.0, 7)
-    X, Y = np.meshgrid(x, x, indexing="ij")
-    V = np.stack([X, Y, 0.1 * np.sin(3 * X)], axis=-1).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(6), np.arange(6), indexing="ij")
-    a = (i * 7 + j).ravel()
-    F = np.concatenate([np.stack([a, a + 7, a + 1], 1), np.stack([a + 1, a + 7, a + 8], 1)])
+    V, F = wavy_sheet(6)
     path = folder / "sheet.stl"
     trimesh.Trimesh(V, F, process=False).export(path)
     return str(path)

@@ -15,17 +15,12 @@ from flatweave.cli import main
 from flatweave.geometry import meshfit
 from flatweave.geometry.meshfit import clean_mesh, edge_table, split_pinched, used_vertices
 from flatweave.reading.meshes import open_mesh
+from tests.helpers import wavy_sheet
 
 
 def sheet(n: int) -> tuple[np.ndarray, np.ndarray]:
     """A wavy open square sheet of 2 n^2 triangles, 1 unit across."""
-    x = np.linspace(0.0, 1.0, n + 1)
-    X, Y = np.meshgrid(x, x, indexing="ij")
-    V = np.stack([X, Y, 0.1 * np.sin(3 * X) * np.cos(2 * Y)], axis=-1).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    a = (i * (n + 1) + j).ravel()
-    b = a + n + 1
-    return V, np.concatenate([np.stack([a, b, a + 1], 1), np.stack([a + 1, b, b + 1], 1)])
+    return wavy_sheet(n, amp=0.1)
 
 
 @pytest.fixture

@@ -38,7 +38,7 @@ import numpy as np
 
 from flatweave.errors import SettingsError
 from flatweave.method.lattice import WARP
-from flatweave.geometry.numerics import polygon_area
+from flatweave.geometry.numerics import nearest_segments, polygon_area
 
 __all__ = ["UNITS", "Sheet", "SheetPiece", "build_sheet", "mm_per_unit", "warp_direction", "label_box",
            "TEXT_EM", "LINE_PITCH", "SIZE", "QUANTITY", "join_sheets"]
@@ -280,12 +280,8 @@ def _arrow_heads(grain: np.ndarray, size: float) -> tuple:
 
 def _nearest_edge(poly: np.ndarray, p: np.ndarray) -> tuple[int, float]:
     """The edge of the closed polygon ``poly`` nearest to p: (its index, the distance)."""
-    a, b = poly, np.roll(poly, -1, axis=0)
-    ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
-    d = np.linalg.norm(a + t[:, None] * ab - p, axis=1)
-    k = int(np.argmin(d))
-    return k, float(d[k])
+    k, d2 = nearest_segments(np.asarray(p, dtype=float).reshape(1, 2), np.vstack([poly, poly[:1]]))
+    return int(k[0]), float(np.sqrt(d2[0]))
 
 
 def _outward_normal(poly: np.ndarray, p: np.ndarray) -> np.ndarray:

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from flatweave.geometry.numerics import cumulative_length, interp_rows, nearest_segments, polyline_distance
+
 __all__ = ["SewMatch", "flat_sew_line", "flat_notches", "notches_along", "match_sews", "polyline_length",
            "MATCH_PCT", "MATCH_MM"]
 
@@ -51,22 +53,13 @@ class SewMatch:
                 "difference": self.difference, "difference_pct": self.difference_pct}
 
 
-def _on_polyline(P: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _on_polyline(P: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each point P (n, 2) at its nearest point of the polyline ``line`` (k, 2):
-    (segment index (n,), fraction along it (n,), distance (n,))."""
-    a, b = line[:-1], line[1:]
-    ab = b - a
-    t = np.einsum("nkc,kc->nk", P[:, None, :] - a[None], ab) / np.maximum(np.einsum("kc,kc->k", ab, ab), 1e-300)
-    t = np.clip(t, 0.0, 1.0)
-    d = np.linalg.norm(P[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=2)
-    k = np.argmin(d, axis=1)
-    rows = np.arange(len(P))
-    return k, t[rows, k], d[rows, k]
-
-
-def _distance_to_polyline(P: np.ndarray, line: np.ndarray) -> np.ndarray:
-    """(n,) the distance from each point P (n, 2) to the polyline ``line`` (k, 2)."""
-    return _on_polyline(P, line)[2]
+    (segment index (n,), fraction along it (n,))."""
+    k, _ = nearest_segments(P, line)
+    a, ab = line[k], line[k + 1] - line[k]
+    t = np.einsum("nc,nc->n", P - a, ab) / np.maximum(np.einsum("nc,nc->n", ab, ab), 1e-300)
+    return k, np.clip(t, 0.0, 1.0)
 
 
 def _flat_run(result, uv_line: np.ndarray, tol: float | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -82,7 +75,7 @@ def _flat_run(result, uv_line: np.ndarray, tol: float | None = None) -> tuple[np
     best = (np.zeros((0, 2)), np.zeros((0, 2)))
     for xy, uv in outlines:
         xy, uv = np.asarray(xy, dtype=float), np.asarray(uv, dtype=float)
-        on = _distance_to_polyline(uv, line) <= tol
+        on = polyline_distance(uv, line) <= tol
         if on.sum() < 2:
             continue
         if on.all():  # the outline is the sew line, round a closed seam
@@ -122,18 +115,18 @@ def notches_along(surface, uv_line: np.ndarray, every: float, per: int = 32) -> 
     fine = (line[:-1, None, :] * (1 - t) + line[1:, None, :] * t)[:, :-1].reshape(-1, 2)
     fine = np.vstack([fine, line[-1:]])
     P = surface.points(fine)
-    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
+    s = cumulative_length(P)
     marks = np.r_[np.arange(0.0, s[-1], every), s[-1]] if every > 0 else np.r_[0.0, s[-1]]
     if np.array_equal(line[0], line[-1]):  # a closed seam: its end is its start, one notch
         marks = marks[:-1]
-    return np.column_stack([np.interp(marks, s, fine[:, 0]), np.interp(marks, s, fine[:, 1])])
+    return interp_rows(marks, s, fine)
 
 
 def _along(uv: np.ndarray, line: np.ndarray) -> np.ndarray:
     """(k,) how far along the polyline ``line`` (in (u, v) length) each point ``uv`` lies."""
-    seg = np.linalg.norm(np.diff(line, axis=0), axis=1)
-    k, t, _ = _on_polyline(uv, line)
-    return np.r_[0.0, np.cumsum(seg)][k] + t * seg[k]
+    s = cumulative_length(line)
+    k, t = _on_polyline(uv, line)
+    return s[k] + t * (s[k + 1] - s[k])
 
 
 def _from_the_lines_start(xy: np.ndarray, uv: np.ndarray, line: np.ndarray):
@@ -167,9 +160,9 @@ def flat_notches(result, uv_line: np.ndarray, notches_uv: np.ndarray, tol: float
         nan = np.full((len(notches_uv), 2), np.nan)
         return (nan, nan[:, 0], nan) if with_tangents else (nan, nan[:, 0])
     xy, uv = _from_the_lines_start(xy, uv, line)
-    s2 = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))]
+    s2 = cumulative_length(xy)
     # each notch on the run's (u, v) polyline: its segment and the fraction along it, the same in the flat
-    k, tk, _ = _on_polyline(np.asarray(notches_uv, dtype=float).reshape(-1, 2), uv)
+    k, tk = _on_polyline(np.asarray(notches_uv, dtype=float).reshape(-1, 2), uv)
     seg = xy[k + 1] - xy[k]
     out_xy = xy[k] + tk[:, None] * seg
     if with_tangents:
@@ -179,7 +172,8 @@ def flat_notches(result, uv_line: np.ndarray, notches_uv: np.ndarray, tol: float
 
 
 def polyline_length(p: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) if len(p) > 1 else 0.0
+    """The length of the polyline ``p`` (k, d); 0 for fewer than two points."""
+    return float(cumulative_length(p)[-1]) if len(p) > 1 else 0.0
 
 
 def match_sews(split, results: dict) -> list[SewMatch]:
