@@ -25,10 +25,12 @@ class Aspect(enum.Flag):
     RESULT = enum.auto()
     NAME = enum.auto()
     PIECES = enum.auto()    # the list of pieces: which is active, names, order, quantities, the others
+    SEAMS = enum.auto()     # the shapes split by seams into panels: a seam drawn, moved, deleted, its options
 
 
 _FROM_CORE = {"surface": Aspect.SURFACE, "settings": Aspect.SETTINGS, "labels": Aspect.LABELS,
-              "display": Aspect.DISPLAY, "result": Aspect.RESULT, "name": Aspect.NAME, "pieces": Aspect.PIECES}
+              "display": Aspect.DISPLAY, "result": Aspect.RESULT, "name": Aspect.NAME, "pieces": Aspect.PIECES,
+             "seams": Aspect.SEAMS}
 
 HISTORY = frozenset({"undo", "redo"})  # causes that swap whole projects back
 WHOLE = HISTORY | {"reset"}  # causes after which every view is refreshed

@@ -212,6 +212,7 @@ class MainWindow(QMainWindow):
         self.pieces_panel.piece_edit.connect(self.piece_edit)
         self.pieces_panel.solve_all.connect(self.solve_all.start)
         self.pieces_panel.add_from_file.connect(lambda: self.files.open_dialog(add=True))
+        self.pieces_panel.seams.seam_delete.connect(self.remove_seam)
         self.solve_all.piece_done.connect(lambda name, text: self.statusBar().showMessage(
             f"Solve all: {name}: {text}", 10000))
         self.solve_all.finished.connect(self._solve_all_finished)
@@ -333,6 +334,19 @@ class MainWindow(QMainWindow):
             return False
         return True
 
+    def remove_seam(self, sewing: str, seam: str) -> bool:
+        """Delete seam ``seam`` of the shape ``sewing`` (names; the Seams list's Delete) as one undoable
+        edit: the panels either side of it join. A refused one shows its message and the list as it was."""
+        if self.document is None:
+            return False
+        try:
+            self.document.remove_seam(sewing, seam)
+        except FlatweaveError as exc:
+            self.show_error(f"Delete {seam}: {exc}")
+            self.pieces_panel.set_project(self.document.project)
+            return False
+        return True
+
     def add_pieces_from(self, project: Project) -> bool:
         """``project``'s pieces (a surface, a CAD face, a mesh's piece or a project opened to be
         added) added to the document's on their own surface, the first of them selected, as one
@@ -346,6 +360,8 @@ class MainWindow(QMainWindow):
     def _solve_all_finished(self, summary: str) -> None:
         self.last_solve_all = summary
         self.statusBar().showMessage(summary, 20000)
+        if self.document is not None:  # the sew lines' lengths read the results just attached
+            self.pieces_panel.seams.set_project(self.project)
         # a result attached (cause "result") is drawn by the run that made it; Solve all's come from no
         # run of the window, so the active piece's is drawn here (not over a run of the user's under way)
         if self.document is not None and self.project.result_is_current and not self.runner.active:

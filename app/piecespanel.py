@@ -11,10 +11,12 @@ a double-click renames. Under the list, the active piece's material, chosen
 from the project's materials table, and Materials... to edit that table
 (:class:`flatweave.app.materialsdialog.MaterialsDialog`); its rosette, chosen from
 the project's rosettes, its orientation from it, and Rosettes... to edit them
-(:class:`flatweave.app.rosettesdialog.RosettesDialog`). The panel never changes the document: a selection is
+(:class:`flatweave.app.rosettesdialog.RosettesDialog`). Below them, once a piece is split by seams,
+the Seams list (:class:`flatweave.app.seampanel.SeamList`, ``seams``): each sew line's two
+panels and their lengths in the flat. The panel never changes the document: a selection is
 reported as ``piece_selected(index)`` and every edit as ``piece_edit(label,
 change, solves)``, ``change`` a function of the project giving the edited one,
-which the window makes one document edit."""
+which the window makes one document edit (the Seams list's delete, ``seams.seam_delete``, likewise)."""
 
 from __future__ import annotations
 
@@ -29,6 +31,7 @@ from flatweave.document.project import Project, settings_equal
 
 from flatweave.app.materialsdialog import MaterialsDialog
 from flatweave.app.rosettesdialog import RosettesDialog
+from flatweave.app.seampanel import SeamList
 from flatweave.app.shortlist import ShortList
 
 __all__ = ["PiecesPanel", "piece_state"]
@@ -178,6 +181,8 @@ class PiecesPanel(QWidget):
         self.checks.setWordWrap(True)
         self.checks.setStyleSheet(f"color: {COLOURS['warnings']}")
         col.addWidget(self.checks)
+        self.seams = SeamList()  # shown once a piece is split by seams
+        col.addWidget(self.seams)
         self.add.clicked.connect(lambda: self.piece_edit.emit("Add piece", P.add, True))
         self.delete.clicked.connect(self._delete)
         self.up.clicked.connect(lambda: self._move(-1))
@@ -331,6 +336,7 @@ class PiecesPanel(QWidget):
         self.checks.setText("\n".join(shown))
         self.checks.setToolTip("\n".join(w[:200] for w in warnings[:200]))
         self.checks.setVisible(bool(warnings))
+        self.seams.set_project(project)
         self._update_buttons()
 
     def _show_material(self, project: Project | None) -> None:

@@ -21,9 +21,12 @@ from flatweave.errors import FlatweaveError
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.document.project import Project
 from flatweave.document.rosettes import rosette_named
+from flatweave.document.sewing import split_of
+from flatweave.geometry.numerics import cumulative_length, interp_rows
 from flatweave.method.rosette import rosette, rosette_arrows, zero_angle
 
 from flatweave.app.aspects import HISTORY, WHOLE, Aspect
+from flatweave.app.colours import SEAM
 from flatweave.app.frames import FrameMaker
 from flatweave.app.overlay import LayerStyle
 from flatweave.app.plot import result_note
@@ -45,6 +48,10 @@ PIECE_AXES = {"piece weft": LayerStyle("#c0392b", width=3.0), "piece warp": Laye
               "piece zero": LayerStyle("#202020", width=2.0)}
 """The active piece's fibres at its seed (weft red, warp blue) and, when it is oriented from a
 rosette, that rosette's 0-degree direction there (black): what its orientation is measured from."""
+SEAMS = LayerStyle(SEAM, width=7.0)
+"""The seams on the active piece's surface (issue 42): each sew line as its split cut it, wider than
+the piece's outline it runs along, so both show."""
+SEAM_SAMPLES = 256  # points added along a sew line, so a straight (u, v) stretch follows the surface
 AXES_FRACTION = 0.08  # the piece's weft arrow's length, of the surface's size (the Seed tool's is 0.12)
 """A live frame without a pattern leaves the pattern view as it is when that shows a pattern (the
 last result's, or an earlier frame's): it changes when the run has a pattern of its own. The first
@@ -218,8 +225,11 @@ class Presenter:
         if aspects & Aspect.SURFACE or (aspects & Aspect.SETTINGS and project.settings.region is not self._region):
             # a drawn region edited on the same surface keeps the camera (the designer is working in it)
             drawn = [r is not None and r.drawn is not None for r in (self._region, project.settings.region)]
+            # a seam drawn or taken back keeps it too (the designer is drawing on the shape, whose panels
+            # the split made active)
             self._show_surface(project.surface, project.settings.region,
-                               fit=bool(aspects & Aspect.SURFACE) or cause == "reset" or not any(drawn))
+                               fit=bool(aspects & Aspect.SURFACE) or cause == "reset"
+                               or not (any(drawn) or aspects & Aspect.SEAMS))
         if aspects & (Aspect.SETTINGS | Aspect.DISPLAY | Aspect.NAME) or whole:
             w.settings_panel.set_project(project)
         new_surface = bool(aspects & Aspect.SURFACE) or cause == "reset"
@@ -234,10 +244,12 @@ class Presenter:
             w.tools.refresh_handles()
         if aspects & (Aspect.SETTINGS | Aspect.RESULT | Aspect.SURFACE) or whole:
             self.show_yarns(project)
-        if aspects & (Aspect.PIECES | Aspect.SETTINGS | Aspect.RESULT) or whole:
-            w.pieces_panel.set_project(project)
+        if aspects & (Aspect.PIECES | Aspect.SETTINGS | Aspect.RESULT | Aspect.SEAMS) or whole:
+            w.pieces_panel.set_project(project)  # its Seams list too
         if aspects & (Aspect.PIECES | Aspect.SETTINGS | Aspect.SURFACE) or whole:
             self.show_pieces(project)
+        if aspects & (Aspect.SEAMS | Aspect.PIECES | Aspect.SETTINGS | Aspect.SURFACE) or whole:
+            self.show_seams(project)  # a new region redraws the surface, which clears the overlay layers
         if aspects & Aspect.RESULT:
             w.tools.result_changed()
         if aspects & (Aspect.SURFACE | Aspect.DISPLAY):
@@ -362,6 +374,29 @@ class Presenter:
             if z is not None:
                 zero = [rosette_arrows(rosette(s, seed, z), 1.25 * length)[0]]
         self.view.draw("piece zero", PIECE_AXES["piece zero"], zero)
+
+    def show_seams(self, project: Project) -> None:
+        """The seams of every shape split on the active piece's surface (flatweave.document.sewing): each
+        sew line of its split, sampled along the surface."""
+        s = project.surface
+        lines = [c for sewing in project.sewings if sewing.surface is s for c in self._sew_lines(s, sewing)]
+        self.view.draw("seams", SEAMS, lines)
+
+    def _sew_lines(self, surface, sewing) -> list:
+        """A sewing's sew lines on the surface, (k, 3) each, kept by sewing (immutable, as its split)."""
+        key = ("sew lines", id(sewing))
+        hit = self._curve_cache.get(key)
+        if hit is None or hit[0] is not sewing:
+            if len(self._curve_cache) >= CURVE_CACHE:
+                self._curve_cache.clear()
+            lines = []
+            for line in split_of(sewing).sews:
+                uv = np.asarray(line.uv, dtype=float)
+                s = cumulative_length(uv)
+                at = np.union1d(s, np.linspace(0.0, s[-1], SEAM_SAMPLES))  # its own points among them
+                lines.append(surface.points(interp_rows(at, s, uv)))
+            hit = self._curve_cache[key] = (sewing, lines)
+        return hit[1]
 
     def _outline(self, surface, region) -> list:
         """A region's loops on the surface, kept by region (the others' outlines are drawn at every

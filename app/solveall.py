@@ -1,5 +1,6 @@
 """Solve all, in the window (issue 41): every piece of the document solved in
-worker processes (:func:`flatweave.document.solving.solve_pieces`) from a
+worker processes (:func:`flatweave.document.matching.solve_all`: the pieces, then the panels of
+matched seams solved to equal sides) from a
 thread of its own, so the window stays live; each piece is reported as it
 finishes (``piece_done(name, text)``), and at the end the results are attached
 to the pieces they were solved for as one undoable edit
@@ -14,7 +15,7 @@ import threading
 
 from PySide6.QtCore import QObject, Signal
 
-from flatweave.document.solving import solve_pieces
+from flatweave.document.matching import solve_all
 
 __all__ = ["SolveAll"]
 
@@ -30,6 +31,7 @@ class SolveAll(QObject):
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self.workers: int | None = None  # None: one per core, at most four
+        self.report = None  # the last run's matched seams (flatweave.document.matching.MatchReport)
         self._ended.connect(self._attach)
 
     @property
@@ -43,12 +45,14 @@ class SolveAll(QObject):
             return False
         source = doc.project
         self._stop.clear()
+        self.report = None
 
         def run():
             try:
-                _, outcomes = solve_pieces(source, workers=self.workers, stop=self._stop,
-                                           on_done=lambda o: self.piece_done.emit(
-                                               o.name, f"failed: {o.error}" if o.error else o.result.status))
+                # the pieces, then the matched seams' panels solved to equal sides
+                _, outcomes, self.report = solve_all(source, workers=self.workers, stop=self._stop,
+                                                     on_done=lambda o: self.piece_done.emit(
+                                                         o.name, f"failed: {o.error}" if o.error else o.result.status))
             except Exception as exc:  # a bug must not end the thread silently: it is said in one line
                 outcomes = exc
             self._ended.emit(outcomes, source)
@@ -74,6 +78,8 @@ class SolveAll(QObject):
                 summary += f", {len(results) - len(taken)} edited meanwhile (their results not taken)"
             if failed:
                 summary += "; failed: " + "; ".join(failed)
+            if self.report is not None and self.report.message:
+                summary += f"; {self.report.message}"
         self.window.update_actions()
         self.finished.emit(" ".join(summary.split()))
 

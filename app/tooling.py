@@ -21,7 +21,8 @@ from PySide6.QtWidgets import QAbstractSpinBox, QApplication, QLineEdit
 
 from flatweave.errors import FlatweaveError
 
-from flatweave.app.tools import CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, SeedTool, Tool, YarnTool
+from flatweave.app.tools import (CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, SeamTool, SeedTool, Tool,
+                                 YarnTool)
 from flatweave.app.worker import one_line
 
 __all__ = ["ToolSpec", "register_tool", "unregister_tool", "tool_specs", "ToolControl", "ToolMouse",
@@ -61,6 +62,8 @@ _TOOLS: list[ToolSpec] = [
              "first point closes; a loop inside it is a hole", RegionTool, ""),
     ToolSpec("tool_seed", "&Seed and direction", "S", "Pick the seed inside the piece (click) and the weft "
              "direction (drag from it); the rosette is drawn as two arrows", SeedTool, ""),
+    ToolSpec("tool_seam", "&Seam", "E", "Draw a seam from edge to edge: click points on the surface, Enter "
+             "finishes; the piece splits into panels that sew back together", SeamTool, ""),
     ToolSpec("", "", "", "", HandleEditor, "", toolbar=False),
 ]
 

@@ -1,10 +1,10 @@
 """The 3D view's tools: draw a curve dart, place a plane dart, move a curve
-dart's points, pick a constrained yarn.
+dart's points, pick a constrained yarn, draw a seam.
 
 A tool turns mouse events in the 3D view (display coordinates, VTK's origin
 bottom left) into previews drawn by the view and, when the designer commits,
-into one edit of the document through :class:`flatweave.document.history.Document`'s dart
-and yarn methods, so undo, redo, re-runs and saving work as for any other edit.
+into one edit of the document through :class:`flatweave.document.history.Document`'s dart,
+yarn and seam methods, so undo, redo, re-runs and saving work as for any other edit.
 Tools never touch VTK: they ask the view for viewing rays, display positions
 and widget values, and core for the geometry (:func:`flatweave.geometry.curves.project_points`
 puts a click on the surface, :func:`flatweave.method.darts.curve_dart_through` builds the
@@ -35,6 +35,7 @@ from scipy.spatial import cKDTree
 from flatweave.geometry.curves import project_points
 from flatweave.method.darts import CurveDart, PlaneDart, curve_dart_through, dart_handles
 from flatweave.document.history import unique_name
+from flatweave.document.sewing import SeamLine, sewing_of
 from flatweave.method.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
 from flatweave.errors import SettingsError
 from flatweave.geometry.region import check_region_size, cover_for, region_from_spec
@@ -43,9 +44,9 @@ from flatweave.method.rosette import angle_towards, rosette, rosette_arrows, see
 from flatweave.app.overlay import HANDLES, PREVIEW, LayerStyle
 from flatweave.app.tooleditors import PlaneEditor, YarnEditor
 
-__all__ = ["Tool", "ToolHost", "CurveDartTool", "HandleEditor", "PlaneDartTool", "YarnTool", "PendingYarn",
-           "RegionTool", "SeedTool", "PointsTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS",
-           "DEFAULT_YARN_K"]
+__all__ = ["Tool", "ToolHost", "CurveTool", "CurveDartTool", "SeamTool", "HandleEditor", "PlaneDartTool", "YarnTool",
+           "PendingYarn", "RegionTool", "SeedTool", "PointsTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS",
+           "HANDLE_PIXELS", "DEFAULT_YARN_K"]
 
 STROKE_PIXELS = 8      # a drag adds a point every this many pixels
 SNAP_PIXELS = 10       # a click this close to the surface's visible rim goes onto the rim
@@ -289,13 +290,16 @@ class PointsTool(Tool):
         self.draw_preview()
 
 
-# ---------------------------------------------------------------------- curve darts
-class CurveDartTool(PointsTool):
-    """Draw a curve dart: clicks (or drags) add points on the surface, Enter or
-    a double click finishes, Esc cancels, Backspace removes the last point."""
+# ---------------------------------------------------------------------- curves drawn by points: darts, seams
+class CurveTool(PointsTool):
+    """What the curve dart and seam tools share: clicks (or drags) add points on
+    the surface (just off the rim, onto it), and the curve through them, the
+    polyline through their points projected along the view and fitted by biarcs
+    (:func:`flatweave.method.darts.curve_dart_through`), is previewed as it
+    grows; Enter or a double click finishes (``finish``: the subclass's edit),
+    Esc cancels, Backspace removes the last point."""
 
-    name = "curve dart"
-    what = "dart"
+    what = "curve"  # "dart", "seam": what the hints call the thing made
 
     def __init__(self, host):
         super().__init__(host)
@@ -307,10 +311,6 @@ class CurveDartTool(PointsTool):
     def handles(self) -> list[np.ndarray]:
         """(u, v) of the points placed."""
         return self.placed
-
-    def activate(self) -> None:
-        self.hint("Curve dart: click points on the surface (or drag a stroke); Enter or a double click "
-                  "finishes, Esc cancels, Backspace takes back a point. Drag off the surface to turn the view.")
 
     def deactivate(self) -> None:
         self.cancel(quiet=True)
@@ -347,13 +347,13 @@ class CurveDartTool(PointsTool):
         if hit is None:
             if explain:
                 self.hint("That click missed the surface: no point added. Click on the surface "
-                          "(Esc cancels the dart).")
+                          f"(Esc cancels the {self.what}).")
             return False
         self._place(hit[0], x, y)
         n = len(self.handles)
         where = "on the edge" if hit[2] else "on the surface"
         self.hint(f"Point {n} {where}. " + ("Click the next point." if n < 2 else
-                                            "Click more points, or Enter to make the dart."))
+                                            f"Click more points, or Enter to make the {self.what}."))
         return True
 
     # -------------------------------------------------------------- the curve
@@ -368,9 +368,39 @@ class CurveDartTool(PointsTool):
                 self.preview = curve_dart_through(s, *self._preview_of)
                 curve = s.points(self.preview.uv)
             except SettingsError as exc:
-                self.hint(str(exc))
+                self.hint(self._said(exc))
                 curve = pts
         self.draw_preview(curve, pts)
+
+    def _said(self, exc: SettingsError) -> str:
+        """A refused curve's message, as the hint says it."""
+        return str(exc)
+
+    def _curve(self, name: str) -> CurveDart:
+        """The curve through the points placed, seen along the view now, named ``name``: the
+        preview's when it was made from the same points and view (projection and fit are 10-25 ms
+        of the GUI's before a re-solve can start). A SettingsError when none goes through them."""
+        handles, view_dir = np.array(self.handles), self.view.view_direction()
+        if self.preview is not None and all(np.array_equal(x, y) for x, y in
+                                            zip(self._preview_of, (handles, view_dir))):
+            return replace(self.preview, name=name)
+        return curve_dart_through(self.surface, handles, view_dir, name=name)
+
+    def _clear(self) -> None:
+        super()._clear()
+        self.dragging = False
+
+
+class CurveDartTool(CurveTool):
+    """Draw a curve dart: clicks (or drags) add points on the surface, Enter or
+    a double click finishes, Esc cancels, Backspace removes the last point."""
+
+    name = "curve dart"
+    what = "dart"
+
+    def activate(self) -> None:
+        self.hint("Curve dart: click points on the surface (or drag a stroke); Enter or a double click "
+                  "finishes, Esc cancels, Backspace takes back a point. Drag off the surface to turn the view.")
 
     def finish(self) -> bool:
         if len(self.handles) < 2:
@@ -378,15 +408,8 @@ class CurveDartTool(PointsTool):
             return False
         doc = self.document
         name = unique_name("curve dart", (d.name for d in doc.project.settings.darts))
-        handles, view_dir = np.array(self.handles), self.view.view_direction()
         try:
-            if self.preview is not None and all(np.array_equal(x, y) for x, y in
-                                                zip(self._preview_of, (handles, view_dir))):
-                # the preview's dart, from the same points and view (projection and fit are 10-25 ms of
-                # the GUI's before the re-solve can start)
-                dart = replace(self.preview, name=name)
-            else:
-                dart = curve_dart_through(self.surface, handles, view_dir, name=name)
+            dart = self._curve(name)
         except SettingsError as exc:
             self.hint(f"Cannot make the dart: {exc}")
             return False
@@ -395,9 +418,52 @@ class CurveDartTool(PointsTool):
         self.hint(f"Added {name}.")
         return True
 
-    def _clear(self) -> None:
-        super()._clear()
-        self.dragging = False
+
+class SeamTool(CurveTool):
+    """Draw a seam (issue 42): clicks (or drags) add points on the surface, from an
+    edge to an edge or another seam (a click just off the rim goes onto it); Enter
+    or a double click finishes, Esc cancels, Backspace removes the last point.
+
+    The seam is the curve a curve dart through the same points would run along
+    (:class:`CurveTool`), as a :class:`flatweave.document.sewing.SeamLine` named
+    "seam N", and finishing is one :meth:`flatweave.document.history.Document.add_seam`
+    on the active piece: its first seam splits it into panels, which replace it
+    as pieces; a later one re-splits its shape. A seam the split refuses (it
+    crosses itself, leaves a free end inside a panel, makes a sliver) is said as
+    the tool's one-line hint, the points kept to take back or redraw, and the
+    document does not change."""
+
+    name = "seam"
+    what = "seam"
+
+    def _said(self, exc: SettingsError) -> str:
+        # the curve's fit (curve_dart_through) words its refusals for a curve dart
+        return str(exc).replace("a curve dart", "a seam").replace("the dart's", "the seam's")
+
+    def activate(self) -> None:
+        self.hint("Seam: click points on the surface from an edge to an edge (or to another seam); Enter or a "
+                  "double click finishes, Esc cancels, Backspace takes back a point.")
+
+    def finish(self) -> bool:
+        if len(self.handles) < 2:
+            self.hint("A seam needs at least two points on the surface.")
+            return False
+        doc = self.document
+        project = doc.project
+        sewing = sewing_of(project, project.piece_index)
+        name = unique_name("seam", () if sewing is None else (s.name for s in sewing.seams))
+        try:
+            seam = SeamLine(name, self._curve(name).uv)
+            doc.add_seam(seam)
+        except SettingsError as exc:
+            self.hint(f"Cannot make the seam: {self._said(exc)}")
+            return False
+        self._clear()
+        project = doc.project
+        sewing = sewing_of(project, project.piece_index)
+        panels = 1 if sewing is None else len(sewing.panels)
+        self.hint(f"Added {name}: {panels} panels.")
+        return True
 
 
 class HandleEditor(Tool):

@@ -41,13 +41,12 @@ from flatweave.files import check_output, exists, json_bytes, parse_json, read_i
 from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten, state_from_dict
 from flatweave.method.result import result_to_dict
-from flatweave.method.seams import MATCH_MM, MATCH_PCT, flat_notches, match_sews, notches_along
-from flatweave.geometry.panels import seam_from_spec, split_region
+from flatweave.document.sewing import piece_sheet, seam_line_from_spec, sew
 from flatweave.version import __version__
 from flatweave.geometry.quadrature import region_area
 from flatweave.export.registry import (MAX_SEAM_MM, ExportOption, ExportOptions, check_target, export_files,
                                        export_options, option_formats, surprises)
-from flatweave.export.sheet import UNITS, build_sheet, join_sheets
+from flatweave.export.sheet import UNITS, join_sheets
 from flatweave.geometry.region import cover_for
 from flatweave.method.lattice import parse_material
 from flatweave.studies.planar import PlanarSettings, flatten_planar, planar_result_to_dict
@@ -55,12 +54,12 @@ from flatweave.method.solvers import solver_entry
 from flatweave.studies.sweep import sweep
 from flatweave.document.project import PROJECT_SUFFIX, Project, project_to_dict
 from flatweave.document.recovery import save_with_backups
-from flatweave.document.solving import solve_pieces
-from flatweave.document.checks import project_checks
+from flatweave.document.matching import solve_all
+from flatweave.document.checks import project_checks, seam_rows, seam_warnings
 from flatweave.document.cutfiles import check_folder, export_pieces
 from flatweave.document.plybook import plybook_bytes
 from flatweave.files import atomic_write_many
-from flatweave.document.pieces import Piece, index_of, with_pieces
+from flatweave.document.pieces import index_of
 from flatweave.document.rosettes import orientation_text
 from flatweave.reading.jobs import JOB_SUFFIX
 from flatweave.geometry.quadrature import boundary_length
@@ -312,8 +311,10 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--seam", action="append", default=[], metavar="SEAM.json",
                    help='on a surface: a seam line that splits it (or its region) into panels, each flattened, '
                         'their sew lines matched; {"points": [[x, y, z], ...], "view_direction": [dx, dy, dz]} '
-                        '(drawn, projected onto it) or {"uv": [[u, v], ...]}, optional "name" and "closed"; from '
-                        'edge to edge, edge to seam, or closed; repeatable. On a mesh shaped like a tube (a sleeve, '
+                        '(drawn, projected onto it) or {"uv": [[u, v], ...]}, optional "name", "closed", '
+                        '"allowance_mm" (its own seam allowance), "notches" ([[u, v], ...] on it), "matched" '
+                        '(true: its two sides solved to equal lengths); from edge to edge, edge to seam, or '
+                        'closed; repeatable (--out NAME.flatweave keeps them). On a mesh shaped like a tube (a sleeve, '
                         'a leg, a pipe: open at two ends): open it along one seam drawn from one end to the other, '
                         '{"seam3d": [[x, y, z], ...]} (points on it) or the drawn form; the '
                         "pattern's two edges along the seam sew back together")
@@ -433,6 +434,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--seam-allowance", type=SEAM_MM, default=0.0, metavar="MM",
                    help="seam allowance of the cut files and the ply book's patterns, mm (default 0: a laminate's "
                         "plies are cut net)")
+    v.add_argument("--notch-every", type=NOTCH_MM, default=0.0, metavar="MM",
+                   help="the cut files of panels (pieces split by seams): a notch on both sides of each seam every "
+                        "MM millimetres, besides its ends and the notches placed on it (default 0)")
     v.add_argument("--paper", default="a4", choices=["a4", "letter"], help="paper of the ply book and tiled PDFs")
     v.add_argument("--quiet", action="store_true", help="no table on stdout, no progress on stderr")
     return p
@@ -633,9 +637,9 @@ def _cmd_flatten(args) -> int:
 
 def _flatten_panels(args, opened, out: Path | None, targets, notes: list, options) -> int:
     """``flatten --seam ...`` on a surface: the region split into panels by the seams
-    (:func:`flatweave.geometry.panels.split_region`), each flattened with the settings
-    given (its own seed, at its middle), their sew lines matched
-    (:func:`flatweave.method.seams.match_sews`); ``--out`` the panels' result file."""
+    (:func:`flatweave.document.sewing.sew`), each flattened with the settings given (its own
+    seed, at its middle), their sew lines matched (:func:`flatweave.document.checks.seam_rows`);
+    ``--out`` the panels' result file, or the project (its seams kept) when named ``.flatweave``."""
     used = [name for name, given in (("--seed", args.seed is not None), ("--angle auto", args.angle == "auto"),
                                       ("--warm-start", bool(args.warm_start)), ("--auto-darts", bool(args.auto_darts)),
                                       ("--plane-dart", bool(args.plane_dart)), ("--curve-dart", bool(args.curve_dart)),
@@ -648,74 +652,61 @@ def _flatten_panels(args, opened, out: Path | None, targets, notes: list, option
         raise SettingsError(f"{', '.join(flat_only)}: panels are exported as flat patterns (DXF, SVG, PDF), not "
                             f"yet in 3D formats")
     surface, source = opened.surface, opened.source
-    seams = [seam_from_spec(surface, _read_json(path, "seam"), f"seam {k + 1}") for k, path in enumerate(args.seam)]
-    split = split_region(surface, opened.region, seams, args.spacing)
-    base = FlattenSettings(
+    seams = [seam_line_from_spec(surface, _read_json(path, "seam"), f"seam {k + 1}")
+             for k, path in enumerate(args.seam)]
+    region = opened.region
+    settings = FlattenSettings(
         spacing=args.spacing, spacing_warp=args.spacing_warp, material=_material(args), angle_deg=args.angle,
         paths=args.paths, solver=args.solver, tol=args.tol, max_iter=args.max_iter,
-        max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"), max_nodes=args.max_nodes)
-    # the panels are the pieces of a project, solved at once in worker processes (as solve does)
-    pieces = [Piece(p.name, dataclasses.replace(base, region=p.region, seed=cover_for(surface, p.region).default_seed),
-                    surface=surface, source=source) for p in split.panels]
-    project = with_pieces(Project(surface, pieces[0].settings, name=Path(args.surface).stem, source=source,
-                                  units=options.units, piece_name=pieces[0].name), pieces, 0)
-    project, outcomes = solve_pieces(project)
+        max_seconds=args.max_seconds if args.max_seconds is not None else float("inf"), max_nodes=args.max_nodes,
+        region=region, seed=cover_for(surface, region).default_seed)
+    # the shape a piece of a project, split into panels (its pieces), solved at once in worker processes
+    project = sew(Project(surface, settings, name=Path(args.surface).stem, source=source, units=options.units),
+                  0, seams)
+    project, outcomes, matching = solve_all(project)
     failed = [o for o in outcomes if o.result is None]
     if failed:
         raise SettingsError(f"{failed[0].name}: {failed[0].error}")
-    results = {o.name: o.result for o in outcomes}
-    matches = match_sews(split, results)
-    to_mm = UNITS.get(options.units, 1000.0)  # millimetres a model unit
-    warnings = list(notes) + [f"{p.name}: {w}" for p in split.panels for w in results[p.name].warnings]
-    warnings += [f"sew line {m.name}: {m.panels[0]} {m.lengths[0]:.6g} and {m.panels[1]} {m.lengths[1]:.6g} long "
-                 f"in the flat, {m.difference_pct:.3g} % apart (over {MATCH_PCT:g} % and {MATCH_MM:g} mm)"
-                 for m in matches if m.difference_pct > MATCH_PCT and m.difference * to_mm > MATCH_MM]
-    exports = _panel_exports(args, surface, split, results, targets, options, to_mm) if targets else []
+    pieces = project.pieces
+    rows = seam_rows(project)
+    warnings = list(notes) + [f"{p.name}: {w}" for p in pieces for w in p.result.warnings] + seam_warnings(project)
     doc = {"format": "flatweave-panels", "version": 1, "flatweave": __version__, "surface": source,
            "units": options.units,
-           "seams": [m.to_dict() for m in matches],
-           "panels": [{"name": p.name, "sews": sorted(p.sew), "result": result_to_dict(results[p.name], source)}
-                      for p in split.panels],
-           "pattern": {"pieces": [{"panel": p.name, **pc.to_dict()} for p in split.panels
-                                  for pc in results[p.name].pattern.pieces]},
-           "warnings": warnings}
-    if out is not None and out.suffix.lower() == PROJECT_SUFFIX:  # the panels as a project's pieces
+           "seams": [r.to_dict() for r in rows if len(r.panels) == 2],
+           "panels": [{"name": p.name, "sews": sorted(r.name for r in rows if p.name in r.panels),
+                       "result": result_to_dict(p.result, source)} for p in pieces],
+           "pattern": {"pieces": [{"panel": p.name, **pc.to_dict()} for p in pieces for pc in p.result.pattern.pieces]},
+           **({"matching": matching.to_dict()} if matching.lines else {}),
+           "warnings": warnings + ([] if matching.reached else [matching.message])}
+    exports = []
+    if targets:  # the panels' flat patterns on one sheet (a DXF block each), notched and with their allowances
+        joined = join_sheets([piece_sheet(project, p.name, options.seam_allowance_mm, args.notch_every,
+                                          f"{options.name} {p.name}") for p in pieces], options.name)
+        exports = [f for path in targets for f in exporter_for(path.suffix).files(pieces[0].result, options,
+                                                                                   joined, path)]
+    if out is not None and out.suffix.lower() == PROJECT_SUFFIX:  # the panels as a project's pieces, seams kept
         files = [(out, json_bytes(project_to_dict(project), out))]
     else:
         files = [(out, json_bytes(doc, out))] if out is not None else []
     atomic_write_many(files + exports)  # the result file and every export, all or nothing
     if not args.quiet:
-        for p in split.panels:
-            m = results[p.name].metrics
+        for p in pieces:
+            m = p.result.metrics
             print(f"{p.name}: {m['nodes']} nodes, boundary error {m['boundary_error_pct']:.3f} %, area error "
-                  f"{m['area_error_pct']:.3f} %, max shear {m['max_shear_deg']:.3g} deg ({results[p.name].status})",
+                  f"{m['area_error_pct']:.3f} %, max shear {m['max_shear_deg']:.3g} deg ({p.result.status})",
                   file=sys.stderr)
-        for m in matches:
-            print(f"sew line {m.name} ({m.panels[0]} / {m.panels[1]}): {m.lengths[0]:.6g} / {m.lengths[1]:.6g}, "
-                  f"{m.difference_pct:.3g} % apart", file=sys.stderr)
+        for r in rows:
+            if r.solved:
+                print(f"sew line {r.name} ({r.panels[0]} / {r.panels[1]}): {r.lengths[0]:.6g} / {r.lengths[1]:.6g}, "
+                      f"{r.difference_pct:.3g} % apart", file=sys.stderr)
         written = ([out] if out is not None else []) + list(targets)
-        print(f"{len(split.panels)} panel{'s' if len(split.panels) != 1 else ''}, {len(matches)} sew "
-              f"line{'s' if len(matches) != 1 else ''}" + "".join(f" -> {p}" for p in written), file=sys.stderr)
+        if matching.message:
+            print(f"matched seams: {matching.message}", file=sys.stderr)
+        n = sum(r.solved for r in rows)
+        print(f"{len(pieces)} panel{'s' if len(pieces) != 1 else ''}, {n} sew "
+              f"line{'s' if n != 1 else ''}" + "".join(f" -> {p}" for p in written), file=sys.stderr)
     _print_warnings(warnings[len(notes):])
     return 0
-
-
-def _panel_exports(args, surface, split, results, targets, options, to_mm: float) -> list:
-    """The panels' flat patterns on one sheet (a DXF block each, side by side in an SVG or PDF),
-    each with a notch at every end of its sew lines and every ``--notch-every`` mm along them, on
-    both sides at the same point of the seam: (path, bytes) of each target, nothing written."""
-    every = args.notch_every / to_mm  # model units
-    marks = {p.name: [] for p in split.panels}
-    for sew in split.sews:
-        at = notches_along(surface, sew.uv, every)
-        for name in sew.panels:
-            xy, _, along = flat_notches(results[name], sew.uv, at, with_tangents=True)
-            marks[name].extend((q, t) for q, t in zip(xy, along) if np.isfinite(q).all() and np.isfinite(t).all())
-    sheets = [build_sheet(results[p.name], options.units, options.seam_allowance_mm, f"{options.name} {p.name}",
-                          sew_notches=tuple(marks[p.name])) for p in split.panels]
-    joined = join_sheets(sheets, options.name)
-    first = results[split.panels[0].name]
-    return [f for path in targets for f in exporter_for(path.suffix).files(first, options, joined, path)]
 
 
 def _coarse_note(m: dict) -> str:
@@ -1017,8 +1008,10 @@ def _cmd_solve(args) -> int:
             what = f"failed: {outcome.error}" if outcome.error else outcome.result.status
             print(f"  {outcome.name}: {what} ({outcome.seconds:.1f} s)", file=sys.stderr)
 
-    project, outcomes = solve_pieces(project, names, args.workers, on_done=progress, cluster=args.dask)
-    _save_solved(project, out, book, folder, options, args.quiet)
+    project, outcomes, matching = solve_all(project, names, args.workers, on_done=progress, cluster=args.dask)
+    if matching.message and not args.quiet:
+        print(f"  matched seams: {matching.message}", file=sys.stderr)
+    _save_solved(project, out, book, folder, options, args.quiet, args.notch_every)
     if not args.quiet:
         print(f"{'piece':<24} {'orient.':>8} {'status':<28} {'nodes':>7} {'boundary %':>10} {'area %':>8} "
               f"{'shear deg':>9} {'seconds':>8}")
@@ -1032,6 +1025,14 @@ def _cmd_solve(args) -> int:
             print(f"{o.name[:24]:<24} {orient:>8} {o.result.status[:28]:<28} {m['nodes']:>7} "
                   f"{m['boundary_error_pct']:>10.3f} {m['area_error_pct']:>8.3f} "
                   f"{m.get('max_shear_deg', float('nan')):>9.2f} {o.seconds:>8.2f}")
+        rows = seam_rows(project)
+        if rows:  # the panels' sew lines matched (issue 42)
+            print(f"{'sew line':<24} {'panels':<33} {'lengths':>21} {'diff. %':>8}")
+            for r in rows:
+                lengths = " / ".join("-" if v is None else f"{v:.6g}" for v in r.lengths)
+                diff = "-" if r.difference_pct is None else f"{r.difference_pct:.3g}"
+                sides = " / ".join(n or "(deleted)" for n in r.panels)
+                print(f"{r.name[:24]:<24} {sides[:33]:<33} {lengths:>21} {diff:>8}")
         print(f"-> {out}")
     _print_warnings(project_checks(project))  # the pieces judged together: sequence, materials, fibres
     failed = [o for o in outcomes if o.result is None]
@@ -1041,7 +1042,7 @@ def _cmd_solve(args) -> int:
 
 
 def _save_solved(project, out: Path, book: Path | None, folder: Path | None, options: ExportOptions,
-                 quiet: bool) -> None:
+                 quiet: bool, notch_every_mm: float = 0.0) -> None:
     """The solved project saved with its ply book and cut files, all or nothing: every file is built,
     then staged, and the project saved, before any replaces its target."""
     extra = [(book, plybook_bytes(project, options.paper, options.seam_allowance_mm))] if book else []
@@ -1055,7 +1056,8 @@ def _save_solved(project, out: Path, book: Path | None, folder: Path | None, opt
         atomic_write_many(extra, before_replace=save)
         print("flatweave: warning: no piece is solved: no cut files written", file=sys.stderr)
         return
-    paths, left = export_pieces(project, folder, options=options, extra=extra, before_replace=save)
+    paths, left = export_pieces(project, folder, options=options, extra=extra, before_replace=save,
+                                notch_every_mm=notch_every_mm)
     if not quiet:
         print(f"{len(paths) - len(extra)} cut files -> {folder}", file=sys.stderr)
     if left:

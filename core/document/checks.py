@@ -10,7 +10,10 @@ pieces together, where a result's own warnings judge one piece:
   from its orientation (the weft's deviation from the rosette direction
   projected cell by cell, :func:`flatweave.method.fibres.result_fibres`): cut
   with its warp along the roll, such a ply does not lie at its nominal angle
-  everywhere.
+  everywhere;
+* a sew line whose two sides, solved, differ in the flat by more than the
+  tolerance (:data:`flatweave.method.seams.MATCH_PCT` and ``MATCH_MM``): the
+  panels do not sew back together without easing (:func:`seam_rows`).
 """
 
 from __future__ import annotations
@@ -19,10 +22,13 @@ import weakref
 
 import numpy as np
 
+from flatweave.document.pieces import pieces_of
 from flatweave.document.project import settings_equal
+from flatweave.document.sewing import SeamRow, panel_names, split_of
 from flatweave.method.fibres import result_fibres
+from flatweave.method.seams import MATCH_MM, MATCH_PCT, match_sews
 
-__all__ = ["project_checks", "FIBRE_TOL_DEG"]
+__all__ = ["project_checks", "FIBRE_TOL_DEG", "seam_rows", "seam_warnings"]
 
 FIBRE_TOL_DEG = 5.0  # a ply's fibres may turn this far from its nominal orientation (composites: 3 to 5 degrees)
 DOMAIN_SLACK = 1e-9  # of the domain's width: a region on its edge is on the surface
@@ -72,4 +78,42 @@ def project_checks(project, fibre_tol_deg: float = FIBRE_TOL_DEG) -> list[str]:
         if r is not None and settings_equal(r.settings, p.settings) and fibre_turn(r) > fibre_tol_deg:
             out.append(f"piece {p.name!r}: its fibres turn up to {fibre_turn(r):.1f} deg from its "
                        f"orientation on the tool (tolerance {fibre_tol_deg:g} deg)")
-    return out
+    return out + seam_warnings(project)
+
+
+def seam_rows(project) -> list[SeamRow]:
+    """Every sew line of the project's sewings (:mod:`flatweave.document.sewing`), in order, with each
+    side's flat length when its panel's result is current (solved with its settings as they are)."""
+    pieces = {p.name: p for p in pieces_of(project)}
+    rows = []
+    for sewing in project.sewings:
+        split = split_of(sewing)
+        names = panel_names(sewing)
+        results = {}
+        for panel in split.panels:
+            piece = pieces.get(names[panel.name])
+            r = None if piece is None else piece.result
+            if r is not None and r.surface is piece.surface and settings_equal(r.settings, piece.settings):
+                results[panel.name] = r
+        sides_of = {m.name: m for m in match_sews(split, results)}
+        asks = {s.name for s in sewing.seams if s.matched}
+        for line in split.sews:
+            sides = tuple(names[p] for p in line.panels)
+            m = sides_of.get(line.name)
+            cost = None
+            if m is not None:  # both sides current: their energy against their unmatched solves', if matched
+                mine = [results[p].metrics for p in line.panels]
+                if all("energy_unmatched" in q for q in mine):
+                    alone = sum(q["energy_unmatched"] for q in mine)
+                    cost = 100.0 * (sum(q["energy"] for q in mine) - alone) / alone if alone > 0 else None
+            rows.append(SeamRow(line.name, line.seam, sewing.name, sides,
+                                m.lengths if m is not None else tuple(None for _ in sides), line.seam in asks, cost))
+    return rows
+
+
+def seam_warnings(project) -> list[str]:
+    """One line per sew line whose solved sides differ by more than the tolerance."""
+    mm = 1000.0 * project.metres_per_unit
+    return [f"sew line {r.name}: {r.panels[0]} {r.lengths[0]:.6g} and {r.panels[1]} {r.lengths[1]:.6g} long in "
+            f"the flat, {r.difference_pct:.3g} % apart (over {MATCH_PCT:g} % and {MATCH_MM:g} mm)"
+            for r in seam_rows(project) if r.over(mm)]

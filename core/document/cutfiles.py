@@ -18,7 +18,8 @@ from flatweave.document.plybook import book_order
 from flatweave.document.project import settings_equal
 from flatweave.errors import SettingsError
 from flatweave.export.registry import FORMATS, ExportOptions, exporter_for
-from flatweave.export.sheet import build_sheet, join_sheets
+from flatweave.document.sewing import piece_sheet
+from flatweave.export.sheet import join_sheets
 from flatweave.files import atomic_write_many
 
 __all__ = ["CUT_FORMATS", "JOINED", "file_stem", "cut_file_plan", "cut_files", "check_folder", "export_pieces"]
@@ -69,17 +70,20 @@ def cut_file_plan(project, folder, formats=CUT_FORMATS) -> tuple[list[tuple[Path
     return plan, left
 
 
-def cut_files(project, folder, formats=CUT_FORMATS, options: ExportOptions = ExportOptions()) -> tuple:
+def cut_files(project, folder, formats=CUT_FORMATS, options: ExportOptions = ExportOptions(),
+              notch_every_mm: float = 0.0) -> tuple:
     """The cut files of every solved piece, built and not written: ([(path, bytes), ...], names of
     the pieces left out). ``options`` as for one result's export (seam allowance, paper, DXF
-    variant); the units are the project's, each file's name its piece's."""
+    variant); the units are the project's, each file's name its piece's. A panel's seams put
+    notches on it (at their ends, the user's, and every ``notch_every_mm`` mm if given) and their
+    own seam allowances (:func:`flatweave.document.sewing.piece_sheet`)."""
     plan, left = cut_file_plan(project, folder, formats)
     options = replace(options, units=project.units)
     sheets = {}
 
     def sheet_of(p):
         if p.name not in sheets:
-            sheets[p.name] = build_sheet(p.result, project.units, options.seam_allowance_mm, p.name, p.quantity)
+            sheets[p.name] = piece_sheet(project, p.name, options.seam_allowance_mm, notch_every_mm)
         return sheets[p.name]
 
     files = []
@@ -106,14 +110,14 @@ def check_folder(folder) -> Path:
 
 
 def export_pieces(project, folder, formats=CUT_FORMATS, options: ExportOptions = ExportOptions(), extra=(),
-                  before_replace=None) -> tuple:
+                  before_replace=None, notch_every_mm: float = 0.0) -> tuple:
     """Write the cut files of every solved piece into ``folder`` (made if missing; its parent must
     exist): (paths written, names of the pieces left out). ``extra``: more (path, bytes) written
     with them (the ply book); ``before_replace()`` runs when every file is staged, before any
     replaces its target (the project's save: if it fails, nothing is written). All or nothing:
     a failure writes no file, and a folder made for them is removed."""
     folder = check_folder(folder)
-    files, left = cut_files(project, folder, formats, options)
+    files, left = cut_files(project, folder, formats, options, notch_every_mm)
     files += list(extra)
     made = not folder.exists()
     folder.mkdir(exist_ok=True)

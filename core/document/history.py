@@ -32,17 +32,19 @@ from typing import Callable
 
 from flatweave.errors import SettingsError
 from flatweave.method.result import FlattenResult, with_shear_angles
-from flatweave.document import pieces
+from flatweave.document import pieces, sewing
 from flatweave.document.project import Project, labels_equal, settings_equal
 
 __all__ = ["Document", "Edit", "Change", "ASPECTS", "unique_name"]
 
-ASPECTS = ("surface", "settings", "labels", "display", "result", "name", "pieces")
+ASPECTS = ("surface", "settings", "labels", "display", "result", "name", "pieces", "seams")
 """What a change can touch: listeners get the set of aspects that differ.
 "labels" are what never changes a solve: the darts' names and visibility and
 a curve dart's drawn points (see :func:`flatweave.document.project.labels_equal`).
 "pieces" are the list of pieces (flatweave.document.pieces): which is active, their
-names, order, quantities and sequence, the pieces not active, and the materials table."""
+names, order, quantities and sequence, the pieces not active, and the materials table.
+"seams" are the shapes split by seams (flatweave.document.sewing): a seam drawn, moved,
+renamed, its options."""
 
 
 @dataclass(frozen=True)
@@ -91,6 +93,8 @@ def changed_aspects(old: Project | None, new: Project) -> frozenset:
             or len(old.others) != len(new.others) or any(a is not b for a, b in zip(old.others, new.others)) \
             or old.materials != new.materials or old.rosettes != new.rosettes:
         out.add("pieces")  # the materials and rosette tables too: a row added that no piece uses yet is an edit
+    if len(old.sewings) != len(new.sewings) or any(a is not b for a, b in zip(old.sewings, new.sewings)):
+        out.add("seams")
     return frozenset(out)
 
 
@@ -347,6 +351,27 @@ class Document:
         return self.apply(f"Remove {gone.label()} constraint",
                           self._project.with_settings(yarns=tuple(yarns)))
 
+    # ------------------------------------------------------------------ seams
+    def add_seam(self, seam, piece=None) -> Edit | None:
+        """Draw ``seam`` (a :class:`flatweave.document.sewing.SeamLine`) on piece ``piece`` (default the
+        active one): added to its shape's seams, or splitting it into panels when it is not a panel yet."""
+        return self.apply(f"Add {seam.name}", sewing.add_seam(self._project, seam, piece))
+
+    def replace_seam(self, shape, k, seam, label: str = "Edit seam") -> Edit | None:
+        """Seam ``k`` (an index or a name) of ``shape`` (a Sewing or its name) replaced (a moved seam)."""
+        return self.apply(label, sewing.replace_seam(self._project, shape, k, seam))
+
+    def remove_seam(self, shape, k) -> Edit | None:
+        """Seam ``k`` of ``shape`` deleted: the panels either side of it joined."""
+        s = self._project.sewings[sewing.sewing_index(self._project, shape)]
+        return self.apply(f"Delete {s.seams[s.seam_index(k)].name}", sewing.remove_seam(self._project, shape, k))
+
+    def edit_seam(self, shape, k, label: str = "Edit seam", **changes) -> Edit | None:
+        """Seam ``k`` of ``shape`` with its name or options changed (labels: no re-split, no solve)
+        or its points (a re-split)."""
+        lines = {"uv", "closed"} & set(changes)
+        return self.apply(label, sewing.edit_seam(self._project, shape, k, **changes), answers_solve=bool(lines))
+
     def undo(self) -> bool:
         if not self._undo:
             return False
@@ -389,7 +414,8 @@ class Document:
         FlattenResult) started from project ``source``, as one undoable edit.
         A piece gets the result made from its settings as they are now (its
         own, or, renamed meanwhile, the one its settings were solved under; a
-        piece whose settings changed since keeps its state); a result fits a
+        piece whose settings changed since keeps its state; a matched seam's panel takes the ease its
+        result was solved with, :mod:`flatweave.document.matching`); a result fits a
         piece only on the surface it was made on (its source refitted or
         replaced since: not taken). Returns the names of the pieces that got one."""
         cur = self._project
@@ -397,10 +423,15 @@ class Document:
         taken = []
         for k, piece in enumerate(pieces_now):
             mine = results.get(piece.name)
+            # a matched seam's panel comes back eased (flatweave.document.matching): its settings take the ease
+            unmatched = replace(piece.settings, ease=())
             fits = [r for r in ([mine] if mine is not None else []) + list(results.values())
-                    if r.surface is piece.surface and settings_equal(r.settings, piece.settings)]
+                    if r.surface is piece.surface and (settings_equal(r.settings, piece.settings) or (
+                        r.settings.ease and settings_equal(replace(r.settings, ease=()), unmatched)))]
             if fits:
-                pieces_now[k] = replace(piece, result=fits[0])
+                settings = piece.settings if not fits[0].settings.ease else replace(
+                    piece.settings, ease=fits[0].settings.ease)
+                pieces_now[k] = replace(piece, result=fits[0], settings=settings)
                 taken.append(piece.name)
         if not taken:
             return []

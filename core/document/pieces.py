@@ -135,8 +135,9 @@ def pieces_of(project) -> tuple[Piece, ...]:
     return project.others[:k] + (active_piece(project),) + project.others[k:]
 
 
-def with_pieces(project, pieces, index: int):
-    """``project`` holding ``pieces`` (in that order) with ``pieces[index]`` active."""
+def with_pieces(project, pieces, index: int, sewings=None):
+    """``project`` holding ``pieces`` (in that order) with ``pieces[index]`` active (and, given, the
+    ``sewings`` (:mod:`flatweave.document.sewing`) naming them; by default the project's)."""
     pieces = placed(pieces, project.surface, project.source)
     if not 0 <= index < len(pieces):
         raise SettingsError(f"no piece {index + 1}: the project has {len(pieces)}")
@@ -144,7 +145,19 @@ def with_pieces(project, pieces, index: int):
     return replace(project, surface=p.surface, source=p.source, settings=p.settings, result=p.result,
                    region_name=p.region_name, candidates=p.candidates, piece_name=p.name, quantity=p.quantity,
                    sequence=p.sequence, piece_rosette=p.rosette, orientation=p.orientation,
-                   others=pieces[:index] + pieces[index + 1:], piece_index=index)
+                   others=pieces[:index] + pieces[index + 1:], piece_index=index,
+                   sewings=project.sewings if sewings is None else tuple(sewings))
+
+
+def _sewings_renamed(sewings, names: dict) -> tuple:
+    """``sewings`` with their panels' piece names mapped by ``names`` (a name mapped to None: the piece is
+    gone); a sewing none of whose panels is left goes too."""
+    out = []
+    for s in sewings:
+        panels = tuple(names.get(n, n) if n is not None else None for n in s.panels)
+        if any(n is not None for n in panels):
+            out.append(s if panels == s.panels else replace(s, panels=panels))
+    return tuple(out)
 
 
 def index_of(project, k: Any) -> int:
@@ -215,10 +228,15 @@ def add_from(project, other, select_it: bool = True):
     for r in other.rosettes:
         rosettes.setdefault(r.name.strip().casefold(), r)
     first = len(pieces)
+    names = {}
     for p in pieces_of(other):
-        pieces.append(replace(p, name=free_name((q.name for q in pieces), p.name)))
+        names[p.name] = free_name((q.name for q in pieces), p.name)
+        pieces.append(replace(p, name=names[p.name]))
+    sewings = list(project.sewings)  # other's shapes split by seams come too, naming its pieces as renamed
+    for s in _sewings_renamed(other.sewings, names):
+        sewings.append(replace(s, name=free_name((t.name for t in sewings), s.name)))
     out = replace(project, materials=tuple(materials.values()), rosettes=tuple(rosettes.values()))
-    return with_pieces(out, pieces, first if select_it else project.piece_index)
+    return with_pieces(out, pieces, first if select_it else project.piece_index, sewings)
 
 
 def resurface(project, old, new, source: str | None = None):
@@ -226,7 +244,10 @@ def resurface(project, old, new, source: str | None = None):
     (u, v) map: regions, seeds and drawings stay), from ``source`` (default each piece's own)."""
     pieces = tuple(replace(p, surface=new, source=p.source if source is None else source)
                    if p.surface is old else p for p in pieces_of(project))
-    return with_pieces(replace(project, surface=pieces[project.piece_index].surface), pieces, project.piece_index)
+    sewings = tuple(replace(s, surface=new, source=s.source if source is None else source)
+                    if s.surface is old else s for s in project.sewings)
+    return with_pieces(replace(project, surface=pieces[project.piece_index].surface, sewings=()), pieces,
+                       project.piece_index, sewings)
 
 
 def duplicate(project, k, name: str | None = None, angle_deg: float | None = None):
@@ -265,20 +286,21 @@ def remove(project, k):
     new = pieces[:i] + pieces[i + 1:]
     active = project.piece_index
     active = min(i, len(new) - 1) if active == i else active - (active > i)
-    return with_pieces(project, new, active)
+    return with_pieces(project, new, active, _sewings_renamed(project.sewings, {pieces[i].name: None}))
 
 
-def _changed(project, k, change):
+def _changed(project, k, change, sewings=None):
     """The project with piece ``k`` replaced by ``change(piece)``; the list is checked as the
     project is made (distinct names, sane counts)."""
     i = index_of(project, k)
     pieces = pieces_of(project)
-    return with_pieces(project, pieces[:i] + (change(pieces[i]),) + pieces[i + 1:], project.piece_index)
+    return with_pieces(project, pieces[:i] + (change(pieces[i]),) + pieces[i + 1:], project.piece_index, sewings)
 
 
 def rename(project, k, name: str):
-    """The project with piece ``k`` named ``name`` (distinct from the others)."""
-    return _changed(project, k, lambda p: replace(p, name=name))
+    """The project with piece ``k`` named ``name`` (distinct from the others; a panel's shape names it anew)."""
+    old = pieces_of(project)[index_of(project, k)].name
+    return _changed(project, k, lambda p: replace(p, name=name), _sewings_renamed(project.sewings, {old: name}))
 
 
 def move(project, k, to: int):

@@ -32,12 +32,13 @@ from pathlib import Path
 
 import numpy as np
 
-from flatweave.document.checks import project_checks
+from flatweave.document.checks import project_checks, seam_rows
 from flatweave.document.project import settings_equal
 from flatweave.errors import SettingsError
 from flatweave.document.rosettes import orientation_text
 from flatweave.export.pdf import MM, draw_scale_bar, draw_sheet, nice_length, paper_size, scale_text
-from flatweave.export.sheet import build_sheet, mm_per_unit
+from flatweave.document.sewing import piece_sheet
+from flatweave.export.sheet import mm_per_unit
 from flatweave.files import atomic_write_bytes
 from flatweave.geometry.numerics import polygon_area
 from flatweave.method.lattice import WARP, WEFT
@@ -104,7 +105,7 @@ def _sheet(project, piece, seam_allowance_mm):
     r = _current(piece)
     if r is None or not r.pattern.pieces:
         return None
-    return build_sheet(r, project.units, seam_allowance_mm, piece.name, piece.quantity)
+    return piece_sheet(project, piece.name, seam_allowance_mm)
 
 
 def _row(piece, sheet) -> BookRow:
@@ -328,6 +329,52 @@ def _table(c, rows, y, bottom, header):
     return y
 
 
+SEAM_COLUMNS = (("sew line", 36, "left"), ("seam", 30, "left"), ("panels", 56, "left"), ("lengths mm", 34, "right"),
+                ("diff. %", 14, "right"), ("allow. mm", 16, "right"))
+
+
+def _seam_cells(row, mm: float, allowance: str) -> list[str]:
+    lengths = " / ".join("-" if v is None else f"{v * mm:.1f}" for v in row.lengths)
+    return [row.name, row.seam, " / ".join(n or "(deleted)" for n in row.panels), lengths,
+            "-" if row.difference_pct is None else f"{row.difference_pct:.3f}", allowance]
+
+
+def _seam_table(c, project, y, bottom, header, seam_allowance_mm):
+    """The seams' table (issue 42): each sew line with its panels, their flat lengths, the difference
+    and its seam allowance, the rows over the tolerance in the warning colour. Returns the y below it."""
+    rows = seam_rows(project)
+    if not rows:
+        return y
+    mm = 1000.0 * project.metres_per_unit
+    own = {(s.name, t.name): t.allowance_mm for s in project.sewings for t in s.seams}
+    if y < bottom + 3 * ROW_MM:  # the heading and a row or two at least on the page it starts
+        c.showPage()
+        y = header()
+    _text(c, MARGIN, y, "Seams: sew lines matched", 10, "Helvetica-Bold")
+    y -= 6
+
+    def heading(y):
+        x = MARGIN
+        for title, w, align in SEAM_COLUMNS:
+            _text(c, x + (w - 1 if align == "right" else 0), y, title, 7.5, "Helvetica-Bold", align=align)
+            x += w
+        return y - ROW_MM
+    y = heading(y)
+    for row in rows:
+        if y < bottom:
+            c.showPage()
+            y = heading(header())
+        width = own.get((row.sewing, row.seam))
+        cells = _seam_cells(row, mm, f"{seam_allowance_mm if width is None else width:g}")
+        x = MARGIN
+        for (title, w, align), cell in zip(SEAM_COLUMNS, cells):
+            _text(c, x + (w - 1 if align == "right" else 0), y, _clip(c, cell, w - 1.5, 7.0), 7.0,
+                  rgb=(0.7, 0.2, 0.0) if row.over(mm) and title == "diff. %" else (0, 0, 0), align=align)
+            x += w
+        y -= ROW_MM
+    return y - 4
+
+
 def _wrap(c, text, width_mm, size):
     words, lines, line = text.split(), [], ""
     for w in words:
@@ -340,7 +387,7 @@ def _wrap(c, text, width_mm, size):
     return lines + ([line] if line else [])
 
 
-def _cover(c, project, rows, checks, pw, ph, title):
+def _cover(c, project, rows, checks, pw, ph, title, seam_allowance_mm=0.0):
     today = _dt.date.today().isoformat()
 
     def header():
@@ -356,6 +403,7 @@ def _cover(c, project, rows, checks, pw, ph, title):
         _text(c, MARGIN, ph - MARGIN - 16 - 5 * i, line, 9)
     y = _table(c, rows, ph - MARGIN - 38, MARGIN + 12, header)
     y -= 4
+    y = _seam_table(c, project, y, MARGIN + 12, header, seam_allowance_mm)
     _text(c, MARGIN, y, "Project checks" if checks else "Project checks: none", 10, "Helvetica-Bold")
     y -= 5.5
     for w in checks:
@@ -493,7 +541,7 @@ def plybook_bytes(project, paper: str = "a4", seam_allowance_mm: float = 0.0, ti
     c = canvas.Canvas(buf, pagesize=(pw * MM, ph * MM), pageCompression=1)
     c.setTitle(title)
     c.setCreator(f"flatweave {__version__}")
-    _cover(c, project, rows, project_checks(project), pw, ph, title)
+    _cover(c, project, rows, project_checks(project), pw, ph, title, seam_allowance_mm)
     c.showPage()
     top = ph - MARGIN
     box = (MARGIN, 0.50 * ph, 0.56 * (pw - 2 * MARGIN), top - 18 - 0.50 * ph)

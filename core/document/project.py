@@ -9,7 +9,7 @@ them (:mod:`flatweave.document.history`) and an autosave writes one without lock
 
 The file (``.flatweave``) is JSON::
 
-    {"format": "flatweave-project", "version": 6, "flatweave": "0.1.0",
+    {"format": "flatweave-project", "version": 7, "flatweave": "0.1.0",
      "name": "octant",
      "sources": [
        {"source": "resources/surfaces/octant.json" (where it came from: a file, "FILE#face=3", or null),
@@ -38,7 +38,12 @@ The file (``.flatweave``) is JSON::
      "materials": optional, the materials table (flatweave.method.materials.Fabric.to_dict each),
      "rosettes": optional, the tool's rosettes [{"name", "origin": [x, y, z], "zero": [dx, dy, dz]}]
                  (flatweave.document.rosettes); a piece oriented from one has "rosette" (its name) and
-                 "orientation" (degrees) beside its "quantity"}
+                 "orientation" (degrees) beside its "quantity",
+     "sewings": optional, the shapes split by seams into panels (flatweave.document.sewing):
+                [{"name", "source": the index of its surface, "region": as settings.region,
+                  "seams": [{"name", "uv": [[u, v], ...], "closed", "allowance_mm" (optional, mm),
+                             "notches": [[u, v], ...] (optional), "matched": true (optional)}],
+                  "panels": per panel of the split, in its order, its piece's name (null: deleted)}]}
 
 Versions. Version 2 added the result's ``history`` (the energy trace, so the
 energy plot comes back with the project). Version 3 added the result's
@@ -51,7 +56,9 @@ older file's is null, the whole domain. Version 5 holds a list of pieces
 (:mod:`flatweave.document.pieces`); an older file's settings, darts, yarns,
 result and candidates are its one piece, named after the project. Version 6
 holds a list of sources (the surfaces its pieces lie on: faces of one CAD
-file, other files); an older file's surface is its only source. A dart's ``visible``, ``handles``
+file, other files); an older file's surface is its only source. Version 7
+added ``sewings`` (seams splitting a piece into panels); an older file has
+none. A dart's ``visible``, ``handles``
 and ``view_dir`` came during version 1 and are optional (a dart without them
 is visible and has no drawn points). Older files are read by upgrading their
 document one version at a time (:data:`UPGRADES`) before it is read as the
@@ -92,7 +99,7 @@ from flatweave.method.settings import SETTINGS_KEYS as _SETTINGS_KEYS
 from flatweave.method.result import FlattenResult, result_to_dict, judged
 from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten_iter, state_from_dict
-from flatweave.method.settings import settings_to_dict, validate_settings
+from flatweave.method.settings import ease_from_list, settings_to_dict, validate_settings
 from flatweave.method.solvers import solver_entry
 from flatweave.geometry.quadrature import region_area
 from flatweave.method.solver import State
@@ -105,6 +112,7 @@ from flatweave.document.candidates import candidates_from_dict
 from flatweave.document.pieces import (MAX_PIECES, Piece, check_piece, check_pieces, pieces_of, placed, sources_of,
                                       with_pieces)
 from flatweave.document.rosettes import MAX_ROSETTES, ToolRosette, check_rosettes
+from flatweave.document.sewing import SeamLine, Sewing, split_of
 
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
            "DRAPE_KEYS", "settings_from_dict", "settings_equal", "labels_equal",
@@ -112,7 +120,7 @@ __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSIO
            "load_project", "result_from_dict", "project_problems", "new_project", "UPGRADES"]
 
 PROJECT_FORMAT = "flatweave-project"
-PROJECT_VERSION = 6
+PROJECT_VERSION = 7
 PROJECT_SUFFIX = ".flatweave"
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
@@ -171,6 +179,8 @@ class Project:
     rosettes: tuple = ()
     piece_rosette: str | None = None
     orientation: float | None = None
+    # the shapes split by seams into panels (flatweave.document.sewing): each names the pieces its panels are
+    sewings: tuple = ()
 
     def __post_init__(self):
         if not self.piece_name:  # a project made as one piece: the piece is named after it
@@ -192,6 +202,10 @@ class Project:
         check_table(self.materials, "the materials table")
         object.__setattr__(self, "rosettes", tuple(self.rosettes))
         check_rosettes(self.rosettes, pieces_of(self))
+        if not isinstance(self.sewings, tuple):
+            object.__setattr__(self, "sewings", tuple(self.sewings))
+        if self.sewings:
+            check_sewings(self.sewings, pieces_of(self))
         if not isinstance(self.surface, NurbsSurface):
             raise TypeError(f"Project.surface must be a NurbsSurface, got {type(self.surface).__name__}")
         if self.units not in UNITS:
@@ -238,6 +252,31 @@ class Project:
     def pieces(self) -> tuple[Piece, ...]:
         """Every piece in order, the active one (this project's settings and result) at :attr:`piece_index`."""
         return pieces_of(self)
+
+
+def check_sewings(sewings, pieces) -> None:
+    """A one-line SettingsError unless each sewing's panels are pieces of the project on its surface,
+    no piece is a panel twice, and the sewings' names are distinct."""
+    by_name = {p.name: p for p in pieces}
+    seen, names = set(), set()
+    for s in sewings:
+        if not isinstance(s, Sewing):
+            raise TypeError(f"a project's sewings must be Sewings, got {type(s).__name__}")
+        key = s.name.strip().casefold()
+        if key in names:
+            raise SettingsError(f"two shapes split by seams are named {s.name!r}")
+        names.add(key)
+        for name in s.panels:
+            if name is None:
+                continue
+            piece = by_name.get(name)
+            if piece is None:
+                raise SettingsError(f"seams of {s.name!r}: its panel {name!r} is not a piece of the project")
+            if piece.surface is not s.surface:
+                raise SettingsError(f"seams of {s.name!r}: its panel {name!r} lies on another surface")
+            if name in seen:
+                raise SettingsError(f"piece {name!r} is a panel of two shapes")
+            seen.add(name)
 
 
 def table_for(pieces) -> tuple[Fabric, ...]:
@@ -358,6 +397,11 @@ def settings_from_dict(d: Any, darts: Any = (), yarns: Any = (), where: str = "p
         darts=_darts_from(f, darts),
         yarns=_yarns_from(f, yarns),
     )
+    if "ease" in d:  # a matched seam's panel (flatweave.document.matching)
+        try:
+            values["ease"] = ease_from_list(d["ease"])
+        except SettingsError as exc:
+            raise f.fail(f"settings.ease: {exc}") from None
     try:
         out = FlattenSettings(**values)
         validate_settings(out, job=True)
@@ -480,7 +524,13 @@ def project_to_dict(project: Project) -> dict:
         "current": p.piece_index,
         "materials": [f.to_dict() for f in p.materials],
         **({"rosettes": [r.to_dict() for r in p.rosettes]} if p.rosettes else {}),
+        **({"sewings": [s.to_dict(_source_of(sources, s.surface)) for s in p.sewings]} if p.sewings else {}),
     }
+
+
+def _source_of(sources, surface) -> int:
+    """The index in ``sources`` (:func:`flatweave.document.pieces.sources_of`) of ``surface``."""
+    return next(i for i, (s, _, _) in enumerate(sources) if s is surface)
 
 
 def _source_doc(surface: NurbsSurface, source: str | None) -> dict:
@@ -570,7 +620,15 @@ def _upgrade_5_to_6(d: dict) -> dict:
     return d
 
 
-UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3, 3: _upgrade_3_to_4, 4: _upgrade_4_to_5, 5: _upgrade_5_to_6}
+def _upgrade_6_to_7(d: dict) -> dict:
+    """Version 6 had no seams: no shape split into panels (the optional ``sewings`` absent)."""
+    d = dict(d)
+    d["version"] = 7
+    return d
+
+
+UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3, 3: _upgrade_3_to_4, 4: _upgrade_4_to_5, 5: _upgrade_5_to_6,
+            6: _upgrade_6_to_7}
 """Version -> the function that turns a document of that version into one of the next."""
 
 
@@ -687,6 +745,11 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
             shear_limit_deg=f.number(display.get("shear_limit_deg", 30.0), "display.shear_limit_deg"),
             view=tuple(sorted(view.items())), piece_name=pieces[current].name, rosettes=rosettes)
         project = with_pieces(project, pieces, current)
+        rows = d.get("sewings", [])  # optional: no shape split by seams
+        if not isinstance(rows, list) or len(rows) > MAX_PIECES:
+            raise f.fail(f"sewings must be a list of at most {MAX_PIECES} shapes split by seams")
+        if rows:
+            project = replace(project, sewings=tuple(_sewing_from(f, r, k, sources) for k, r in enumerate(rows)))
         rows = d.get("materials")  # optional: a file without a table gets the presets and the pieces' own
         if rows is not None:
             if not isinstance(rows, list) or not rows or len(rows) > 200:
@@ -711,6 +774,32 @@ def _source_from(f: _Fields, doc: Any, k: int, where: str) -> tuple[NurbsSurface
     except FlatweaveError as exc:
         raise ProjectError(f"{where}: {exc}" if not str(exc).startswith(where) else str(exc)) from None
     return surface, source
+
+
+def _sewing_from(f: _Fields, doc: Any, k: int, sources: list) -> Sewing:
+    """Sewing ``k`` of the file's ``sewings``, on its source of ``sources``."""
+    what = f"sewings[{k}]"
+    doc = f.obj(doc, what)
+    at = f.integer(doc.get("source", 0), f"{what}.source")
+    if not 0 <= at < len(sources):
+        raise f.fail(f"{what}.source is {at}, but the project has {len(sources)} sources")
+    seams, panels = f.get(doc, "seams", what), f.get(doc, "panels", what)
+    if not isinstance(seams, list) or not isinstance(panels, list) \
+            or not all(p is None or isinstance(p, str) for p in panels):
+        raise f.fail(f"{what}: seams must be a list of seams and panels a list of piece names")
+    region = doc.get("region")
+    try:
+        sewing = Sewing(f.string(f.get(doc, "name", what), f"{what}.name"), *sources[at],
+                        None if region is None else Region.from_dict(region),
+                        tuple(SeamLine.from_dict(s, f"{what}.seams[{j}]") for j, s in enumerate(seams)),
+                        tuple(panels))
+    except SettingsError as exc:
+        raise f.fail(f"{what}: {exc}") from None
+    # the split must give as many panels as the file names (a seam moved by hand in the file, say)
+    from_split = len(split_of(sewing).panels)
+    if from_split != len(sewing.panels):
+        raise f.fail(f"{what}: its seams split it into {from_split} panels, but it names {len(sewing.panels)}")
+    return sewing
 
 
 def _piece_from(f: _Fields, doc: Any, k: int, sources: list, where: str) -> Piece:

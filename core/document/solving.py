@@ -130,7 +130,9 @@ def solve_pieces(project, pieces=None, workers: int | None = None,
             on_done(out)
 
     stopped = (lambda: False) if stop is None else stop.is_set
-    if cluster is not None:
+    if not jobs:  # nothing asked: nothing started
+        pass
+    elif cluster is not None:
         _run_cluster(cluster, list(jobs.values()), fn, done, stopped)
     elif workers == 1 or len(jobs) == 1:
         for job in jobs.values():

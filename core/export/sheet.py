@@ -8,7 +8,9 @@ by side on one sheet, each with the lines a pattern maker expects:
   round (the legs are stitching lines);
 * ``cut`` : the cut line, the sew line offset outwards by the seam allowance
   (``None`` without one); mitred corners, bevelled beyond twice the width, so
-  the allowance folds back onto the piece;
+  the allowance folds back onto the piece; a stretch of the outline may have
+  its own width (a seam's allowance, ``build_sheet(allowances=...)``), the cut
+  line stepping where the width changes;
 * ``holes`` / ``hole_cuts`` : darts inside the piece (sew lines, and the
   allowance taken off inside them where anything is left);
 * ``internal`` : dart legs and the tip, as drawn (not cut) lines;
@@ -38,7 +40,7 @@ import numpy as np
 
 from flatweave.errors import SettingsError
 from flatweave.method.lattice import WARP
-from flatweave.geometry.numerics import nearest_segments, polygon_area
+from flatweave.geometry.numerics import nearest_segments, polygon_area, polyline_distance
 
 __all__ = ["UNITS", "Sheet", "SheetPiece", "build_sheet", "mm_per_unit", "warp_direction", "label_box",
            "TEXT_EM", "LINE_PITCH", "SIZE", "QUANTITY", "join_sheets"]
@@ -175,6 +177,90 @@ def _offset(sew: np.ndarray, holes, width: float):
         cut = cut[::-1]
     hole_cuts = tuple(np.asarray(r.coords)[:-1] for r in grown.interiors)
     return cut, hole_cuts
+
+
+def _edge_widths(ring: np.ndarray, runs, default: float, reach: float) -> np.ndarray:
+    """(n,) the allowance (mm) of each edge ring[i] -> ring[i + 1] of a closed ring: that of the
+    run (a (k, 2) polyline, mm) its middle lies on, else ``default``."""
+    w = np.full(len(ring), float(default))
+    mids = 0.5 * (ring + np.roll(ring, -1, axis=0))
+    for line, width in runs:
+        if len(line) >= 2:
+            w[polyline_distance(mids, np.asarray(line, dtype=float)) <= reach] = width
+    return w
+
+
+def _bands(ring: np.ndarray, widths: np.ndarray, floor: float) -> list:
+    """Shapely shapes that grow ``ring`` (counter-clockwise round the cloth's outside, clockwise round a
+    hole: its outside on the right) by each edge's width where it is above ``floor``: a one-sided band
+    per run of equal width and, where two runs meet, the corner between them mitred (bevelled beyond
+    MITRE_LIMIT widths)."""
+    from shapely.geometry import LineString, Polygon
+
+    n = len(ring)
+    if n < 3 or not (widths > floor).any():
+        return []
+    # runs of equal width, started at a change (a ring of one width: two halves, so no run is a closed ring)
+    change = np.flatnonzero(widths != np.roll(widths, 1))
+    if len(change):
+        order = np.roll(np.arange(n), -int(change[0]))
+        runs = np.split(order, np.flatnonzero(np.diff(widths[order]) != 0) + 1)
+    else:
+        runs = [np.arange(n // 2), np.arange(n // 2, n)]
+    out = []
+    for run in runs:
+        w = float(widths[run[0]])
+        if w <= floor:
+            continue
+        pts = ring[np.r_[run, (run[-1] + 1) % n]]
+        out.append(LineString(pts).buffer(-w, single_sided=True, join_style="mitre", mitre_limit=MITRE_LIMIT))
+    for a, b in zip(runs, runs[1:] + runs[:1]):  # the corner where run a ends and run b starts
+        wa, wb = float(widths[a[-1]]), float(widths[b[0]])
+        if max(wa, wb) <= floor:
+            continue
+        c = ring[b[0]]
+        ta, tb = ring[b[0]] - ring[a[-1]], ring[(b[0] + 1) % n] - ring[b[0]]
+        ta, tb = ta / max(np.linalg.norm(ta), 1e-300), tb / max(np.linalg.norm(tb), 1e-300)
+        na, nb = np.array([ta[1], -ta[0]]), np.array([tb[1], -tb[0]])  # right of the way round: outside
+        pa, pb = c + wa * na, c + wb * nb
+        # the two offset lines' meeting point, when they meet ahead of both ends within the mitre limit
+        m = np.array([[ta[0], -tb[0]], [ta[1], -tb[1]]])
+        corner = [c, pa, pb]
+        if abs(np.linalg.det(m)) > 1e-9:
+            s, t = np.linalg.solve(m, pb - pa)
+            meet = pa + s * ta
+            if s >= 0 >= t and np.linalg.norm(meet - c) <= MITRE_LIMIT * max(wa, wb):
+                corner = [c, pa, meet, pb]
+        poly = Polygon(corner)
+        if poly.is_valid and poly.area > 0:
+            out.append(poly)
+    return out
+
+
+def _offset_varied(sew: np.ndarray, holes, default: float, runs, reach: float):
+    """Cut line and hole cut lines: the sew polygon grown by ``default`` mm, and by a run's own width
+    along each of ``runs`` ((polyline mm, width mm), ...: the stretches of the outline or a hole with
+    their own allowance)."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    rings = [sew] + [h[::-1] if polygon_area(h) > 0 else h for h in holes]  # holes clockwise
+    widths = [_edge_widths(r, runs, default, reach) for r in rings]
+    floor = min(float(w.min()) for w in widths)
+    base = _polygon(sew, holes)
+    parts = [base if floor <= 0 else base.buffer(floor, join_style="mitre", mitre_limit=MITRE_LIMIT)]
+    for r, w in zip(rings, widths):
+        parts += _bands(r, w, floor)
+    grown = unary_union(parts)
+    if grown.geom_type != "Polygon":
+        grown = max(grown.geoms, key=lambda g: g.area)
+    assert isinstance(grown, Polygon)
+    if max(float(w.max()) for w in widths) <= 0:
+        return None, ()
+    cut = np.asarray(grown.exterior.coords)[:-1]
+    if polygon_area(cut) < 0:
+        cut = cut[::-1]
+    return cut, tuple(np.asarray(r.coords)[:-1] for r in grown.interiors)
 
 
 def _chord(poly, through: np.ndarray, direction: np.ndarray, length_frac: float = 0.7) -> np.ndarray:
@@ -328,14 +414,19 @@ def _label_text(name: str, style: str, result, units: str, seam_mm: float, metri
 
 
 def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name: str = "piece",
-                quantity: int = QUANTITY, sew_notches=()) -> Sheet:
+                quantity: int = QUANTITY, sew_notches=(), allowances=()) -> Sheet:
     """The pieces of a :class:`flatweave.method.pipeline.FlattenResult` in mm, with all their lines;
     ``quantity``: how many of it are cut (the labels' ``Quantity``); ``sew_notches``: (point, unit
     direction of the sew line there) of the pattern (model units) on a piece's outline or region
     hole where a notch is cut (a seam's match points: :func:`flatweave.method.seams.flat_notches`),
-    each a slit across the sew line from the cut line towards the piece, as at a dart's mouth."""
+    each a slit across the sew line from the cut line towards the piece, as at a dart's mouth;
+    ``allowances``: (stretch of the outline or a region hole (k, 2), model units; its seam
+    allowance, mm), the stretches whose allowance is not ``seam_allowance_mm`` (a seam's own)."""
     if not np.isfinite(seam_allowance_mm) or seam_allowance_mm < 0:
         raise SettingsError(f"seam allowance {seam_allowance_mm!r} mm must be zero or a positive number")
+    for _, width in allowances:
+        if not np.isfinite(width) or width < 0:
+            raise SettingsError(f"seam allowance {width!r} mm must be zero or a positive number")
     scale = mm_per_unit(units)
     pat = result.pattern
     xy_mm = pat.xy * scale
@@ -350,7 +441,14 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
         if polygon_area(sew) < 0:
             sew = sew[::-1]
         holes = tuple(np.asarray(h, dtype=float) * scale for h in src.holes)
-        cut, hole_cuts = _offset(sew, holes, seam_allowance_mm)
+        reach = 1e-6 * max(float(np.ptp(sew, axis=0).max()), 1e-300)
+        runs = [(np.asarray(line, dtype=float) * scale, float(w)) for line, w in allowances]
+        if runs:
+            widths = np.concatenate([_edge_widths(r, runs, seam_allowance_mm, reach) for r in (sew, *holes)])
+        if runs and (widths != seam_allowance_mm).any():
+            cut, hole_cuts = _offset_varied(sew, holes, seam_allowance_mm, runs, reach)
+        else:
+            cut, hole_cuts = _offset(sew, holes, seam_allowance_mm)
         outer = sew if cut is None else cut
         # darts of this piece: legs that lie on its sew line or inside it
         internal, notches, drills = [], [], []
@@ -376,7 +474,6 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
                 inset = min(DRILL_INSET_MM, 0.25 * L) if dart.mouth else 0.0
                 drills.append(tip + (axis / L * inset if L > 0 else 0.0))
         cloth = _polygon(sew, holes[:src.n_region_holes])
-        reach = 1e-6 * max(float(np.ptp(sew, axis=0).max()), 1e-300)
         for q, along in sew_notches:
             q = np.asarray(q, dtype=float) * scale
             if not any(_nearest_edge(ring, q)[1] <= reach for ring in (sew, *holes[:src.n_region_holes])):
@@ -384,7 +481,11 @@ def build_sheet(result, units: str = "m", seam_allowance_mm: float = 10.0, name:
             n = np.array([along[1], -along[0]], dtype=float)  # across the sew line, away from the cloth
             if cloth.contains(Point(q + 1e-3 * float(np.ptp(sew, axis=0).max()) * n)):
                 n = -n
-            start = q + seam_allowance_mm * n
+            width = seam_allowance_mm
+            for line, w in runs:  # the notch's own stretch's allowance: the slit starts on its cut line
+                if polyline_distance(q[None], line)[0] <= reach:
+                    width = w
+            start = q + width * n
             slit = np.array([start, start - NOTCH_MM * n])
             if not any(np.abs(slit - o).max() <= 1e-6 for o in notches):  # two sew lines ending where one did
                 notches.append(slit)

@@ -20,6 +20,7 @@ that misses the region, and a split that makes a panel smaller than
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -224,12 +225,13 @@ def _with_junction_corners(outer, holes, stretches, tol: float) -> Region:
     return Region.from_loops(outer, holes, corners=corners)
 
 
-def split_region(surface: NurbsSurface, region: Region | None, seams, spacing: float) -> "Split":
+def split_region(surface: NurbsSurface, region: Region | None, seams, spacing: float | None) -> "Split":
     """The panels ``seams`` (a sequence of :class:`Seam`) split ``region`` (None:
     the whole domain) of ``surface`` into, each at least :data:`MIN_CELLS` cells of
     ``spacing`` (model units) in area, and their sew lines. A one-line
     SettingsError when a seam crosses itself, misses the region, leaves a free
-    end inside a panel, or a panel is a sliver. No seams: the region itself,
+    end inside a panel, or a panel is a sliver (``spacing`` None: not checked,
+    a split that was made before read again). No seams: the region itself,
     one panel."""
     import shapely
     from shapely.ops import polygonize
@@ -273,7 +275,7 @@ def split_region(surface: NurbsSurface, region: Region | None, seams, spacing: f
         outer = np.asarray(f.exterior.coords)[:-1]
         holes = [np.asarray(r.coords)[:-1] for r in f.interiors]
         reg = _with_junction_corners(outer, holes, stretches, tol)
-        cells = region_area(surface, reg.arrays()) / (spacing * spacing)
+        cells = math.inf if spacing is None else region_area(surface, reg.arrays()) / (spacing * spacing)
         if cells < MIN_CELLS:
             x, y = face.representative_point().coords[0]
             raise SettingsError(f"the seams make a panel of {cells:.1f} cells (near u {x:.4g}, v {y:.4g}), under "

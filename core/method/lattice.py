@@ -22,9 +22,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from flatweave.errors import SettingsError
+from flatweave.geometry.numerics import nearest_segments
 
 __all__ = ["Material", "MATERIALS", "parse_material", "SpringMesh", "build_mesh", "only_springs",
-           "arc_over_chord", "bent", "BEND_SINE_MAX", "WEFT", "WARP", "DIAG", "KIND_NAMES"]
+           "arc_over_chord", "bent", "ease_factor", "BEND_SINE_MAX", "WEFT", "WARP", "DIAG", "KIND_NAMES"]
 
 WEFT, WARP, DIAG = 0, 1, 2
 KIND_NAMES = ("weft", "warp", "diag")
@@ -106,6 +107,10 @@ class SpringMesh:
         edges are springs, corners ordered (i, j), (i, j+1), (i+1, j+1), (i+1, j)
     r_weft, r_warp : float, rest lengths of weft and warp springs
     material : Material
+    ease : ((line (k, 3), amount, band), ...): the springs near each polyline ``line`` on the surface
+        rest longer by ``amount`` (shorter when negative), in full along the line and fading to none
+        at ``band`` from it, in proportion to cos^2 of their angle with it (:func:`ease_factor`):
+        what a seam whose two sides are matched in length asks of each panel (issue 42); () for none
     """
 
     ij: np.ndarray
@@ -117,6 +122,7 @@ class SpringMesh:
     r_weft: float
     r_warp: float
     material: Material
+    ease: tuple = ()
 
     @property
     def n_nodes(self) -> int:
@@ -187,7 +193,29 @@ def bent(mesh: SpringMesh, xyz: np.ndarray, normals: np.ndarray) -> SpringMesh:
     a, b = mesh.ends[:, 0], mesh.ends[:, 1]
     f = arc_over_chord(xyz[b] - xyz[a], normals[a], normals[b])
     k = mesh.material.constants()[mesh.kind]
-    return replace(mesh, rest=mesh.thread_rest() / f, k=k * f * f)
+    rest = mesh.thread_rest() / f
+    if mesh.ease:
+        rest = rest * ease_factor(mesh, xyz)
+    return replace(mesh, rest=rest, k=k * f * f)
+
+
+def ease_factor(mesh: SpringMesh, xyz: np.ndarray) -> np.ndarray:
+    """(m,) how much longer each spring of ``mesh`` rests for its ``ease`` at nodes ``xyz``: the product
+    over the eased lines of 1 + amount w cos^2(theta), w = 1 - d / band (0 beyond the band) for the
+    spring's middle at d from the line, theta its angle with the line's nearest segment."""
+    a, b = mesh.ends[:, 0], mesh.ends[:, 1]
+    d = xyz[b] - xyz[a]
+    mid = 0.5 * (xyz[a] + xyz[b])
+    out = np.ones(len(d))
+    for line, amount, band in mesh.ease:
+        line = np.asarray(line, dtype=float)
+        seg, d2 = nearest_segments(mid, line)
+        w = np.clip(1.0 - np.sqrt(d2) / band, 0.0, 1.0)
+        t = line[seg + 1] - line[seg]
+        along = np.einsum("ij,ij->i", d, t) ** 2 / np.maximum(
+            np.einsum("ij,ij->i", d, d) * np.einsum("ij,ij->i", t, t), 1e-300)
+        out *= 1.0 + amount * w * along
+    return out
 
 
 def lattice_index(ij: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

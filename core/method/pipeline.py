@@ -25,7 +25,7 @@ from flatweave.geometry.numerics import require_finite
 from flatweave.errors import SettingsError, SolverError
 from flatweave.method.lattice import Material, SpringMesh, bent, build_mesh, only_springs
 from flatweave.geometry.nurbs import NurbsSurface
-from flatweave.method.pattern import Pattern, make_pattern, node_frames
+from flatweave.method.pattern import Pattern, make_pattern, node_frames, resample_uv
 from flatweave.geometry.quadrature import boundary_polyline, domain_gauss_rule, region_area
 from flatweave.geometry.region import Cover, Region, cover_for
 from flatweave.method.solver import STOPPED, Problem, SolveResult, SolverOptions, State, iterate
@@ -77,10 +77,13 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
     darts = DartSet(surface, settings.darts)
     cover = cover_for(surface, settings.region)
     inside = cover.contains if cover.trimmed else None
+    ease = eased_lines(surface, settings)
 
     def build(ij, uv):
         keep = darts.keep_springs(np.asarray(uv)) if len(darts) else None
         mesh = build_mesh(ij, ds.r_weft, ds.r_warp, material, keep=keep)
+        if ease:
+            mesh = replace(mesh, ease=ease)
         ev = surface.evaluate(uv)
         return bent(mesh, ev.xyz, ev.normal)
 
@@ -99,6 +102,27 @@ def make_problem(surface: NurbsSurface, settings: FlattenSettings) -> Problem:
             bad = ~inside(uv_new)
             return bad if cut is None else bad | cut(uv_old, uv_new, *xyz)
     return Problem(surface, build, settings.yarns, refill_nodes, invalid, cut=cut)
+
+
+EASE_BAND = 2.0
+"""A matched seam eases the springs within this many spacings of its sew line (fading to none there)."""
+
+
+def eased_lines(surface: NurbsSurface, settings: FlattenSettings) -> tuple:
+    """The settings' ``ease`` on the surface, as :attr:`flatweave.method.lattice.SpringMesh.ease` takes it:
+    each sew line's points about a quarter spacing apart in 3D, its amount, its band."""
+    step = min(settings.spacing, settings.spacing_warp or settings.spacing)
+    return tuple((surface.points(resample_uv(surface, np.asarray(uv, dtype=float), 0.25 * step)), float(amount),
+                  EASE_BAND * step) for uv, amount in settings.ease)
+
+
+def unease(mesh: SpringMesh, surface: NurbsSurface, uv: np.ndarray) -> SpringMesh:
+    """``mesh`` with no ease: its springs at the fabric's own rest lengths, bent at ``uv``; the mesh
+    itself when it has none."""
+    if not mesh.ease:
+        return mesh
+    ev = surface.evaluate(uv)
+    return bent(replace(mesh, ease=()), ev.xyz, ev.normal)
 
 
 def drape_piece(surface: NurbsSurface, ds: DrapeSettings, material: Material, cover: Cover,
@@ -441,6 +465,8 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
         solve = yield from _counted_from(iterate(problem, state, _carried(settings.solver_options(), stats)),
                                          _coarse_iterations(stats))
         state = State(solve.mesh, solve.uv)  # its springs bent where the nodes ended (iterate)
+    # the result is judged and kept with the fabric's own springs: a matched seam's ease is how it was solved
+    state = State(unease(state.mesh, surface, state.uv), state.uv)
     xyz = surface.points(state.uv)
     check_result_finite(state.uv, xyz)
     if not node_frames(state.mesh, xyz)[2].any():

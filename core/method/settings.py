@@ -1,4 +1,5 @@
-"""TODO docstring."""
+"""The settings of one flattening (:class:`FlattenSettings`), their checks and their one encoding
+in result and project files (:func:`settings_to_dict`)."""
 
 from __future__ import annotations
 
@@ -34,6 +35,11 @@ class FlattenSettings:
     region : the piece's region of the (u, v) domain (:class:`flatweave.geometry.region.Region`:
         a trimmed face's loops), or None for the whole domain; the seed must
         lie in it (:attr:`flatweave.geometry.region.Cover.default_seed` is a good one)
+    ease : ((uv, amount), ...): sew lines ((k, 2) (u, v) points each, as tuples) along which the
+        springs rest longer by ``amount`` (a fraction, |amount| <= MAX_EASE; negative: shorter), fading
+        over a band of two spacings (:attr:`flatweave.method.lattice.SpringMesh.ease`): set by a matched
+        seam's solve (:mod:`flatweave.document.matching`), () otherwise; the result's energy, strain and
+        pattern are the fabric's own, with no ease
 
     Settings check themselves when made (:func:`validate_settings`): a value
     no solve can use is a one-line SettingsError, here and not mid-solve.
@@ -53,6 +59,7 @@ class FlattenSettings:
     darts: tuple = ()
     max_nodes: int = 2_000_000
     region: Region | None = None
+    ease: tuple = ()
 
     def __post_init__(self):
         validate_settings(self)
@@ -118,8 +125,55 @@ def validate_settings(s: FlattenSettings, job: bool = False) -> None:
         if not isinstance(d, tuple(DART_KINDS.values())):
             raise SettingsError(f"darts must be {' or '.join(c.__name__ for c in DART_KINDS.values())}, "
                                 f"got {type(d).__name__}")
+    check_ease(s.ease)
     if job and not s.max_seconds > 0:
         raise SettingsError(f"time budget must be a positive number of seconds, got {s.max_seconds!r}")
+
+
+MAX_EASE = 0.2
+"""The most a matched seam eases its springs (a fifth of their length): beyond it the two sides
+are too far apart to be sewn by easing, and the seam is said to be so."""
+
+
+def check_ease(ease) -> None:
+    """A one-line SettingsError unless ``ease`` is ((uv points, amount), ...) as FlattenSettings takes it."""
+    if not isinstance(ease, tuple):
+        raise SettingsError(f"ease must be a tuple of (uv points, amount), got {type(ease).__name__}")
+    for entry in ease:
+        if not (isinstance(entry, tuple) and len(entry) == 2):
+            raise SettingsError("each ease is (uv points, amount)")
+        uv, amount = entry
+        if isinstance(amount, bool) or not isinstance(amount, (int, float)) or not math.isfinite(amount) \
+                or abs(amount) > MAX_EASE:
+            raise SettingsError(f"an ease's amount must be a fraction from -{MAX_EASE:g} to {MAX_EASE:g}, "
+                                f"got {amount!r:.40}")
+        if not (isinstance(uv, tuple) and len(uv) >= 2 and all(
+                isinstance(p, tuple) and len(p) == 2 and all(isinstance(x, float) and math.isfinite(x) for x in p)
+                for p in uv)):
+            raise SettingsError("an ease's line must be two or more finite (u, v) points")
+
+
+def ease_to_list(ease) -> list:
+    """The settings' ease in files: [{"uv": [[u, v], ...], "amount": a}, ...]."""
+    return [{"uv": [list(p) for p in uv], "amount": float(amount)} for uv, amount in ease]
+
+
+def ease_from_list(value) -> tuple:
+    """:func:`ease_to_list`'s inverse; a one-line SettingsError on a malformed entry."""
+    if not isinstance(value, list):
+        raise SettingsError("ease must be a list of {\"uv\": [[u, v], ...], \"amount\": a}")
+    out = []
+    for item in value:
+        if not isinstance(item, dict) or not isinstance(item.get("uv"), list):
+            raise SettingsError("each ease is {\"uv\": [[u, v], ...], \"amount\": a}")
+        try:
+            uv = tuple(tuple(float(x) for x in p) for p in item["uv"])
+        except (TypeError, ValueError):
+            raise SettingsError("an ease's uv must be [u, v] number pairs") from None
+        out.append((uv, item.get("amount")))
+    out = tuple(out)
+    check_ease(out)
+    return out
 
 
 SETTINGS_KEYS = ("spacing", "spacing_warp", "material", "seed", "angle_deg", "paths", "solver", "tol",
@@ -157,8 +211,9 @@ def settings_to_dict(s: FlattenSettings, form: str = "result") -> dict:
         "max_nodes": s.max_nodes,
     }
     region = None if s.region is None else s.region.to_dict()
+    ease = {"ease": ease_to_list(s.ease)} if s.ease else {}  # only when a matched seam eased it
     if form == "result":
         if region is not None:
             out["region"] = region
-        return out
-    return {**{k: out[k] for k in SETTINGS_KEYS}, "region": region}
+        return {**out, **ease}
+    return {**{k: out[k] for k in SETTINGS_KEYS}, "region": region, **ease}
