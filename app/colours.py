@@ -1,5 +1,5 @@
 """Colour scales of the strain and shear displays, as plain numpy (no Qt, no VTK), and the
-colour of the seams drawn over them (:data:`SEAM`).
+colours of the seams drawn over them and their notches (:data:`SEAM`, :data:`NOTCH`).
 
 A scale is a list of stops ``(value, (r, g, b))`` with values increasing and
 colours in [0, 1]; between stops the colour is interpolated linearly in RGB,
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["RED", "GREEN", "BLUE", "YELLOW", "PURPLE", "SEAM", "strain_range", "strain_stops", "shear_stops",
+__all__ = ["RED", "GREEN", "BLUE", "YELLOW", "PURPLE", "SEAM", "NOTCH", "strain_range", "strain_stops", "shear_stops",
            "ramp", "SHEAR_SCALE_TOP", "STRAIN_NOISE_PCT"]
 
 RED = (1.0, 0.0, 0.0)
@@ -27,6 +27,9 @@ PURPLE = (0.55, 0.0, 0.65)
 SEAM = (0.9, 0.0, 0.75)
 """The seams' lines on the surface (issue 42): a magenta apart from every colour drawn with them, the
 darts' near black, the scales' red, green, blue and purple, the surface's sand and a tool's orange preview."""
+NOTCH = (0.1, 0.1, 0.1)
+"""A notch on a seam: a dark bead on the seam's magenta, which shows on the sand, on the background and
+among the scales' colours (a white one was lost on the light background round a panel)."""
 
 SHEAR_SCALE_TOP = 1.5
 """The shear scale runs from 0 to this many times the limit angle (purple above the limit)."""

@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, 
 
 from flatweave.document.cutfiles import export_pieces, file_stem
 from flatweave.document.plybook import write_ply_book
+from flatweave.document.sewing import piece_sheet, sewing_of
 from flatweave.errors import FlatweaveError
 from flatweave.export.registry import (FORMATS, ExportOption, ExportOptions, dialog_filter, export_all,
                                        export_options, option_formats, surprises)
@@ -263,7 +264,14 @@ class Exports:
         if project is None or project.result is None or self.export_thread is not None:
             return False
         self.export_options = options
-        return self._start(ExportThread(project.result, [Path(p) for p in paths], options), paths)
+        paths = [Path(p) for p in paths]
+        job = None
+        if sewing_of(project, project.piece_index) is not None and project.result_is_current:
+            # a panel: its seams' notches and own allowances, as its cut files have them
+            def job():
+                sheet = piece_sheet(project, project.piece_name, options.seam_allowance_mm, name=options.name)
+                return export_all(project.result, paths, options, sheet)
+        return self._start(ExportThread(project.result, paths, options, job=job), paths)
 
     # ------------------------------------------------------------------ every piece at once
     def ask_book_path(self, start: Path) -> str:

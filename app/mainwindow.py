@@ -35,7 +35,7 @@ from flatweave.document.pieces import add_from
 
 from flatweave.app.actions import (UiState, action_specs, build_actions, build_menus, build_toolbar,
                                    show_view_choices, update_actions)
-from flatweave.app.aspects import aspects_of
+from flatweave.app.aspects import Aspect, aspects_of
 from flatweave.app.dartpanel import DartPanel
 from flatweave.app.exporting import Exports
 from flatweave.app.files import Files, stored_view
@@ -114,6 +114,7 @@ class MainWindow(QMainWindow):
         self.dart_panel = DartPanel(self)
         self.pieces_panel = PiecesPanel(self)
         self.solve_all = SolveAll(self)
+        self.solve_panels = True  # a seam edit re-solves the other panels it changed, in Solve all's pool
         self.last_solve_all: str | None = None  # what the last Solve all did, in one line
         self.energy_plot = EnergyPlot(self)
         self.progress = QLabel(NO_DOCUMENT, self)
@@ -213,6 +214,8 @@ class MainWindow(QMainWindow):
         self.pieces_panel.solve_all.connect(self.solve_all.start)
         self.pieces_panel.add_from_file.connect(lambda: self.files.open_dialog(add=True))
         self.pieces_panel.seams.seam_delete.connect(self.remove_seam)
+        self.pieces_panel.seams.seam_edit.connect(self.edit_seam)
+        self.pieces_panel.seams.input_error.connect(self.show_error)
         self.solve_all.piece_done.connect(lambda name, text: self.statusBar().showMessage(
             f"Solve all: {name}: {text}", 10000))
         self.solve_all.finished.connect(self._solve_all_finished)
@@ -286,6 +289,9 @@ class MainWindow(QMainWindow):
         self.runs.before_change(change.cause, aspects)
         self.presenter.document_changed(project, change.cause, aspects)
         self.runs.after_change(project, change.cause, aspects, change.label)
+        if change.cause == "edit" and Aspect.SEAMS in aspects and Aspect.PIECES in aspects and self.solve_panels:
+            # a seam edit re-solves the panels it changed (issue 42); the active one is the run's when it started one
+            self.solve_all.solve_stale_panels(active=not self.runner.busy)
         self.update_actions()
         self._update_title()
 
@@ -343,6 +349,20 @@ class MainWindow(QMainWindow):
             self.document.remove_seam(sewing, seam)
         except FlatweaveError as exc:
             self.show_error(f"Delete {seam}: {exc}")
+            self.pieces_panel.set_project(self.document.project)
+            return False
+        return True
+
+    def edit_seam(self, sewing: str, seam: str, label: str, changes: dict) -> bool:
+        """Change the options of seam ``seam`` of the shape ``sewing`` (names; the Seams list's Matched and
+        Allowance: ``changes`` of :meth:`flatweave.document.history.Document.edit_seam`) as one undoable edit
+        called ``label``. A refused one shows its message and the list as it was."""
+        if self.document is None:
+            return False
+        try:
+            self.document.edit_seam(sewing, seam, label=label, **changes)
+        except FlatweaveError as exc:
+            self.show_error(f"{label}: {exc}")
             self.pieces_panel.set_project(self.document.project)
             return False
         return True

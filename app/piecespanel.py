@@ -13,10 +13,11 @@ from the project's materials table, and Materials... to edit that table
 the project's rosettes, its orientation from it, and Rosettes... to edit them
 (:class:`flatweave.app.rosettesdialog.RosettesDialog`). Below them, once a piece is split by seams,
 the Seams list (:class:`flatweave.app.seampanel.SeamList`, ``seams``): each sew line's two
-panels and their lengths in the flat. The panel never changes the document: a selection is
-reported as ``piece_selected(index)`` and every edit as ``piece_edit(label,
-change, solves)``, ``change`` a function of the project giving the edited one,
-which the window makes one document edit (the Seams list's delete, ``seams.seam_delete``, likewise)."""
+panels and their lengths in the flat, and its seam's options (matched, seam allowance). The
+panel never changes the document: a selection is reported as ``piece_selected(index)`` and
+every edit as ``piece_edit(label, change, solves)``, ``change`` a function of the project
+giving the edited one, which the window makes one document edit (the Seams list's delete and
+options, ``seams.seam_delete`` and ``seams.seam_edit``, likewise)."""
 
 from __future__ import annotations
 

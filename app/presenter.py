@@ -22,14 +22,14 @@ from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.document.project import Project
 from flatweave.document.rosettes import rosette_named
 from flatweave.document.sewing import split_of
-from flatweave.geometry.numerics import cumulative_length, interp_rows
 from flatweave.method.rosette import rosette, rosette_arrows, zero_angle
 
 from flatweave.app.aspects import HISTORY, WHOLE, Aspect
-from flatweave.app.colours import SEAM
+from flatweave.app.colours import NOTCH, SEAM
 from flatweave.app.frames import FrameMaker
 from flatweave.app.overlay import LayerStyle
 from flatweave.app.plot import result_note
+from flatweave.app.tools import sew_line_uv
 from flatweave.app.viewbase import ViewOptions
 from flatweave.geometry.region import cover_for
 from flatweave.geometry.region import loops_on_surface
@@ -51,7 +51,8 @@ rosette, that rosette's 0-degree direction there (black): what its orientation i
 SEAMS = LayerStyle(SEAM, width=7.0)
 """The seams on the active piece's surface (issue 42): each sew line as its split cut it, wider than
 the piece's outline it runs along, so both show."""
-SEAM_SAMPLES = 256  # points added along a sew line, so a straight (u, v) stretch follows the surface
+NOTCHES = LayerStyle(NOTCH, size=15.0)
+"""The notches placed on the seams (the Notch tool): a bead on the seam's line, wider than it."""
 AXES_FRACTION = 0.08  # the piece's weft arrow's length, of the surface's size (the Seed tool's is 0.12)
 """A live frame without a pattern leaves the pattern view as it is when that shows a pattern (the
 last result's, or an earlier frame's): it changes when the run has a pattern of its own. The first
@@ -377,10 +378,14 @@ class Presenter:
 
     def show_seams(self, project: Project) -> None:
         """The seams of every shape split on the active piece's surface (flatweave.document.sewing): each
-        sew line of its split, sampled along the surface."""
+        sew line of its split, sampled along the surface (:func:`flatweave.app.tools.sew_line_uv`), and
+        the notches placed on them."""
         s = project.surface
-        lines = [c for sewing in project.sewings if sewing.surface is s for c in self._sew_lines(s, sewing)]
-        self.view.draw("seams", SEAMS, lines)
+        sewings = [sewing for sewing in project.sewings if sewing.surface is s]
+        lines = [c for sewing in sewings for c in self._sew_lines(s, sewing)]
+        notches = [q for sewing in sewings for seam in sewing.seams for q in seam.notches]
+        self.view.draw("seams", SEAMS, lines, render=False)
+        self.view.draw("notches", NOTCHES, (), s.points(np.array(notches, dtype=float)) if notches else None)
 
     def _sew_lines(self, surface, sewing) -> list:
         """A sewing's sew lines on the surface, (k, 3) each, kept by sewing (immutable, as its split)."""
@@ -389,12 +394,7 @@ class Presenter:
         if hit is None or hit[0] is not sewing:
             if len(self._curve_cache) >= CURVE_CACHE:
                 self._curve_cache.clear()
-            lines = []
-            for line in split_of(sewing).sews:
-                uv = np.asarray(line.uv, dtype=float)
-                s = cumulative_length(uv)
-                at = np.union1d(s, np.linspace(0.0, s[-1], SEAM_SAMPLES))  # its own points among them
-                lines.append(surface.points(interp_rows(at, s, uv)))
+            lines = [surface.points(sew_line_uv(line.uv)) for line in split_of(sewing).sews]
             hit = self._curve_cache[key] = (sewing, lines)
         return hit[1]
 

@@ -21,8 +21,8 @@ from PySide6.QtWidgets import QAbstractSpinBox, QApplication, QLineEdit
 
 from flatweave.errors import FlatweaveError
 
-from flatweave.app.tools import (CurveDartTool, HandleEditor, PlaneDartTool, RegionTool, SeamTool, SeedTool, Tool,
-                                 YarnTool)
+from flatweave.app.tools import (CurveDartTool, HandleEditor, NotchTool, PlaneDartTool, RegionTool, SeamTool, SeedTool,
+                                 Tool, YarnTool)
 from flatweave.app.worker import one_line
 
 __all__ = ["ToolSpec", "register_tool", "unregister_tool", "tool_specs", "ToolControl", "ToolMouse",
@@ -64,6 +64,8 @@ _TOOLS: list[ToolSpec] = [
              "direction (drag from it); the rosette is drawn as two arrows", SeedTool, ""),
     ToolSpec("tool_seam", "&Seam", "E", "Draw a seam from edge to edge: click points on the surface, Enter "
              "finishes; the piece splits into panels that sew back together", SeamTool, ""),
+    ToolSpec("tool_notch", "&Notch", "N", "Notch a seam: click on a seam to put a notch there (both panels get one "
+             "in the cut files), click a notch to remove it", NotchTool, ""),
     ToolSpec("", "", "", "", HandleEditor, "", toolbar=False),
 ]
 

@@ -1,5 +1,5 @@
 """The 3D view's tools: draw a curve dart, place a plane dart, move a curve
-dart's points, pick a constrained yarn, draw a seam.
+dart's points, pick a constrained yarn, draw a seam, notch a seam.
 
 A tool turns mouse events in the 3D view (display coordinates, VTK's origin
 bottom left) into previews drawn by the view and, when the designer commits,
@@ -33,9 +33,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from flatweave.geometry.curves import project_points
+from flatweave.geometry.numerics import cumulative_length, interp_rows
 from flatweave.method.darts import CurveDart, PlaneDart, curve_dart_through, dart_handles
 from flatweave.document.history import unique_name
-from flatweave.document.sewing import SeamLine, sewing_of
+from flatweave.document.sewing import SeamLine, sewing_of, split_of
 from flatweave.method.energy import YarnConstraint, turn_plane, yarn_index, yarn_nodes, yarn_plane
 from flatweave.errors import SettingsError
 from flatweave.geometry.region import check_region_size, cover_for, region_from_spec
@@ -44,17 +45,19 @@ from flatweave.method.rosette import angle_towards, rosette, rosette_arrows, see
 from flatweave.app.overlay import HANDLES, PREVIEW, LayerStyle
 from flatweave.app.tooleditors import PlaneEditor, YarnEditor
 
-__all__ = ["Tool", "ToolHost", "CurveTool", "CurveDartTool", "SeamTool", "HandleEditor", "PlaneDartTool", "YarnTool",
-           "PendingYarn", "RegionTool", "SeedTool", "PointsTool", "pick_surface", "STROKE_PIXELS", "SNAP_PIXELS",
-           "HANDLE_PIXELS", "DEFAULT_YARN_K"]
+__all__ = ["Tool", "ToolHost", "CurveTool", "CurveDartTool", "SeamTool", "NotchTool", "HandleEditor", "PlaneDartTool",
+           "YarnTool", "PendingYarn", "RegionTool", "SeedTool", "PointsTool", "pick_surface", "sew_line_uv",
+           "STROKE_PIXELS", "SNAP_PIXELS", "HANDLE_PIXELS", "NOTCH_PIXELS", "SEAM_SAMPLES", "DEFAULT_YARN_K"]
 
 STROKE_PIXELS = 8      # a drag adds a point every this many pixels
 SNAP_PIXELS = 10       # a click this close to the surface's visible rim goes onto the rim
 HANDLE_PIXELS = 10     # a press this close to a handle grabs it
+NOTCH_PIXELS = 10      # a click this close to a seam drawn notches it, this close to a notch removes it
 SAME_PIXELS = 3        # a click this close to the last point adds nothing
 DEFAULT_YARN_K = 1000.0
 RIM_SAMPLES = 200      # per side of the parameter domain
 PREVIEW_GRID = 128     # the plane dart preview's parameter grid (the solve's curve uses 256)
+SEAM_SAMPLES = 256     # points added along a sew line, so a straight (u, v) stretch follows the surface
 
 
 def pick_surface(surface, view, x: float, y: float):
@@ -65,6 +68,15 @@ def pick_surface(surface, view, x: float, y: float):
     if not pr.hit[0] or pr.t[0] < 0:
         return None
     return pr.uv[0], pr.xyz[0]
+
+
+def sew_line_uv(uv) -> np.ndarray:
+    """(k, 2) a sew line's (u, v) polyline ``uv`` with SEAM_SAMPLES points added evenly along it (its own
+    points among them): the points the 3D view draws it through (mapped onto the surface), so a straight
+    (u, v) stretch follows the surface, and the Notch tool picks it at."""
+    uv = np.asarray(uv, dtype=float)
+    s = cumulative_length(uv)
+    return interp_rows(np.union1d(s, np.linspace(0.0, s[-1], SEAM_SAMPLES)), s, uv)
 
 
 def _rim(surface) -> tuple[np.ndarray, np.ndarray]:
@@ -225,16 +237,22 @@ class Tool:
         uv, xyz = _rim(self.surface)
         disp = self.view.display_points(xyz)
         dist = np.hypot(disp[:, 0] - x, disp[:, 1] - y)
+        scale = float(np.linalg.norm(np.ptp(xyz, axis=0)))
         for k in np.argsort(dist)[:8]:
             if dist[k] > SNAP_PIXELS:
                 break
-            origin, direction = self.view.pick_ray(*disp[k])
-            pr = project_points(self.surface, origin[None, :], direction)
-            depth = float((xyz[k] - origin) @ direction)
-            scale = float(np.linalg.norm(np.ptp(xyz, axis=0)))
-            if not pr.hit[0] or pr.t[0] >= depth - 1e-3 * scale:  # nothing of the surface in front of it
+            if self._in_sight(xyz[k], disp[k], scale):
                 return uv[k], xyz[k]
         return None
+
+    def _in_sight(self, xyz, at, scale: float) -> bool:
+        """Whether the surface's point ``xyz`` (3,), seen at display point ``at``, is in sight: nothing of
+        the surface lies in front of it along that pixel's ray (``scale``: the surface's size, for the
+        tolerance)."""
+        origin, direction = self.view.pick_ray(*at)
+        pr = project_points(self.surface, origin[None, :], direction)
+        depth = float((np.asarray(xyz, dtype=float) - origin) @ direction)
+        return not pr.hit[0] or pr.t[0] >= depth - 1e-3 * scale
 
 
 # ---------------------------------------------------------------------- drawing by points
@@ -464,6 +482,111 @@ class SeamTool(CurveTool):
         panels = 1 if sewing is None else len(sewing.panels)
         self.hint(f"Added {name}: {panels} panels.")
         return True
+
+
+NOTCH_CANDIDATES = 16  # the nearest seam points (or notches) on screen tried for one in sight
+
+
+class NotchTool(Tool):
+    """Notch a seam (issue 42): a click on a seam drawn on the surface (within
+    NOTCH_PIXELS of its line on screen; a stretch the surface hides is not
+    picked) adds a notch at the seam's point nearest the click, and a click on
+    a notch (within as many pixels) removes it, each one
+    :meth:`flatweave.document.history.Document.edit_seam` of the seam's notches
+    ("Add notch", "Remove notch"; notches are labels: no re-split, no solve).
+    Both panels of the seam get a notch there in the cut files
+    (:func:`flatweave.document.sewing.sew_marks`). A click away from every seam
+    says so as the tool's hint and changes nothing (a drag from there turns the
+    view); a double click's second press does nothing (the first placed or
+    removed the notch). The seams of the active piece's surface and their notches are the
+    window's drawing (the presenter's "seams" and "notches" layers, redrawn
+    with every seam edit), so the tool draws nothing of its own."""
+
+    name = "notch"
+    layers: dict[str, LayerStyle] = {}
+
+    def activate(self) -> None:
+        self.hint("Notch: click on a seam to put a notch there (both panels get one in the cut files), click a "
+                  "notch to remove it. Drag off the seams to turn the view.")
+
+    def _sewings(self) -> list:
+        """The shapes split by seams on the active piece's surface: those whose seams are drawn."""
+        project = self.document.project
+        return [s for s in project.sewings if s.surface is project.surface]
+
+    def press(self, x, y, double):
+        if double:
+            return True
+        sewings = self._sewings()
+        if not any(s.seams for s in sewings):
+            self.hint("No seams on this surface: draw one with the Seam tool, then notch it.")
+            return False
+        scale = float(np.linalg.norm(np.ptp(_rim(self.surface)[1], axis=0)))
+        at = self._notch_at(sewings, x, y, scale)
+        if at is not None:
+            sewing, seam, k = at
+            return self._commit(sewing, seam, seam.notches[:k] + seam.notches[k + 1:], "Remove notch",
+                                f"Removed a notch from {seam.name}")
+        near = self._seam_at(sewings, x, y, scale)
+        if near is None:
+            self.hint(f"No seam there (none within {NOTCH_PIXELS} pixels): click on a seam to notch it, or on a "
+                      "notch to remove it; nothing changed.")
+            return False
+        sewing, seam, uv = near
+        return self._commit(sewing, seam, seam.notches + ((float(uv[0]), float(uv[1])),), "Add notch",
+                            f"Added a notch to {seam.name}")
+
+    def _commit(self, sewing, seam, notches: tuple, label: str, done: str) -> bool:
+        """One edit ``label`` giving ``seam`` of ``sewing`` these ``notches``; the hint says ``done``, or why not."""
+        try:
+            self.document.edit_seam(sewing.name, seam.name, label=label, notches=notches)
+        except SettingsError as exc:
+            self.hint(f"Cannot {label.lower()}: {exc}")
+            return True
+        self.hint(f"{done}: {len(notches)} on it besides its ends. Click a notch to remove it.")
+        return True
+
+    def _notch_at(self, sewings, x, y, scale: float):
+        """(sewing, seam, k): the notch in sight nearest display point (x, y) within NOTCH_PIXELS, or None."""
+        notches = [(sewing, seam, k) for sewing in sewings for seam in sewing.seams for k in range(len(seam.notches))]
+        if not notches:
+            return None
+        xyz = self.surface.points(np.array([seam.notches[k] for _, seam, k in notches], dtype=float))
+        disp = self.view.display_points(xyz)
+        dist = np.hypot(disp[:, 0] - x, disp[:, 1] - y)
+        for j in np.argsort(dist)[:NOTCH_CANDIDATES]:
+            if dist[j] > NOTCH_PIXELS:
+                break
+            if self._in_sight(xyz[j], disp[j], scale):
+                return notches[j]
+        return None
+
+    def _seam_at(self, sewings, x, y, scale: float):
+        """(sewing, seam, (u, v)): the seam in sight nearest display point (x, y) within NOTCH_PIXELS, and
+        its point nearest it on screen (on the sew line's (u, v) polyline, as drawn); or None."""
+        p = np.array([x, y], dtype=float)
+        found = []  # per sew line: its sewing, its seam, (u, v) samples, display points, t, distance
+        for sewing in sewings:
+            seams = {seam.name: seam for seam in sewing.seams}
+            for line in split_of(sewing).sews:
+                uv = sew_line_uv(line.uv)
+                disp = self.view.display_points(self.surface.points(uv))
+                t, dist = _segment_nearest(p, disp[:-1], disp[1:])
+                found.append((sewing, seams[line.seam], uv, disp, t, dist))
+        if not found:
+            return None
+        owner = np.concatenate([np.full(len(f[5]), k) for k, f in enumerate(found)])
+        segment = np.concatenate([np.arange(len(f[5])) for f in found])
+        dist = np.concatenate([f[5] for f in found])
+        for j in np.argsort(dist, kind="stable")[:NOTCH_CANDIDATES]:
+            if dist[j] > NOTCH_PIXELS:
+                break
+            sewing, seam, uv, disp, t, _ = found[owner[j]]
+            i, f = segment[j], t[segment[j]]
+            at = (1.0 - f) * uv[i] + f * uv[i + 1]
+            if self._in_sight(self.surface.points(at[None])[0], (1.0 - f) * disp[i] + f * disp[i + 1], scale):
+                return sewing, seam, at
+        return None
 
 
 class HandleEditor(Tool):
@@ -896,11 +1019,17 @@ class YarnTool(Tool):
 INSERT_PIXELS = 8  # a double click this close to a side of the drawn region inserts a point there
 
 
-def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(k,) distance of 2D point ``p`` from segments a[i]-b[i] ((k, 2) each)."""
+def _segment_nearest(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(t, distance), (k,) each: the point a[i] + t (b[i] - a[i]) of each segment a[i]-b[i] ((k, 2) each)
+    nearest to 2D point ``p``, and its distance from ``p``."""
     d = b - a
     t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(a + t[:, None] * d - p, axis=1)
+    return t, np.linalg.norm(a + t[:, None] * d - p, axis=1)
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(k,) distance of 2D point ``p`` from segments a[i]-b[i] ((k, 2) each)."""
+    return _segment_nearest(p, a, b)[1]
 
 
 class RegionTool(PointsTool):

@@ -159,3 +159,11 @@ def test_a_bad_ease_is_refused_in_one_line(ease, says):
     assert "\n" not in str(info.value)
     with pytest.raises(SettingsError, match="tuple"):
         FlattenSettings(spacing=0.1, ease=[ease])
+
+
+def test_solving_one_matched_panel_matches_its_shape_again(alone):
+    """A seam edit re-solves the panels it touched; when one is a matched seam's panel, the match runs
+    again over every panel of the matched seams (their outcomes added to the one asked for)."""
+    project, outcomes, report = solve_all(alone, pieces=["panel 1"], workers=1)
+    assert report.reached and sorted(o.name for o in outcomes) == sorted(p.name for p in alone.pieces)
+    assert all(r.difference_pct <= TARGET_PCT for r in seam_rows(project))

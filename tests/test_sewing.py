@@ -240,3 +240,35 @@ def test_the_ply_book_lists_the_seams_with_their_lengths(three):
     assert "Seams: sew lines matched" in text
     for r in seam_rows(three):
         assert r.name in text and f"{r.lengths[0] * 1000:.1f}" in text
+
+
+def test_a_shapes_seams_follow_its_panels_when_added_to_a_project_or_refitted(three, cylinder):
+    """Adding another project's panels brings their shape (its panels renamed as they are); a refit of
+    the surface (the same (u, v) map: a mesh fitted again) moves the shape with its panels."""
+    other = new_project(load_example("octant"), "cap", None, spacing=0.1)
+    both = P.add_from(other, three)
+    assert [s.name for s in both.sewings] == ["sleeve"]
+    assert set(both.sewings[0].panels) <= {p.name for p in both.pieces}
+    again = P.add_from(both, three)  # its pieces' names taken: numbered, and its shape names them so
+    (first, second) = again.sewings
+    assert second.name == "sleeve 2" and not set(first.panels) & set(second.panels)
+    assert all(again.pieces[P.index_of(again, n)].surface is second.surface for n in second.panels)
+    refit = load_example("half_cylinder")  # another object, the same surface
+    moved = P.resurface(three, three.surface, refit)
+    assert moved.sewings[0].surface is refit and all(p.surface is refit for p in moved.pieces)
+    assert [r.lengths for r in seam_rows(moved)] == [(None, None)] * 2  # the results were the old surface's
+
+
+@pytest.mark.parametrize("spec, says", [
+    ({"uv": [[0.5, -0.1], [0.5, 1.1]], "notches": [[0.7, 0.5]]}, "lies off the seam"),
+    ({"uv": [[0.5, -0.1], [0.5, 1.1]], "allowance_mm": "wide"}, "seam allowance"),
+    ({"uv": [[0.5, -0.1], [0.5, 1.1]], "matched": "yes"}, "true or false"),
+    ({"uv": [[0.5, -0.1], [0.5, 1.1]], "stitch": 3}, "unknown key 'stitch'"),
+])
+def test_a_seam_files_options_are_checked_in_one_line(cylinder, spec, says):
+    with pytest.raises(SettingsError, match=says) as info:
+        S.seam_line_from_spec(cylinder, spec, "seam 1")
+    assert "\n" not in str(info.value)
+    good = S.seam_line_from_spec(cylinder, {"uv": [[0.5, -0.1], [0.5, 1.1]], "notches": [[0.5005, 0.5]],
+                                            "allowance_mm": 12, "matched": True}, "seam 1")
+    assert good.notches == ((0.5005, 0.5),) and good.allowance_mm == 12 and good.matched

@@ -100,14 +100,16 @@ def seam_rows(project) -> list[SeamRow]:
         for line in split.sews:
             sides = tuple(names[p] for p in line.panels)
             m = sides_of.get(line.name)
-            cost = None
+            cost = pct = None
             if m is not None:  # both sides current: their energy against their unmatched solves', if matched
                 mine = [results[p].metrics for p in line.panels]
                 if all("energy_unmatched" in q for q in mine):
                     alone = sum(q["energy_unmatched"] for q in mine)
-                    cost = 100.0 * (sum(q["energy"] for q in mine) - alone) / alone if alone > 0 else None
+                    cost = sum(q["energy"] for q in mine) - alone
+                    pct = 100.0 * cost / alone if alone > 0 else None
             rows.append(SeamRow(line.name, line.seam, sewing.name, sides,
-                                m.lengths if m is not None else tuple(None for _ in sides), line.seam in asks, cost))
+                                m.lengths if m is not None else tuple(None for _ in sides), line.seam in asks, pct,
+                                cost))
     return rows
 
 

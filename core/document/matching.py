@@ -188,15 +188,21 @@ def _current(project, name: str) -> bool:
 
 
 def solve_all(project, pieces=None, workers: int | None = None, on_done=None, stop=None, cluster: str | None = None):
-    """:func:`flatweave.document.solving.solve_pieces`, then, when every piece was asked for, the matched
-    seams' panels solved to equal sides (:func:`match_seams`): (project, outcomes, MatchReport). A panel's
-    outcome is then its matched result (its settings' ease with it)."""
+    """:func:`flatweave.document.solving.solve_pieces`, then, when a matched seam's panel was among the
+    pieces solved (default every piece), the matched seams' panels solved to equal sides
+    (:func:`match_seams`): (project, outcomes, MatchReport). A panel's outcome is then its matched
+    result (its settings' ease with it); a matched panel not asked for is solved too, and its outcome
+    added."""
     project, outcomes = solve_pieces(project, pieces, workers, on_done, stop=stop, cluster=cluster)
-    if pieces is not None or not matched_lines(project) or any(o.result is None for o in outcomes) \
+    lines = matched_lines(project)
+    asked = {o.name for o in outcomes}
+    if not any(n in asked for line in lines for n in line.panels) or any(o.result is None for o in outcomes) \
             or (stop is not None and stop.is_set()):
         return project, outcomes, MatchReport()
     project, report = match_seams(project, None if cluster is not None else workers, stop)
     by_name = {p.name: p for p in pieces_of(project)}
     outcomes = [PieceOutcome(o.name, by_name[o.name].result, o.error, o.seconds)
                 if o.name in by_name and by_name[o.name].result is not None else o for o in outcomes]
+    outcomes += [PieceOutcome(n, by_name[n].result) for n in dict.fromkeys(n for line in lines for n in line.panels)
+                 if n not in asked and by_name[n].result is not None]
     return project, outcomes, report

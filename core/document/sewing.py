@@ -43,6 +43,7 @@ __all__ = ["SeamLine", "Sewing", "SeamRow", "MAX_SEAMS", "MAX_ALLOWANCE_MM", "se
 MAX_SEAMS = 200  # seams of one shape: a garment has 5 to 40
 MAX_ALLOWANCE_MM = 100.0  # a seam allowance beyond 10 cm is a typing slip
 MAX_NOTCHES = 1000  # notches the user places on one seam
+NOTCH_SLACK = 0.01  # a seam file's notch may lie this far off its seam (a fraction of the domain's diagonal)
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,6 +138,15 @@ def seam_line_from_spec(surface: NurbsSurface, spec: Any, name: str) -> SeamLine
         notches = np.zeros((1, 3))
     if notches.size and (notches.ndim != 2 or notches.shape[1] != 2):
         raise SettingsError(f'seam {seam.name!r}: "notches" must be a list of [u, v] points on it')
+    if notches.size and np.isfinite(notches).all():
+        # a notch is put on the seam at its nearest point: one farther off than a drawing slip is a mistake
+        size = float(np.linalg.norm(np.diff(np.asarray(surface.domain, dtype=float), axis=1)))
+        line = np.vstack([seam.uv, seam.uv[:1]]) if seam.closed else seam.uv
+        off = polyline_distance(notches, line)
+        if off.max() > NOTCH_SLACK * size:
+            k = int(np.argmax(off))
+            raise SettingsError(f"seam {seam.name!r}: notch {k + 1} ({notches[k, 0]:.4g}, {notches[k, 1]:.4g}) lies "
+                                f"off the seam ({off[k]:.3g} in (u, v)); give points on it")
     return SeamLine(seam.name, seam.uv, seam.closed, spec.get("allowance_mm"), tuple(map(tuple, notches)),
                     spec.get("matched", False))
 
@@ -191,8 +201,9 @@ class SeamRow:
     """One sew line of a project, as the Seams list shows it: its ``name``, its seam's, the
     sewing's, the two ``panels`` (piece names; one where a seam only opens a piece), their flat
     ``lengths`` (model units; None for a side not solved, or solved before its last change);
-    ``matched``: its seam asks for equal sides, and ``energy_cost_pct``, when its panels were solved
-    matched, how much higher their energy is than solved alone (%; None otherwise)."""
+    ``matched``: its seam asks for equal sides, and, when its panels were solved matched, the cost:
+    ``energy_cost`` how much higher their energy EN is than solved alone (EN's units; None otherwise)
+    and ``energy_cost_pct`` the same in percent of that (large when the panels lie near rest alone)."""
 
     name: str
     seam: str
@@ -201,6 +212,7 @@ class SeamRow:
     lengths: tuple
     matched: bool = False
     energy_cost_pct: float | None = None
+    energy_cost: float | None = None
 
     @property
     def solved(self) -> bool:
@@ -224,7 +236,8 @@ class SeamRow:
         """The result file's form (issue 42): name, seam, panels, lengths, difference, difference_pct."""
         return {"name": self.name, "seam": self.seam, "panels": list(self.panels), "lengths": list(self.lengths),
                 "difference": self.difference, "difference_pct": self.difference_pct, "matched": self.matched,
-                **({"energy_cost_pct": self.energy_cost_pct} if self.energy_cost_pct is not None else {})}
+                **({"energy_cost": self.energy_cost, "energy_cost_pct": self.energy_cost_pct}
+                   if self.energy_cost is not None else {})}
 
 
 _SPLITS: dict[int, Any] = {}

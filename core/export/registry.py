@@ -335,8 +335,9 @@ def export(result, path, options: ExportOptions = ExportOptions(), sheet: Sheet 
     return path
 
 
-def export_all(result, paths, options: ExportOptions = ExportOptions()) -> list[Path]:
-    """Write several formats, building the 2D sheet once; returns the paths.
+def export_all(result, paths, options: ExportOptions = ExportOptions(), sheet=None) -> list[Path]:
+    """Write several formats, building the 2D sheet once (or drawing ``sheet``, built by the caller: a
+    panel's, with its seams' notches and allowances); returns the paths.
 
     All or nothing: every target is checked and every file built before any is
     written, and the files are renamed into place only when all of them are on
@@ -344,17 +345,16 @@ def export_all(result, paths, options: ExportOptions = ExportOptions()) -> list[
     was (see :func:`flatweave.files.atomic_write_many` for a failed rename).
     """
     paths = [check_target(p) for p in paths]
-    atomic_write_many(export_files(result, paths, options))
+    atomic_write_many(export_files(result, paths, options, sheet))
     return paths
 
 
-def export_files(result, paths, options: ExportOptions = ExportOptions()) -> list[tuple[Path, bytes]]:
+def export_files(result, paths, options: ExportOptions = ExportOptions(), sheet=None) -> list[tuple[Path, bytes]]:
     """Every file exporting ``result`` to ``paths`` writes, as (path, bytes), nothing written: for a
     caller that writes them with its own files, all or nothing (the command's ``--out`` and
-    ``--export``). The 2D sheet is built once."""
+    ``--export``). The 2D sheet is built once (``sheet``: the caller's)."""
     paths = [check_target(p) for p in paths]
-    sheet = None
-    if _needs_sheet(p.suffix for p in paths):
+    if sheet is None and _needs_sheet(p.suffix for p in paths):
         sheet = build_sheet(result, options.units, options.seam_allowance_mm, options.name)
     return [f for p in paths for f in _files(result, p, options, sheet)]
 
