@@ -336,6 +336,18 @@ def net_area_at_limit(ctrl: int) -> dict:
     return measure_net_area(ctrl)
 
 
+def nest_esicup(seconds: int) -> dict:
+    from benchmarks.nesting import measure_esicup
+
+    return measure_esicup(seconds)
+
+
+def nest_vs_shelf(seconds: int) -> dict:
+    from benchmarks.nesting import measure_vs_shelf
+
+    return measure_vs_shelf(seconds)
+
+
 def faces_join(faces: int) -> dict:
     from benchmarks.faces_join import measure
 
@@ -473,6 +485,17 @@ CASES: tuple[Case, ...] = (
     Case("net_area_at_limit", "a cubic control net of n x n points: its whole domain's area and boundary length "
          "as info computes them", Target("seconds", "<", {400: 5.0}, "s"), net_area_at_limit, (40, 400),
          size_unit="control points a side", keys=("seconds", "area", "boundary_length")),
+    Case("nest_esicup", "ESICUP shirts and trousers nested by flatweave-cli nest and by spyrrow called directly, "
+         "the same time budget, seed and threads: the utilisation points the command loses at worst",
+         Target("loss_pp", "<=", {30: 2.0}, "pp"), nest_esicup, (1, 30), size_unit="s of budget",
+         keys=("loss_pp", "shirts_nest", "shirts_direct", "record_shirts", "trousers_nest", "trousers_direct",
+               "record_trousers")),
+    Case("nest_vs_shelf", "our projects (the 24-ply dome laminate on a 2.5 m roll; the garment front's 4 panels "
+         "x 20 on a 1.5 m roll; the bundled examples' patterns x 3 on a 3 m roll) by nest against a shelf packer "
+         "of bounding boxes: nest's utilisation gain at worst",
+         Target("gain_pp", ">=", {10: 15.0}, "pp"), nest_vs_shelf, (1, 10), size_unit="s of budget",
+         keys=("gain_pp", "laminate_nest", "laminate_shelf", "laminate_s", "panels_nest", "panels_shelf",
+               "kit_nest", "kit_shelf")),
     Case("faces_join", "CAD faces (a STEP file) read and joined into one surface: 3 faces (plate, fillet, plate) "
          "or 9 (a rounded box's lid)", Target("seconds", "<", 10.0, "s"), faces_join, (3, 9), size_unit="faces",
          keys=("seconds", "read_s", "join_s", "max_dev_pct", "triangles")),

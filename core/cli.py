@@ -55,8 +55,12 @@ from flatweave.studies.sweep import sweep
 from flatweave.document.project import PROJECT_SUFFIX, Project, project_to_dict
 from flatweave.document.recovery import save_with_backups
 from flatweave.document.matching import solve_all
+from flatweave.document import cutplan
+from flatweave.document.project import load_project, result_from_dict
+from flatweave.export.marker import MARKER_FORMATS, marker_files
+from flatweave.studies.nesting import DEFAULT_SECONDS, ROTATIONS, nest
 from flatweave.document.checks import project_checks, seam_rows, seam_warnings
-from flatweave.document.cutfiles import check_folder, export_pieces
+from flatweave.document.cutfiles import check_folder, export_pieces, file_stem
 from flatweave.document.plybook import plybook_bytes
 from flatweave.files import atomic_write_many
 from flatweave.document.pieces import index_of
@@ -439,6 +443,31 @@ def build_parser() -> argparse.ArgumentParser:
                         "MM millimetres, besides its ends and the notches placed on it (default 0)")
     v.add_argument("--paper", default="a4", choices=["a4", "letter"], help="paper of the ply book and tiled PDFs")
     v.add_argument("--quiet", action="store_true", help="no table on stdout, no progress on stderr")
+
+    n = sub.add_parser("nest", **exact, help="place every piece on a roll as short as can be (a marker), with "
+                                             "sparrow's nesting engine, and export it")
+    n.add_argument("inputs", nargs="+", metavar="INPUT[:QTY]",
+                   help="a project (.flatweave: its solved pieces, each its quantity), a result file (flatten "
+                        "--out: its pattern pieces) or a nesting instance (sparrow's or ESICUP's JSON, in mm); QTY "
+                        "copies of each (default 1)")
+    n.add_argument("--roll-width", type=ROLL_MM, default=None, metavar="W",
+                   help="the roll's width in mm (default: the material's, from a project's materials table; an "
+                        "instance's strip height)")
+    n.add_argument("--gap", type=GAP_MM, default=0.0, metavar="G", help="the gap kept between pieces, mm (default 0)")
+    n.add_argument("--time-limit", type=NEST_SECONDS, default=DEFAULT_SECONDS, metavar="S",
+                   help=f"seconds the engine may take per marker (default {DEFAULT_SECONDS:g}; whole seconds)")
+    n.add_argument("--rotations", choices=list(ROTATIONS), default=None,
+                   help="how pieces may turn on the roll: grain (0 or 180 degrees, the warp along the roll), "
+                        "one-way (0: a napped material), free (any: an isotropic sheet); default from each "
+                        "piece's material (woven: grain, isotropic: free)")
+    n.add_argument("--seam-allowance", type=SEAM_MM, default=0.0, metavar="MM",
+                   help="the pieces' seam allowance, mm (default 0; a seam's own where it has one)")
+    n.add_argument("--seed", type=NEST_SEED, default=0, metavar="N", help="the engine's random seed (default 0)")
+    n.add_argument("--export", action="append", default=[], metavar="MARKER.dxf|.svg|.csv",
+                   help="write the marker (repeatable): DXF (a block per piece, placed per copy; the roll on "
+                        "layer 15), SVG (1:1, mm), CSV (a row per placed copy); several markers (materials) "
+                        "are written as NAME-MATERIAL.EXT")
+    n.add_argument("--quiet", action="store_true", help="no progress on stderr")
     return p
 
 
@@ -477,6 +506,10 @@ LOCK = _number(0.0, 90.0, above=True)
 WORKERS = _number(1, 256, whole=True)
 SEAM_MM = _number(0.0, MAX_SEAM_MM)
 NOTCH_MM = _number(0.0, 1e6)
+ROLL_MM = _number(0.0, 1e6, above=True)  # a roll's width, mm (a metre or two in practice)
+GAP_MM = _number(0.0, 1e4)
+NEST_SECONDS = _number(0.0, 24 * 3600.0, above=True)
+NEST_SEED = _number(0, 2**63 - 1, whole=True)
 
 
 def _angle(text: str):
@@ -1066,6 +1099,103 @@ def _save_solved(project, out: Path, book: Path | None, folder: Path | None, opt
               f"result: {names}", file=sys.stderr)
 
 
+def _nest_input(text: str) -> tuple[Path, int]:
+    """An INPUT[:QTY] of nest: the file and its copies."""
+    path, sep, qty = text.rpartition(":")
+    if sep and qty.isdigit() and path:
+        copies = int(qty)
+        if not 1 <= copies <= 100_000:
+            raise SettingsError(f"{text}: the copies after ':' must be a whole number from 1 to 100000")
+        return Path(path), copies
+    return Path(text), 1
+
+
+def _nest_items(path: Path, copies: int, args) -> tuple[list, float | None, list[str]]:
+    """The plan items of one nest input, the roll width it knows (mm, or None) and the pieces left out."""
+    name = cutplan.source_name(path)
+    if path.suffix.lower() == PROJECT_SUFFIX:
+        project = load_project(path)
+        items, left = cutplan.project_items(project, name, args.seam_allowance, copies, args.rotations)
+        widths = {f.name: f.roll_width_mm for f in project.materials}
+        known = [widths.get(it.material) for it in items]
+        return items, (known[0] if known and len(set(known)) == 1 else None), left
+    doc = _read_json(str(path))
+    if isinstance(doc, dict) and "strip_height" in doc and "items" in doc:  # a nesting instance
+        return cutplan.instance_items(doc, name, copies, args.rotations), float(doc["strip_height"]), []
+    if not isinstance(doc, dict) or doc.get("format") != "flatweave-result":
+        raise SettingsError(f"{path.name}: nest takes a project (.flatweave), a result file (flatten --out) or a "
+                            f"nesting instance (sparrow's JSON: items, strip_height)")
+    surface = doc.get("surface")
+    if not isinstance(surface, str):
+        raise SettingsError(f"{path.name}: the result does not say its surface; nest its project instead")
+    where = Path(surface) if exists(Path(surface)) or not exists(path.parent / surface) else path.parent / surface
+    try:
+        opened = open_path(where, surface_only=True)
+    except FlatweaveError as exc:
+        raise SettingsError(f"{path.name}: its surface {surface!r} cannot be opened here ({exc}); nest its "
+                            f"project instead (flatten --out NAME.flatweave)") from None
+    result = result_from_dict(doc, opened.surface, str(path))
+    units = doc.get("settings", {}).get("units") or opened.units or "m"
+    items = cutplan.result_items(result, path.stem, name, units, args.seam_allowance, copies, args.rotations)
+    return items, None, []
+
+
+def _cmd_nest(args) -> int:
+    """``nest INPUT[:QTY]...``: every piece on the roll (a marker per material), sparrow placing them; the
+    marker's length and utilisation on stderr, the markers exported."""
+    targets = []
+    for t in args.export:
+        path = Path(t)
+        if path.suffix.lower() not in MARKER_FORMATS:
+            raise SettingsError(f"--export {path.name}: a marker is written as {', '.join(MARKER_FORMATS)}")
+        if path.parent and not path.parent.exists():
+            raise SettingsError(f"cannot write {path}: folder {path.parent} does not exist")
+        check_output(path, SettingsError)
+        targets.append(path)
+    items, widths, left = [], [], []
+    for text in args.inputs:
+        path, copies = _nest_input(text)
+        got, width, out = _nest_items(path, copies, args)
+        items += got
+        widths.append(width)
+        left += out
+    if left:
+        _print_warnings([f"{', '.join(left)}: not solved (or changed since): not nested"])
+    if not items:
+        raise SettingsError("no piece is solved: nothing to nest")
+    width = args.roll_width
+    if width is None:
+        known = {w for w in widths if w is not None}
+        if len(known) != 1:
+            raise SettingsError("give the roll's width: --roll-width W (mm)" if not known else
+                                "the inputs' rolls differ in width: give --roll-width W (mm)")
+        width = known.pop()
+    groups = cutplan.by_material(items)
+    files, markers = [], []
+    for material, group in groups.items():
+        def progress(marker, material=material):
+            if not args.quiet:
+                print(f"  {material}: {marker.length:.1f} mm, {100 * marker.utilisation:.2f} % "
+                      f"({marker.seconds:.1f} s)", file=sys.stderr)
+        marker = nest([g.item for g in group], width, args.gap, args.time_limit, seed=args.seed,
+                      on_progress=progress)
+        sources = [g.source for g in group]
+        mine = []
+        for path in targets:
+            target = path if len(groups) == 1 else path.with_name(
+                f"{path.stem}-{file_stem(material)}{path.suffix}")
+            mine += marker_files(marker, sources, target, f"{path.stem} {material}")
+        markers.append((material, marker, [p for p, _ in mine]))
+        files += mine
+    atomic_write_many(files)  # every marker's files, all or nothing
+    for material, m, written in markers:
+        print(f"{material}: marker {m.length:.1f} mm long on a roll {width:g} mm wide, utilisation "
+              f"{100 * m.utilisation:.2f} %, waste {m.waste / 1e6:.4g} m^2, {len(m.placements)} pieces placed "
+              f"in {m.seconds:.1f} s" + (" (stopped: the best so far)" if m.stopped else "")
+              + "".join(f" -> {p}" for p in written), file=sys.stderr)
+    return 0
+
+
 def _cmd_examples(args) -> int:
     for e in list_examples():
         print(f"{e['name']:<14} {e.get('title', '')}  ({example_path(e['name'])})")
@@ -1088,7 +1218,7 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     handler = {"flatten": _cmd_flatten, "sweep": _cmd_sweep, "info": _cmd_info, "examples": _cmd_examples,
-               "solve": _cmd_solve}[args.command]
+               "solve": _cmd_solve, "nest": _cmd_nest}[args.command]
     try:
         # numbers that overflow become infinities the checks refuse in one line: numpy's warnings about
         # them would only be printed above it

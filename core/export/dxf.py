@@ -86,9 +86,14 @@ def _extents(msp) -> tuple[np.ndarray, np.ndarray]:
     return np.array(box.extmin, dtype=float)[:2], np.array(box.extmax, dtype=float)[:2]
 
 
-def dxf_bytes(sheet: Sheet, variant: str = "astm") -> bytes:
+def dxf_bytes(sheet: Sheet, variant: str = "astm", inserts=None, roll=None) -> bytes:
     """The sheet as a DXF file (bytes, in the file's own encoding). ``$EXTMIN`` /
-    ``$EXTMAX`` are the drawing's extent: the pieces, their labels and the style text."""
+    ``$EXTMAX`` are the drawing's extent: the pieces, their labels and the style text.
+
+    A marker (:mod:`flatweave.export.marker`): ``inserts``, per piece of the sheet, the
+    (x, y, rotation in degrees) of each copy placed (its block inserted there, turned about
+    its frame's origin, in place of once at its offset), and ``roll`` (length, width) mm, the
+    roll's edges and ends drawn as lines on the annotation layer 15."""
     import ezdxf
 
     if variant not in VARIANTS:
@@ -149,7 +154,15 @@ def dxf_bytes(sheet: Sheet, variant: str = "astm") -> bytes:
         for i, text in enumerate(piece.label):
             t = blk.add_text(text, height=piece.label_height, dxfattribs=attribs("1" if i < n_system else "15"))
             t.set_placement((float(x), float(y - LINE_PITCH * piece.label_height * i)))
-        msp.add_blockref(bname, tuple(map(float, off)), dxfattribs={"layer": "1" if astm else "0"})
+        places = [(float(off[0]), float(off[1]), 0.0)] if inserts is None else inserts[k]
+        for x0, y0, rot in places:
+            ref = {"layer": "1" if astm else "0", **({"rotation": float(rot)} if rot else {})}
+            msp.add_blockref(bname, (float(x0), float(y0)), dxfattribs=ref)
+    if roll is not None:
+        length, width = roll
+        for a, b in (((0, 0), (length, 0)), ((0, width), (length, width)), ((0, 0), (0, width)),
+                     ((length, 0), (length, width))):
+            msp.add_line(tuple(map(float, a)), tuple(map(float, b)), dxfattribs=attribs("15"))
     lo, hi = _extents(msp)  # the pieces with their labels, which may stand out of a small piece
     if astm:  # the style system text, once, below everything else
         lines = [f"{k}: {v}" for k, v in style_text(sheet)]

@@ -1,0 +1,219 @@
+"""The cut plan's nesting (issue 43): pieces on a roll by sparrow (spyrrow), their grain kept, the gap
+kept, the marker read back from its DXF by ezdxf and checked with shapely, the CSV's placements mapping
+each piece's pattern outline onto the marker."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import threading
+
+import ezdxf
+import numpy as np
+import pytest
+from shapely import STRtree
+from shapely.geometry import Polygon
+
+from flatweave.cli import main
+from flatweave.document import pieces as P
+from flatweave.document.project import load_project, new_project, save_project
+from flatweave.document.solving import solve_pieces
+from flatweave.errors import SettingsError
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.settings import FlattenSettings
+from flatweave.reading.examples import load_example
+from flatweave.studies.nesting import NestItem, marker_problems, nest
+
+pytestmark = pytest.mark.slow
+
+
+def rectangle(w: float, h: float) -> np.ndarray:
+    return np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]])
+
+
+def ell(a: float) -> np.ndarray:
+    """An L-shaped piece a across (its arms a third of that)."""
+    t = a / 3.0
+    return np.array([[0.0, 0.0], [a, 0.0], [a, t], [t, t], [t, a], [0.0, a]])
+
+
+@pytest.fixture(scope="module")
+def boxes():
+    items = [NestItem(f"box {k}", rectangle(300.0 + 40 * k, 200.0), 2, 90.0, "grain") for k in range(4)]
+    return items, nest(items, 1000.0, seconds=1, workers=1)
+
+
+def test_every_copy_is_placed_on_the_roll_without_overlap(boxes):
+    items, marker = boxes
+    assert marker_problems(marker) == []
+    assert len(marker.placements) == 8 and marker.length > 0
+    area = sum(it.area * it.quantity for it in items)
+    assert marker.pieces_area == pytest.approx(area, rel=1e-12)
+    assert marker.utilisation == pytest.approx(area / (marker.length * 1000.0), rel=1e-12)
+    assert marker.waste == pytest.approx(marker.length * 1000.0 - area, rel=1e-9)
+    # no marker is shorter than the pieces' area over the roll's width, nor than the longest piece's length
+    assert marker.length >= area / 1000.0 and marker.length >= 200.0
+
+
+def test_a_woven_piece_keeps_its_grain_along_the_roll(boxes):
+    """The boxes' warp runs along +y in their frame (grain 90 degrees): placed, it runs along the roll (x),
+    either way (0 or 180 degrees)."""
+    items, marker = boxes
+    for p in marker.placements:
+        along = (p.rotation_deg + items[p.item].grain_deg) % 180.0
+        assert min(along, 180.0 - along) < 1e-9, p
+
+
+def test_the_gap_is_kept_and_free_pieces_may_turn():
+    items = [NestItem("ell", ell(240.0), 5, 0.0, "free"), NestItem("bar", rectangle(400.0, 60.0), 3, 0.0, "free")]
+    marker = nest(items, 600.0, gap=8.0, seconds=1, workers=1)
+    assert marker_problems(marker) == []  # with the gap: no two nearer than 8 mm
+    polys = [Polygon(o) for o in marker.outlines()]
+    nearest = min(polys[i].distance(polys[j]) for i in range(len(polys)) for j in range(i + 1, len(polys)))
+    assert nearest >= 8.0 - 1e-6
+
+
+def test_a_stop_keeps_the_best_marker_so_far():
+    items = [NestItem(f"p{k}", ell(100.0 + 10 * k), 6, 0.0, "free") for k in range(6)]
+    stop = threading.Event()
+    seen = []
+
+    def progress(marker):
+        seen.append(marker)
+        stop.set()
+
+    marker = nest(items, 500.0, seconds=60, workers=1, on_progress=progress, stop=stop, early=False)
+    assert marker.stopped and seen and marker.length == seen[-1].length
+    assert marker.seconds < 30.0  # not the minute asked: stopped at the first marker
+    assert marker_problems(marker) == []
+
+
+@pytest.mark.parametrize("kw, says", [
+    ({"roll_width": 100.0}, "wider than the roll"),
+    ({"roll_width": -5.0}, "positive length"),
+    ({"roll_width": 1000.0, "gap": float("nan")}, "gap"),
+    ({"roll_width": 1000.0, "seconds": 0.0}, "time limit"),
+])
+def test_bad_nesting_input_is_one_line(kw, says):
+    with pytest.raises(SettingsError, match=says) as info:
+        nest([NestItem("wide", rectangle(300.0, 200.0), 1, 0.0, "grain")], **kw)
+    assert "\n" not in str(info.value)
+    with pytest.raises(SettingsError, match="no piece"):
+        nest([], 1000.0)
+
+
+# ---------------------------------------------------------------------- the command, on a project
+def status(argv) -> int:
+    """The command's exit status (an option argparse refuses exits from inside it)."""
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return int(exc.code)
+
+
+@pytest.fixture(scope="module")
+def kit(tmp_path_factory):
+    """A project of three solved pieces (two woven octant plies, 2 copies of each; an isotropic
+    half-cylinder panel), units m."""
+    folder = tmp_path_factory.mktemp("kit")
+    p = new_project(load_example("octant"), "kit", "octant", spacing=0.1)
+    p = P.rename(p, 0, "cap")
+    p = P.set_quantity(p, 0, 2)
+    p = P.duplicate(p, 0, "cap +45", angle_deg=45.0)
+    cyl = load_example("half_cylinder")
+    p = P.add(p, "side", FlattenSettings(spacing=0.1, material=MATERIALS["isotropic"]), surface=cyl,
+              source="half_cylinder")
+    p, _ = solve_pieces(p, workers=1)
+    return save_project(p, folder / "kit.flatweave")
+
+
+def _dxf_marker(path):
+    """The marker read back from its DXF by ezdxf alone: per INSERT (a copy), its block's cut line (layer
+    1) and grain line (layer 7) in world coordinates, and the roll's length and width (layer 15 lines)."""
+    doc = ezdxf.readfile(path)
+    copies, roll = [], []
+    for e in doc.modelspace():
+        if e.dxftype() == "INSERT":
+            cut = grain = None
+            for v in e.virtual_entities():
+                if v.dxf.layer == "1" and v.dxftype() == "POLYLINE":
+                    cut = np.array([(q[0], q[1]) for q in v.points()])
+                elif v.dxf.layer == "7" and v.dxftype() == "LINE":
+                    grain = np.array([(v.dxf.start.x, v.dxf.start.y), (v.dxf.end.x, v.dxf.end.y)])
+            copies.append((e.dxf.name, cut, grain))
+        elif e.dxftype() == "LINE" and e.dxf.layer == "15":
+            roll.append(((e.dxf.start.x, e.dxf.start.y), (e.dxf.end.x, e.dxf.end.y)))
+    ends = np.array([q for line in roll for q in line])
+    return copies, float(ends[:, 0].max()), float(ends[:, 1].max())
+
+
+def test_nest_places_a_projects_pieces_and_its_files_agree(kit, tmp_path, capsys):
+    dxf, table = tmp_path / "m.dxf", tmp_path / "m.csv"
+    code = main(["nest", f"{kit}:2", "--roll-width", "2500", "--gap", "5", "--time-limit", "1",
+                 "--export", str(dxf), "--export", str(table), "--quiet"])
+    assert code == 0
+    err = capsys.readouterr().err
+    # two materials (woven, isotropic): a marker each, written as NAME-MATERIAL.EXT
+    files = sorted(p.name for p in tmp_path.iterdir())
+    assert files == ["m-isotropic.csv", "m-isotropic.dxf", "m-woven.csv", "m-woven.dxf"], files
+    assert "utilisation" in err and "marker" in err
+    project = load_project(kit)
+    outlines = {p.name: p.result.pattern.pieces for p in project.pieces}
+    for material, copies_expected in (("woven", (2 + 2) * 2), ("isotropic", 2)):  # a duplicate keeps its quantity
+        copies, length, width = _dxf_marker(tmp_path / f"m-{material}.dxf")
+        assert width == pytest.approx(2500.0) and len(copies) == copies_expected
+        polys = [Polygon(c) for _, c, _ in copies]
+        for poly in polys:  # on the roll
+            x0, y0, x1, y1 = poly.bounds
+            assert x0 >= -1e-6 and y0 >= -1e-6 and y1 <= 2500.0 + 1e-6 and x1 <= length + 1e-6
+        tree = STRtree(polys)
+        for i, j in zip(*tree.query(polys, predicate="dwithin", distance=5.0 - 1e-3)):
+            assert i == j, "two pieces nearer than the 5 mm gap"
+        if material == "woven":  # the grain (the warp) along the roll
+            for _, _, grain in copies:
+                d = grain[1] - grain[0]
+                assert abs(d[1]) <= 1e-6 * abs(d[0])
+        # each CSV row maps its pattern outline (mm, no allowance: the cut line) onto a copy of the DXF
+        rows = list(csv.DictReader((tmp_path / f"m-{material}.csv").read_text().splitlines()))
+        assert len(rows) == copies_expected
+        for row in rows:
+            piece = row["source"].split("#", 1)[1]
+            outline = np.asarray(outlines[piece][int(row["piece"])].outline) * 1000.0
+            a = math.radians(float(row["rotation_deg"]))
+            c, s = math.cos(a), math.sin(a)
+            placed = np.column_stack([c * outline[:, 0] - s * outline[:, 1] + float(row["x"]),
+                                      s * outline[:, 0] + c * outline[:, 1] + float(row["y"])])
+            best = min(Polygon(placed).symmetric_difference(p).area / p.area for p in polys)
+            assert best < 1e-6
+
+
+def test_a_piece_wider_than_the_roll_and_bad_options_write_nothing(kit, tmp_path, capsys):
+    out = tmp_path / "m.dxf"
+    for args, says in ((["--roll-width", "200"], "wider than the roll"), (["--roll-width", "2500", "--gap", "-1"],
+                                                                          "--gap"),
+                       (["--roll-width", "0"], "--roll-width"), ([], "roll's width")):
+        assert status(["nest", str(kit), "--time-limit", "1", "--export", str(out), *args]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and says in err[0], err
+        assert not out.exists()
+    fresh = save_project(new_project(load_example("octant"), "bare", "octant", spacing=0.1), tmp_path / "b.flatweave")
+    assert main(["nest", str(fresh), "--roll-width", "2500", "--export", str(out)]) == 2
+    assert "no piece is solved" in capsys.readouterr().err and not out.exists()
+
+
+def test_nest_reads_a_nesting_instance(tmp_path, capsys):
+    """A nesting instance in sparrow's JSON (the ESICUP sets' form): its strip height is the roll's width."""
+    instance = {"name": "tiny", "strip_height": 40.0, "items": [
+        {"id": 0, "demand": 3, "allowed_orientations": [0.0, 180.0],
+         "shape": {"type": "simple_polygon", "data": [[0, 0], [10, 0], [10, 6], [0, 6], [0, 0]]}},
+        {"id": 1, "demand": 2, "allowed_orientations": None,
+         "shape": {"type": "simple_polygon", "data": [[0, 0], [8, 0], [0, 8]]}}]}
+    path = tmp_path / "tiny.json"
+    path.write_text(json.dumps(instance))
+    table = tmp_path / "tiny.csv"
+    assert main(["nest", str(path), "--time-limit", "1", "--export", str(table), "--quiet"]) == 0
+    rows = list(csv.DictReader(table.read_text().splitlines()))
+    assert len(rows) == 5 and {r["source"] for r in rows} == {"tiny.json"}
+    assert all(float(r["rotation_deg"]) % 180.0 == pytest.approx(0.0, abs=1e-9) for r in rows if r["piece"] == "0")
+    assert "on a roll 40 mm wide" in capsys.readouterr().err
