@@ -168,6 +168,12 @@ BASE_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("sweep", "&Best orientation...", "sweep_dialog", "Ctrl+Shift+A",
                "Solve at several weft angles and rank them: area beyond the lock angle, max shear, boundary error",
                menu=_SOLVE, section=1, enabled=lambda s: s.has_doc and not s.solving),
+    ActionSpec("nest", "&Nest pieces on the roll", "nest_pieces", None,
+               "Place every solved piece's copies on the roll as short as it can be, a marker per material, in "
+               "the Cut plan panel", menu=_SOLVE, section=2, enabled=_any_solved),
+    ActionSpec("cut_plan", "&Cut plan", "show_cut_plan", None,
+               "Show the Cut plan panel: the solved pieces nested on the roll", menu=_VIEW, section=4,
+               enabled=_has_doc),
     ActionSpec("suggest_darts", "S&uggest darts...", "suggest_dialog", "Ctrl+Shift+D",
                "Try darts from the edge inwards and list those that lower the strain most", menu=_TOOLS, section=2,
                enabled=lambda s: bool(s.document and s.document.project.result_is_current) and not s.solving),

@@ -10,6 +10,8 @@ docs/ARCHITECTURE.md); each part holds one concern:
   flags) and solve frames turned into view updates;
 * :mod:`flatweave.app.files`: open, save, autosave and recovery;
 * :mod:`flatweave.app.exporting`: File > Export;
+* :mod:`flatweave.app.cutplanview`: the Cut plan dock (Solve > Nest pieces on the roll), a view of the
+  solved pieces nested on the roll that never edits the document;
 * :mod:`flatweave.app.runcontrol`: Run, Pause, Stop, re-runs and a run's end;
 * :mod:`flatweave.app.tooling`: the 3D view's tools (one table) and the darts panel's edits.
 
@@ -36,6 +38,7 @@ from flatweave.document.pieces import add_from
 from flatweave.app.actions import (UiState, action_specs, build_actions, build_menus, build_toolbar,
                                    show_view_choices, update_actions)
 from flatweave.app.aspects import Aspect, aspects_of
+from flatweave.app.cutplanview import CutPlanPanel
 from flatweave.app.dartpanel import DartPanel
 from flatweave.app.exporting import Exports
 from flatweave.app.files import Files, stored_view
@@ -117,6 +120,7 @@ class MainWindow(QMainWindow):
         self.solve_panels = True  # a seam edit re-solves the other panels it changed, in Solve all's pool
         self.last_solve_all: str | None = None  # what the last Solve all did, in one line
         self.energy_plot = EnergyPlot(self)
+        self.cut_plan = CutPlanPanel(self)
         self.progress = QLabel(NO_DOCUMENT, self)
         self.progress.setWordWrap(True)
         self._hover_label = QLabel(self)
@@ -190,6 +194,18 @@ class MainWindow(QMainWindow):
         dock.setMinimumWidth(330)
         self.addDockWidget(Qt.DockWidgetArea.LeftDockWidgetArea, dock)
 
+        # the cut plan under the two views, hidden until asked for: a roll is long along x and wants the
+        # window's width, which the side panel (a column) lacks; the settings keep the left edge's height
+        self.setCorner(Qt.Corner.BottomLeftCorner, Qt.DockWidgetArea.LeftDockWidgetArea)
+        self.cut_plan_dock = QDockWidget("Cut plan", self)
+        self.cut_plan_dock.setObjectName("cut-plan-dock")
+        self.cut_plan_dock.setWidget(self.cut_plan)
+        self.cut_plan_dock.setFeatures(QDockWidget.DockWidgetFeature.DockWidgetMovable
+                                       | QDockWidget.DockWidgetFeature.DockWidgetFloatable
+                                       | QDockWidget.DockWidgetFeature.DockWidgetClosable)
+        self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.cut_plan_dock)
+        self.cut_plan_dock.hide()
+
     def _connect(self) -> None:
         sp, dp, tools = self.settings_panel, self.dart_panel, self.tools
         sp.settings_edited.connect(self.edit_settings)
@@ -219,6 +235,8 @@ class MainWindow(QMainWindow):
         self.solve_all.piece_done.connect(lambda name, text: self.statusBar().showMessage(
             f"Solve all: {name}: {text}", 10000))
         self.solve_all.finished.connect(self._solve_all_finished)
+        self.cut_plan.finished.connect(lambda summary: self.statusBar().showMessage(summary, 20000))
+        self.cut_plan.failed.connect(lambda message: self.statusBar().showMessage(f"Cut plan: {message}", 20000))
 
     # ------------------------------------------------------------------ actions and title
     def update_actions(self) -> None:
@@ -230,6 +248,7 @@ class MainWindow(QMainWindow):
         self.dart_panel.setEnabled(has_doc)
         self.pieces_panel.setEnabled(has_doc)
         self.pieces_panel.set_solving(self.solve_all.busy)
+        self.cut_plan.setEnabled(has_doc)
 
     def _update_title(self) -> None:
         doc = self.document
@@ -288,6 +307,7 @@ class MainWindow(QMainWindow):
         aspects = aspects_of(change.aspects)  # core's strings become Aspect flags here, once
         self.runs.before_change(change.cause, aspects)
         self.presenter.document_changed(project, change.cause, aspects)
+        self.cut_plan.set_project(project, change.cause)  # a marker goes stale, never edits
         self.runs.after_change(project, change.cause, aspects, change.label)
         if change.cause == "edit" and Aspect.SEAMS in aspects and Aspect.PIECES in aspects and self.solve_panels:
             # a seam edit re-solves the panels it changed (issue 42); the active one is the run's when it started one
@@ -387,6 +407,21 @@ class MainWindow(QMainWindow):
         if self.document is not None and self.project.result_is_current and not self.runner.active:
             self.presenter.show_result(self.project)
 
+    def show_cut_plan(self) -> None:
+        """View > Cut plan: the Cut plan dock shown and raised (its marker as it was)."""
+        if self.cut_plan_dock.isHidden():
+            self.cut_plan_dock.show()
+            self.resizeDocks([self.cut_plan_dock], [max(self.height() // 3, 300)], Qt.Orientation.Vertical)
+        self.cut_plan_dock.raise_()
+
+    def nest_pieces(self) -> bool:
+        """Solve > Nest pieces on the roll: the Cut plan shown and a Nest started with its values
+        (False when one is on already, or there is no document)."""
+        if self.document is None:
+            return False
+        self.show_cut_plan()
+        return self.cut_plan.nest()
+
     def undo(self) -> None:
         if self.document is not None:
             self.document.undo()
@@ -459,6 +494,7 @@ class MainWindow(QMainWindow):
             return
         self.files.stop_autosaving()
         self.solve_all.close()
+        self.cut_plan.shutdown()
         self.tools.tool = None
         self.view.mouse_handler = None
         self.runs.close()

@@ -462,11 +462,16 @@ def build_parser() -> argparse.ArgumentParser:
                         "piece's material (woven: grain, isotropic: free)")
     n.add_argument("--seam-allowance", type=SEAM_MM, default=0.0, metavar="MM",
                    help="the pieces' seam allowance, mm (default 0; a seam's own where it has one)")
+    n.add_argument("--overlap", type=GAP_MM, default=25.0, metavar="MM",
+                   help="a piece wider than the roll is spliced into parts that fit, by lines along the roll; the "
+                        "parts overlap by MM at each splice (default 25, a composite ply's; a sewn seam's: twice "
+                        "its allowance)")
     n.add_argument("--seed", type=NEST_SEED, default=0, metavar="N", help="the engine's random seed (default 0)")
-    n.add_argument("--export", action="append", default=[], metavar="MARKER.dxf|.svg|.csv",
+    n.add_argument("--export", action="append", default=[], metavar="MARKER.dxf|.svg|.pdf|.csv",
                    help="write the marker (repeatable): DXF (a block per piece, placed per copy; the roll on "
-                        "layer 15), SVG (1:1, mm), CSV (a row per placed copy); several markers (materials) "
-                        "are written as NAME-MATERIAL.EXT")
+                        "layer 15), SVG (1:1, mm), PDF (the whole marker at a round scale, then at 1:1 tiled over "
+                        "A4 pages with overlap and registration marks), CSV (a row per placed copy); several "
+                        "markers (materials) are written as NAME-MATERIAL.EXT")
     n.add_argument("--quiet", action="store_true", help="no progress on stderr")
     return p
 
@@ -1170,6 +1175,12 @@ def _cmd_nest(args) -> int:
             raise SettingsError("give the roll's width: --roll-width W (mm)" if not known else
                                 "the inputs' rolls differ in width: give --roll-width W (mm)")
         width = known.pop()
+    # a piece wider than the roll in every rotation it may take: spliced into the fewest parts that fit
+    items, spliced = cutplan.splice_items(items, width, args.overlap)
+    for r in spliced:
+        at = ", ".join(f"{y - r.start:.0f}" for y in r.positions)
+        print(f"{r.name}: {r.width:.1f} mm across, wider than the roll: spliced into {len(r.parts)} parts at {at} "
+              f"mm from its edge ({args.overlap:g} mm overlap)", file=sys.stderr)
     groups = cutplan.by_material(items)
     files, markers = [], []
     for material, group in groups.items():

@@ -188,11 +188,12 @@ def test_nest_places_a_projects_pieces_and_its_files_agree(kit, tmp_path, capsys
             assert best < 1e-6
 
 
-def test_a_piece_wider_than_the_roll_and_bad_options_write_nothing(kit, tmp_path, capsys):
+def test_a_roll_narrower_than_a_splice_and_bad_options_write_nothing(kit, tmp_path, capsys):
     out = tmp_path / "m.dxf"
-    for args, says in ((["--roll-width", "200"], "wider than the roll"), (["--roll-width", "2500", "--gap", "-1"],
-                                                                          "--gap"),
-                       (["--roll-width", "0"], "--roll-width"), ([], "roll's width")):
+    refusals = ((["--roll-width", "20"], "not wider than the splice overlap"),
+                (["--roll-width", "2500", "--gap", "-1"], "--gap"), (["--roll-width", "0"], "--roll-width"),
+                ([], "roll's width"))
+    for args, says in refusals:
         assert status(["nest", str(kit), "--time-limit", "1", "--export", str(out), *args]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and says in err[0], err

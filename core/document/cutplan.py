@@ -23,21 +23,40 @@ from flatweave.document.project import settings_equal
 from flatweave.document.sewing import piece_sheet
 from flatweave.errors import SettingsError
 from flatweave.export.marker import MarkerSource
-from flatweave.export.sheet import SheetPiece, build_sheet
+from flatweave.export.sheet import SheetPiece, build_sheet, mm_per_unit
 from flatweave.method.materials import fabric_kind
-from flatweave.studies.nesting import ROTATIONS, NestItem
+from flatweave.method.metrics import cell_shear_deg
+from flatweave.studies.nesting import ROTATIONS, SIMPLIFY_MM, NestItem, min_width
+from flatweave.studies.splices import split_outline, splice_positions
 
-__all__ = ["PlanItem", "project_items", "result_items", "instance_items", "by_material", "rotations_for",
-           "check_rotations", "source_name"]
+__all__ = ["PlanItem", "SpliceReport", "project_items", "result_items", "instance_items", "by_material",
+           "rotations_for", "check_rotations", "source_name", "splice_items", "splice_curves"]
 
 
 @dataclass(frozen=True)
 class PlanItem:
-    """An item to nest, where it came from, and the material it is cut from (its marker)."""
+    """An item to nest, where it came from, and the material it is cut from (its marker); ``field``:
+    its cells' middles (n, 2) mm in its own frame and their shear (n,) degrees, where a splice should
+    not go (None: not known)."""
 
     item: NestItem
     source: MarkerSource
     material: str
+    field: tuple | None = None
+
+
+@dataclass(frozen=True)
+class SpliceReport:
+    """A piece spliced: its name, its width across the roll (mm), the splices' positions across it (mm,
+    in the frame turned ``frame_deg`` from its own, where they run along the roll; ``start`` the piece's
+    edge there) and its parts' names."""
+
+    name: str
+    width: float
+    frame_deg: float
+    positions: tuple
+    parts: tuple
+    start: float = 0.0
 
 
 def rotations_for(material) -> str:
@@ -53,14 +72,21 @@ def _grain_deg(sheet_piece) -> float:
     return math.degrees(math.atan2(d[1], d[0])) if np.hypot(*d) > 0 else 90.0
 
 
-def _items(sheet, name: str, source: str, quantity: int, material, rotations: str | None) -> list[PlanItem]:
+def _shear_field(result, mm: float):
+    """(cells' middles (c, 2) in the pattern's frame x mm, their shear in degrees (c,))."""
+    cells = result.mesh.cells
+    middles = np.asarray(result.pattern.xy, dtype=float)[cells].mean(axis=1) * mm
+    return middles, cell_shear_deg(result.xyz, result.mesh)
+
+
+def _items(sheet, name: str, source: str, quantity: int, material, rotations: str | None, field=None):
     out = []
     many = len(sheet.pieces) > 1
     for k, sp in enumerate(sheet.pieces):
         outline = np.asarray(sp.outer, dtype=float) - np.asarray(sp.offset, dtype=float)
         item = NestItem(f"{name} {k + 1}" if many else name, outline, quantity, _grain_deg(sp),
                         rotations or rotations_for(material))
-        out.append(PlanItem(item, MarkerSource(source, k, sp), material.name))
+        out.append(PlanItem(item, MarkerSource(source, k, sp), material.name, field))
     return out
 
 
@@ -70,7 +96,8 @@ def result_items(result, name: str, source: str, units: str, seam_allowance_mm: 
     ``source`` the input's name, the model in ``units``."""
     _check_copies(copies)
     sheet = build_sheet(result, units, seam_allowance_mm, name, copies)
-    return _items(sheet, name, source, copies, result.settings.material, rotations)
+    return _items(sheet, name, source, copies, result.settings.material, rotations,
+                  _shear_field(result, mm_per_unit(units)))
 
 
 def project_items(project, source: str, seam_allowance_mm: float, copies: int = 1,
@@ -85,7 +112,8 @@ def project_items(project, source: str, seam_allowance_mm: float, copies: int = 
             left.append(p.name)
             continue
         sheet = piece_sheet(project, p.name, seam_allowance_mm)
-        out += _items(sheet, p.name, f"{source}#{p.name}", p.quantity * copies, p.settings.material, rotations)
+        out += _items(sheet, p.name, f"{source}#{p.name}", p.quantity * copies, p.settings.material, rotations,
+                      _shear_field(r, mm_per_unit(project.units)))
     return out, left
 
 
@@ -117,6 +145,79 @@ def instance_items(doc: dict, source: str, copies: int = 1, rotations: str | Non
             raise SettingsError(f"{source}: item {k + 1}: {exc}") from None
         sp = SheetPiece(name, item.outline, None, grain=np.array([[0.0, 0.0], [1.0, 0.0]]))
         out.append(PlanItem(item, MarkerSource(source, k, sp), source))
+    return out
+
+
+def _turned(points: np.ndarray, deg: float) -> np.ndarray:
+    a = math.radians(deg)
+    c, s = math.cos(a), math.sin(a)
+    p = np.asarray(points, dtype=float)
+    return np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1]])
+
+
+def _frame_deg(item: NestItem) -> float:
+    """The angle that turns the item so the lines along the roll run along x: its grain's, or, free to
+    turn, the one in which it is narrowest across the roll."""
+    if item.turns is not None:
+        return item.grain_deg
+    angles = np.arange(0.0, 180.0, 0.5)
+    widths = [min_width(item.outline, (a,), 0.0) for a in angles]
+    return -float(angles[int(np.argmin(widths))])
+
+
+def splice_items(items, roll_width: float, overlap_mm: float) -> tuple[list[PlanItem], list[SpliceReport]]:
+    """``items`` with each one wider than the roll in every rotation it may take split by splices along
+    the roll into the fewest parts that fit (:mod:`flatweave.studies.splices`: the parts share
+    ``overlap_mm`` at each splice, the splices placed through the least shear), each part an item
+    named "NAME part K of N" in the item's own frame; and a report per piece spliced."""
+    usable = roll_width - 2.0 * min(SIMPLIFY_MM, 1e-4 * roll_width)
+    out, reports = [], []
+    for it in items:
+        item = it.item
+        frame = _frame_deg(item)
+        if min_width(item.outline, item.rotations, item.grain_deg) <= usable:
+            out.append(it)
+            continue
+        # in the frame where the lines along the roll run along x: the outline, its shear field, the splices
+        outline = _turned(item.outline, -frame)
+        points, shear = (None, None) if it.field is None else (_turned(it.field[0], -frame), it.field[1])
+        positions = splice_positions(outline, usable, overlap_mm, points, shear)
+        parts = [_turned(q, frame) for q in split_outline(outline, positions, overlap_mm)]
+        names = []
+        for k, part in enumerate(parts):
+            name = f"{item.name} part {k + 1} of {len(parts)}"
+            names.append(name)
+            mid = part.mean(axis=0)
+            d = 0.2 * float(np.ptp(_turned(part, -frame)[:, 0])) * np.array(
+                [math.cos(math.radians(item.grain_deg)), math.sin(math.radians(item.grain_deg))])
+            sp = SheetPiece(name, part, None, grain=np.array([mid - d, mid + d]))
+            out.append(PlanItem(NestItem(name, part, item.quantity, item.grain_deg, item.rotations),
+                                MarkerSource(it.source.source, it.source.index, sp), it.material, None))
+        reports.append(SpliceReport(item.name, float(np.ptp(outline[:, 1])), frame, tuple(positions), tuple(names),
+                                    float(outline[:, 1].min())))
+    return out, reports
+
+
+def splice_curves(result, report: SpliceReport, mm: float) -> list[np.ndarray]:
+    """Each splice of ``report`` (a piece of ``result``) on the 3D surface: the line along the roll at its
+    position, across the pattern, mapped from the flat to (u, v) through the lattice (each point by the
+    triangle of pattern nodes it falls in) and onto the surface; (k, 3) each."""
+    from scipy.spatial import Delaunay
+
+    xy = np.asarray(result.pattern.xy, dtype=float) * mm
+    tri = Delaunay(_turned(xy, -report.frame_deg))
+    x0, x1 = tri.points[:, 0].min(), tri.points[:, 0].max()
+    out = []
+    for s in report.positions:
+        line = np.column_stack([np.linspace(x0, x1, 400), np.full(400, s)])
+        simplex = tri.find_simplex(line)
+        inside = simplex >= 0
+        line, simplex = line[inside], simplex[inside]
+        t = tri.transform[simplex]
+        b = np.einsum("nij,nj->ni", t[:, :2], line - t[:, 2])
+        bary = np.column_stack([b, 1.0 - b.sum(axis=1)])
+        uv = np.einsum("ni,nic->nc", bary, np.asarray(result.uv, dtype=float)[tri.simplices[simplex]])
+        out.append(result.surface.points(uv))
     return out
 
 

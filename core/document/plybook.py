@@ -14,7 +14,12 @@ Pages, in order:
    and warp threads and the fibre directions at its seed as arrows; its
    numbers; its warnings; and its flat pattern drawn at a stated scale
    (:data:`BOOK_SCALES`, the largest that fits, never enlarged), with a scale
-   bar, its grain line, its name, its darts and its overall dimensions in mm.
+   bar, its grain line, its name, its darts and its overall dimensions in mm;
+3. a page per marker given (``markers``: the cut plan's nesting, issue 43): its
+   material, the roll's width, the marker's length, utilisation and waste, the
+   whole marker drawn at a round scale (:func:`flatweave.export.marker.draw_marker`)
+   with a scale bar, and a table of the pieces on it (name, copies, source),
+   continued on further pages when it is long.
 
 A piece not solved, or whose result no longer matches its settings (stale),
 has its row and page say so; its pattern is drawn only from a current result.
@@ -36,8 +41,10 @@ from flatweave.document.checks import project_checks, seam_rows
 from flatweave.document.project import settings_equal
 from flatweave.errors import SettingsError
 from flatweave.document.rosettes import orientation_text
-from flatweave.export.pdf import MM, draw_scale_bar, draw_sheet, nice_length, paper_size, scale_text
+from flatweave.export.pdf import (MM, ROUND_SCALES, draw_scale_bar, draw_sheet, nice_length, paper_size,
+                                  round_scale, scale_text)
 from flatweave.document.sewing import piece_sheet
+from flatweave.export.marker import draw_marker, marker_scale, placed_sheet
 from flatweave.export.sheet import mm_per_unit
 from flatweave.files import atomic_write_bytes
 from flatweave.geometry.numerics import polygon_area
@@ -49,7 +56,7 @@ from flatweave.version import __version__
 __all__ = ["BOOK_SCALES", "BookRow", "book_rows", "book_order", "plybook_bytes", "write_ply_book",
            "pattern_box", "book_scale"]
 
-BOOK_SCALES = (1.0, 2.0, 2.5, 5.0, 10.0, 20.0, 25.0, 50.0)  # 1:k, then the same times powers of ten
+BOOK_SCALES = ROUND_SCALES  # 1:k, then the same times powers of ten
 MARGIN = 12.0  # mm round the page's content
 ROW_MM = 5.0  # the stacking table's row pitch
 DIM_MM = 9.0  # room for the dimension lines beside the pattern
@@ -138,16 +145,7 @@ def book_scale(size_mm, box_mm) -> float:
     """The drawing scale (printed mm per pattern mm, at most 1) of a pattern ``size_mm`` =
     (width, height) in a box (width, height): 1/k for the smallest ``k`` of :data:`BOOK_SCALES`
     times a power of ten at which the pattern and its dimension lines fit."""
-    w, h = max(size_mm[0], 1e-9), max(size_mm[1], 1e-9)
-    aw, ah = box_mm[0] - DIM_MM, box_mm[1] - DIM_MM
-    need = max(w / aw, h / ah)  # the reduction that just fits
-    decade = 10.0 ** math.floor(math.log10(need)) if need > 1 else 1.0
-    for _ in range(40):
-        for k in BOOK_SCALES:
-            if k * decade >= need:
-                return 1.0 / (k * decade)
-        decade *= 10.0
-    return 1.0 / need
+    return round_scale(size_mm, (box_mm[0] - DIM_MM, box_mm[1] - DIM_MM), BOOK_SCALES)
 
 
 def _view(points: np.ndarray, normals: np.ndarray):
@@ -524,9 +522,71 @@ def _piece_page(c, project, piece, row, sheet, picture, others, paper, number, t
     return scale
 
 
-def plybook_bytes(project, paper: str = "a4", seam_allowance_mm: float = 0.0, title: str | None = None) -> bytes:
+MARKER_COLUMNS = (("piece", 62, "left"), ("copies", 14, "right"), ("source", 110, "left"))
+
+
+def _marker_page(c, material, marker, sources, paper, number, total, title):
+    """A marker's page (or pages, when its table of pieces is long): its numbers, the whole marker at a round
+    scale, the pieces on it."""
+    pw, ph = paper_size(paper)
+    top = ph - MARGIN
+    L, W = marker.length, marker.roll_width
+
+    def header():
+        _text(c, MARGIN, top - 6, f"Marker: {material} (continued)", 12, "Helvetica-Bold")
+        return top - 16
+    _text(c, MARGIN, top - 6, f"Marker: {material}", 16, "Helvetica-Bold")
+    _text(c, pw - MARGIN, top - 6, f"(marker {number} of {total})", 10, align="right")
+    facts = [("material", material), ("roll width", f"{W:g} mm"), ("length", f"{L:.1f} mm"),
+             ("utilisation", f"{100 * marker.utilisation:.2f} %"), ("waste", f"{marker.waste / 1e6:.4f} m2"),
+             ("pieces placed", f"{len(marker.placements)}"), ("gap", f"{marker.gap:g} mm")]
+    y = top - 14
+    for label, value in facts:
+        _text(c, MARGIN, y, label, 8, "Helvetica-Bold")
+        _text(c, MARGIN + 26, y, _clip(c, value, pw - 2 * MARGIN - 26, 8), 8)
+        y -= 4.6
+    if marker.stopped:
+        _text(c, MARGIN, y, "stopped before its time: the best marker found so far", 8, rgb=(0.6, 0.25, 0.0))
+        y -= 4.6
+    # the marker across the page, at the round scale that fits a box under the numbers
+    y -= 4
+    box = (pw - 2 * MARGIN, 0.40 * ph)
+    scale = marker_scale(marker, box)
+    drawn = scale * W
+    draw_marker(c, marker, placed_sheet(marker, sources, scale), scale,
+                (MARGIN + 0.5 * (box[0] - scale * L), y - drawn))
+    y -= drawn + 8
+    draw_scale_bar(c, MARGIN, y, nice_length(0.25 * L), scale, "(printed at 100 %)")
+    y -= 10
+
+    def heading(y):
+        x = MARGIN
+        for name, w, align in MARKER_COLUMNS:
+            _text(c, x + (w - 1 if align == "right" else 0), y, name, 7.5, "Helvetica-Bold", align=align)
+            x += w
+        return y - ROW_MM
+    _text(c, MARGIN, y, "Pieces on the marker", 10, "Helvetica-Bold")
+    y = heading(y - 6)
+    copies = [sum(1 for p in marker.placements if p.item == k) for k in range(len(marker.items))]
+    for item, n, src in zip(marker.items, copies, sources):
+        if y < MARGIN + 4:
+            c.showPage()
+            y = heading(header())
+        x = MARGIN
+        for (_, w, align), cell in zip(MARKER_COLUMNS, (item.name, str(n), f"{src.source}, piece {src.index + 1}")):
+            _text(c, x + (w - 1 if align == "right" else 0), y, _clip(c, cell, w - 1.5, 7.0), 7.0, align=align)
+            x += w
+        y -= ROW_MM
+    _text(c, MARGIN, MARGIN - 6, f"{title}; marker of {material}; drawn at {scale_text(scale)}; flatweave "
+                                 f"{__version__}", 6.5, rgb=(0.3, 0.3, 0.3))
+
+
+def plybook_bytes(project, paper: str = "a4", seam_allowance_mm: float = 0.0, title: str | None = None,
+                  markers=()) -> bytes:
     """The project's ply book as PDF bytes (see the module's docstring). ``seam_allowance_mm``:
-    the patterns' cut lines (0: the sew line is the cut line, as composites plies are cut)."""
+    the patterns' cut lines (0: the sew line is the cut line, as composites plies are cut).
+    ``markers``: (material name, :class:`flatweave.studies.nesting.Marker`, its
+    :class:`flatweave.export.marker.MarkerSource` per item) each, a page each after the pieces'."""
     from reportlab.pdfgen import canvas  # reportlab loads when a book is written
 
     pw, ph = paper_size(paper)
@@ -556,6 +616,10 @@ def plybook_bytes(project, paper: str = "a4", seam_allowance_mm: float = 0.0, ti
                   and r.surface is piece.surface]
         _piece_page(c, project, piece, row, sheets[piece.name], pictures[id(piece.surface)], others, paper, k + 1,
                     len(order), title)
+        c.showPage()
+    markers = list(markers)
+    for k, (material, marker, sources) in enumerate(markers):
+        _marker_page(c, material, marker, sources, paper, k + 1, len(markers), title)
         c.showPage()
     c.save()
     return buf.getvalue()

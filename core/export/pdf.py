@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import io
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -33,7 +34,8 @@ from flatweave.export.sheet import label_box
 
 __all__ = ["PAPERS", "MM", "TEST_SQUARE_MM", "TILE_SQUARES_MM", "OVERLAP_MM", "PAGE_MARGIN_MM", "FRONT_PAGES",
            "tile_grid", "tiles", "page_count", "name_place", "scale_text", "sheet_marks", "pdf_bytes",
-           "draw_sheet", "nice_length", "draw_test_square", "paper_size", "draw_scale_bar"]
+           "draw_sheet", "nice_length", "draw_test_square", "paper_size", "draw_scale_bar", "ROUND_SCALES",
+           "round_scale", "draw_tiles", "draw_tile_grid", "SHEET_MARGIN_MM", "NAME_FONT", "NAME_MM"]
 
 MM = 72.0 / 25.4  # PDF points per millimetre
 PAPERS = {"a4": (210.0, 297.0), "letter": (215.9, 279.4)}
@@ -46,6 +48,7 @@ SHEET_MARGIN_MM = 10.0  # blank border round the pieces
 FRONT_PAGES = 2  # the overview and the assembly map, before the tiles
 NAME_FONT = "Helvetica-Bold"  # the pieces' names on the scaled pages
 NAME_MM = (3.0, 2.5, 2.0, 1.5)  # their printed heights, the largest that fits inside the piece
+ROUND_SCALES = (1.0, 2.0, 2.5, 5.0, 10.0, 20.0, 25.0, 50.0)  # 1:k, then the same times powers of ten
 
 # stroke colours (r, g, b) and widths (mm) of the drawn lines
 STYLE = {
@@ -78,15 +81,18 @@ def tile_grid(sheet_size_mm: tuple[float, float], paper: str = "a4") -> tuple[in
     return rows, cols, cw, ch
 
 
-def tiles(sheet: Sheet, paper: str = "a4") -> list[tuple[int, int, bool]]:
+def tiles(sheet: Sheet, paper: str = "a4", size=None) -> list[tuple[int, int, bool]]:
     """Every tile of the 1:1 grid as (row, column, printed); a tile is printed
-    when some piece lies in it (blank tiles are left out of the PDF)."""
+    when some piece lies in it (blank tiles are left out of the PDF). ``size``:
+    the drawing's (width, height) mm from (0, 0) when it is not the sheet's own
+    (a marker's roll, which its pieces need not reach)."""
     import shapely
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
-    rows, cols, cw, ch = tile_grid(sheet.size, paper)
-    H = sheet.size[1] + 2 * SHEET_MARGIN_MM
+    size = sheet.size if size is None else size
+    rows, cols, cw, ch = tile_grid(size, paper)
+    H = size[1] + 2 * SHEET_MARGIN_MM
     region = unary_union([Polygon(p.outer).buffer(0) for p in sheet.pieces])
     shapely.prepare(region)
     r, col = (a.ravel() for a in np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"))
@@ -359,6 +365,21 @@ def draw_scale_bar(c, x0: float, y0: float, length: float, scale: float, note: s
     c.restoreState()
 
 
+def round_scale(size_mm, box_mm, steps=ROUND_SCALES) -> float:
+    """The drawing scale (printed mm per drawing mm, at most 1: never enlarged) at which a drawing
+    ``size_mm`` = (width, height) fits a box (width, height) mm: 1/k for the smallest ``k`` of
+    ``steps`` times a power of ten that is at least the reduction that just fits."""
+    w, h = max(size_mm[0], 1e-9), max(size_mm[1], 1e-9)
+    need = max(w / box_mm[0], h / box_mm[1])  # the reduction that just fits
+    decade = 10.0 ** math.floor(math.log10(need)) if need > 1 else 1.0
+    for _ in range(40):
+        for k in steps:
+            if k * decade >= need:
+                return 1.0 / (k * decade)
+        decade *= 10.0
+    return 1.0 / need
+
+
 def scale_text(scale: float) -> str:
     """The drawing's scale (printed mm per sheet mm) as a drawing states it, to 3 significant
     figures: "scale 1:10.4" for a reduction, "scale 2.25:1" for an enlargement."""
@@ -403,27 +424,102 @@ def _scaled_page(c, sheet: Sheet, pw: float, ph: float, title: str, grid=None):
                 y -= 3.6
             y -= 2.0
     if grid is not None:  # the tiles, named as on their pages; blank ones are not printed
-        rows, cols, cw, ch, printed = grid
-        c.saveState()
-        c.setStrokeColorRGB(0.85, 0.2, 0.2)
-        c.setFillColorRGB(0.85, 0.2, 0.2)
-        c.setLineWidth(0.6)
-        for r in range(rows):
-            for col in range(cols):
-                x0 = col * (cw - OVERLAP_MM)
-                y1 = H - r * (ch - OVERLAP_MM)
-                shade = 0.0 if printed[r * cols + col] else 0.75
-                c.setStrokeColorRGB(0.85, 0.2 + shade * 0.6, 0.2 + shade * 0.6)
-                c.setFillColorRGB(0.85, 0.2 + shade * 0.6, 0.2 + shade * 0.6)
-                c.rect((ox + scale * x0) * MM, (oy + scale * (y1 - ch)) * MM, scale * cw * MM,
-                       scale * ch * MM, stroke=1, fill=0)
-                c.setFont("Helvetica-Bold", max(6, min(16, 0.25 * scale * cw * MM)))
-                c.drawCentredString((ox + scale * (x0 + cw / 2)) * MM, (oy + scale * (y1 - ch / 2)) * MM,
-                                    _tile_name(r, col))
-        c.restoreState()
+        draw_tile_grid(c, grid, (ox, oy), scale, H)
     # scale bar: a round length about a quarter of the drawing's width
     draw_scale_bar(c, PAGE_MARGIN_MM, bottom - 12.0, nice_length(0.25 * W), scale)
     return scale, (ox, oy)
+
+
+def draw_tile_grid(c, grid, origin_mm, scale: float, height_mm: float) -> None:
+    """The 1:1 tiles' grid over a drawing at ``scale``, each tile named as on its page (A1 top left), the
+    blank ones (not printed) pale. ``grid`` = (rows, cols, tile width, tile height, printed per tile in
+    :func:`tiles`' order), ``origin_mm`` the page point (mm) of the drawing's bottom-left corner (the
+    sheet's (-SHEET_MARGIN_MM, -SHEET_MARGIN_MM)), ``height_mm`` the drawing's height (the sheet's plus
+    its margins), where the top row starts. The canvas's state is kept."""
+    rows, cols, cw, ch, printed = grid
+    ox, oy = origin_mm
+    c.saveState()
+    c.setLineWidth(0.6)
+    for r in range(rows):
+        for col in range(cols):
+            x0 = col * (cw - OVERLAP_MM)
+            y1 = height_mm - r * (ch - OVERLAP_MM)
+            shade = 0.0 if printed[r * cols + col] else 0.75
+            c.setStrokeColorRGB(0.85, 0.2 + shade * 0.6, 0.2 + shade * 0.6)
+            c.setFillColorRGB(0.85, 0.2 + shade * 0.6, 0.2 + shade * 0.6)
+            c.rect((ox + scale * x0) * MM, (oy + scale * (y1 - ch)) * MM, scale * cw * MM,
+                   scale * ch * MM, stroke=1, fill=0)
+            c.setFont("Helvetica-Bold", max(6, min(16, 0.25 * scale * cw * MM)))
+            c.drawCentredString((ox + scale * (x0 + cw / 2)) * MM, (oy + scale * (y1 - ch / 2)) * MM,
+                                _tile_name(r, col))
+    c.restoreState()
+
+
+def draw_tiles(c, sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern", size=None, edges=(),
+               labels: bool = True) -> int:
+    """The sheet's printed tiles at 1:1 on canvas ``c``, a page each (each ended by ``showPage``; the page
+    size set to the paper's, portrait): the tile's window of the drawing clipped to the printable area,
+    the trim lines where a neighbour overlaps, registration marks, the neighbours' names, a test square
+    clear of the drawing, the tile's name and a footer naming ``title``. ``size``: the drawing's (width,
+    height) mm from (0, 0) (default the sheet's; :func:`tiles`); ``edges``: polylines ((k, 2) sheet mm)
+    drawn grey under the pieces on every tile and kept clear by the test square (a marker's roll);
+    ``labels``: the pieces' full labels, else their names (:func:`draw_sheet`). Returns the pages drawn."""
+    from shapely.geometry import LineString
+    from shapely.ops import unary_union
+
+    pw, ph = paper_size(paper)
+    size = sheet.size if size is None else size
+    rows, cols, cw, ch = tile_grid(size, paper)
+    H = size[1] + 2 * SHEET_MARGIN_MM
+    grid = tiles(sheet, paper, size)
+    n_printed = sum(show for _, _, show in grid)
+    edges = [np.asarray(e, dtype=float) for e in edges]
+    marks = sheet_marks(sheet)
+    if edges:
+        marks = unary_union([marks] + [LineString(e).buffer(0.5) for e in edges if len(e) >= 2])
+    shown = {(r, col) for r, col, show in grid if show}
+    # each piece's reach: its outer line's box and its label's (a label that found no room inside may stick
+    # out), grown by the widest line drawn; its other marks lie inside it
+    boxes = [np.vstack([p.bounds(), label_box(p.label_at, p.label, p.label_height)]) for p in sheet.pieces]
+    reach = np.array([np.r_[b.min(axis=0), b.max(axis=0)] for b in boxes]) + np.array([-1.0, -1.0, 1.0, 1.0])
+    page = 0
+    for r, col, show in grid:
+        if not show:
+            continue
+        page += 1
+        c.setPageSize((pw * MM, ph * MM))
+        x0 = col * (cw - OVERLAP_MM)  # the tile's window on the drawing, mm
+        y1 = H - r * (ch - OVERLAP_MM)
+        wx, wy = x0 - SHEET_MARGIN_MM, y1 - ch - SHEET_MARGIN_MM  # its bottom-left corner on the sheet
+        # only the pieces that reach into the window are drawn on it (a long marker has hundreds)
+        here = (reach[:, 0] <= wx + cw) & (reach[:, 2] >= wx) & (reach[:, 1] <= wy + ch) & (reach[:, 3] >= wy)
+        c.saveState()
+        clip = c.beginPath()
+        clip.rect(PAGE_MARGIN_MM * MM, PAGE_MARGIN_MM * MM, cw * MM, ch * MM)
+        c.clipPath(clip, stroke=0, fill=0)
+        c.translate(PAGE_MARGIN_MM * MM, PAGE_MARGIN_MM * MM)
+        c.scale(MM, MM)  # from here on 1 unit = 1 mm: true size
+        c.translate(SHEET_MARGIN_MM - x0, SHEET_MARGIN_MM - (y1 - ch))
+        if edges:
+            c.setStrokeColorRGB(0.45, 0.45, 0.45)
+            c.setLineWidth(0.5)
+            for e in edges:
+                _polyline(c, e, False)
+        if here.any():
+            draw_sheet(c, replace(sheet, pieces=tuple(p for p, h in zip(sheet.pieces, here) if h)), unit_width=1.0,
+                       labels=labels, fill=True)
+        c.restoreState()
+        _tile_marks(c, r, col, rows, cols, cw, ch, shown)
+        draw_test_square(c, *_tile_square(marks, r, col, rows, cols, cw, ch, x0, y1))
+        name = _tile_name(r, col)
+        c.setFont("Helvetica-Bold", 11)
+        c.setFillColorRGB(0, 0, 0)
+        c.drawString(PAGE_MARGIN_MM * MM, (ph - PAGE_MARGIN_MM + 3) * MM,
+                     f"{name}   row {_tile_name(r, 0)[:-1]}, column {col + 1}   "
+                     f"(tile {page} of {n_printed})")
+        _footer(c, pw, f"{title}; 1:1; overlap {OVERLAP_MM:g} mm")
+        c.showPage()
+    return page
 
 
 def pdf_bytes(sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern") -> bytes:
@@ -455,33 +551,7 @@ def pdf_bytes(sheet: Sheet, paper: str = "a4", title: str = "flatweave pattern")
     _test_square_corner(c, pw, ph)
     c.showPage()
 
-    marks = sheet_marks(sheet)
-    shown = {(r, col) for r, col, show in grid if show}
-    page = 0
-    for r, col, show in grid:
-        if show:
-            page += 1
-            x0 = col * (cw - OVERLAP_MM)  # the tile's window on the sheet, mm
-            y1 = H - r * (ch - OVERLAP_MM)
-            c.saveState()
-            p = c.beginPath()
-            p.rect(PAGE_MARGIN_MM * MM, PAGE_MARGIN_MM * MM, cw * MM, ch * MM)
-            c.clipPath(p, stroke=0, fill=0)
-            c.translate(PAGE_MARGIN_MM * MM, PAGE_MARGIN_MM * MM)
-            c.scale(MM, MM)  # from here on 1 unit = 1 mm: true size
-            c.translate(SHEET_MARGIN_MM - x0, SHEET_MARGIN_MM - (y1 - ch))
-            draw_sheet(c, sheet, unit_width=1.0, fill=True)
-            c.restoreState()
-            _tile_marks(c, r, col, rows, cols, cw, ch, shown)
-            draw_test_square(c, *_tile_square(marks, r, col, rows, cols, cw, ch, x0, y1))
-            name = _tile_name(r, col)
-            c.setFont("Helvetica-Bold", 11)
-            c.setFillColorRGB(0, 0, 0)
-            c.drawString(PAGE_MARGIN_MM * MM, (ph - PAGE_MARGIN_MM + 3) * MM,
-                         f"{name}   row {_tile_name(r, 0)[:-1]}, column {col + 1}   "
-                         f"(tile {page} of {n_printed})")
-            _footer(c, pw, f"{title}; 1:1; overlap {OVERLAP_MM:g} mm")
-            c.showPage()
+    draw_tiles(c, sheet, paper, title)
     c.save()
     return buf.getvalue()
 

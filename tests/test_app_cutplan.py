@@ -1,0 +1,185 @@
+"""The window's Cut plan (issue 43, item 5; flatweave.app.cutplanview): Solve > Nest pieces on the roll
+shows the panel and nests the document's solved pieces in a thread, a marker per material, drawn as it
+improves; every copy is placed, the numbers shown are the marker's and the outlines painted lie on the
+roll; Stop keeps the best marker so far; a roll narrower than a piece, or no piece solved, is one line and
+no marker; the marker goes stale when the pieces change, and never edits the document; closing the window
+while nesting stops it."""
+
+from __future__ import annotations
+
+import multiprocessing
+
+import numpy as np
+import pytest
+
+from flatweave.app.cutplanview import STALE, STOPPED
+from flatweave.document import pieces as P
+from flatweave.document.project import new_project
+from flatweave.document.solving import solve_pieces
+from flatweave.method.lattice import MATERIALS
+from flatweave.method.settings import FlattenSettings
+from flatweave.reading.examples import load_example
+from flatweave.studies.nesting import marker_problems
+
+pytestmark = pytest.mark.slow
+
+NEST_TIMEOUT_MS = 180000  # a shared, slow machine: the engine's child process starts in seconds at worst
+ROLL_MM = 2500.0
+
+
+@pytest.fixture(scope="module")
+def kit():
+    """Three solved pieces (tests.test_nesting's kit, in memory): two woven octant plies of 2 copies each,
+    an isotropic half-cylinder panel; units m, so each piece is about 1.6 m across."""
+    p = new_project(load_example("octant"), "kit", "octant", spacing=0.1)
+    p = P.rename(p, 0, "cap")
+    p = P.set_quantity(p, 0, 2)
+    p = P.duplicate(p, 0, "cap +45", angle_deg=45.0)
+    p = P.add(p, "side", FlattenSettings(spacing=0.1, material=MATERIALS["isotropic"]),
+              surface=load_example("half_cylinder"), source="half_cylinder")
+    p, outcomes = solve_pieces(p, workers=1)
+    assert all(o.result is not None for o in outcomes)
+    return p
+
+
+def copies_by_material(project) -> dict[str, int]:
+    out: dict[str, int] = {}
+    for piece in project.pieces:
+        out[piece.settings.material.name] = out.get(piece.settings.material.name, 0) + piece.quantity
+    return out
+
+
+def cut_plan(make_window, project, seconds: int = 1):
+    """A window on ``project``, its Cut plan set to the 2500 mm roll, ``seconds`` per material, one engine thread."""
+    win = make_window(project)
+    panel = win.cut_plan
+    panel.workers = 1  # a shared machine: one engine thread
+    panel.set_roll_width(ROLL_MM)
+    panel.time_limit.setValue(seconds)
+    return win, panel
+
+
+def test_nest_places_every_copy_on_the_roll_and_shows_the_markers_numbers(make_window, qtbot, kit):
+    win, panel = cut_plan(make_window, kit)
+    assert not win.cut_plan_dock.isVisible()
+    assert win.actions["nest"].isEnabled()  # pieces are solved
+    revision = win.document.revision
+    progress, failed = [], []
+    panel.progress.connect(lambda material, marker: progress.append((material, marker)))
+    panel.failed.connect(failed.append)
+    with qtbot.waitSignal(panel.finished, timeout=NEST_TIMEOUT_MS) as ended:
+        win.actions["nest"].trigger()  # Solve > Nest pieces on the roll
+        assert win.cut_plan_dock.isVisible() and panel.busy
+        assert not panel.nest_button.isEnabled() and panel.stop_button.isEnabled()
+        assert not win.nest_pieces()  # one Nest at a time
+    assert not failed and not panel.busy and panel.nest_button.isEnabled() and not panel.stop_button.isEnabled()
+    assert progress, "no marker was drawn while the engine ran"  # live: each better marker was handed over
+    assert win.document.revision == revision and not win.document.can_undo  # a view: the document untouched
+
+    want = copies_by_material(kit)
+    assert sorted(panel.markers) == sorted(want) == ["isotropic", "woven"]
+    assert ended.args[0] == panel.last_summary and ended.args[0].startswith("Cut plan: ")
+    assert win.statusBar().currentMessage() == panel.last_summary
+    for material, marker in panel.markers.items():
+        panel.choose_material(material)
+        assert panel.view.marker is marker and panel.roll_width.value() == ROLL_MM
+        assert marker_problems(marker) == [] and not marker.stopped
+        assert len(marker.placements) == want[material] == sum(it.quantity for it in marker.items)
+        assert marker.roll_width == ROLL_MM
+        assert panel.number("length").startswith(f"{marker.length / 1000:.3f} m")
+        assert panel.number("utilisation") == f"{100 * marker.utilisation:.2f} %"
+        assert panel.number("waste") == f"{marker.waste / 1e6:.3f} m\u00b2"
+        assert panel.number("placed").startswith(f"{want[material]} of {want[material]} copies")
+        assert panel.number("time").startswith(f"{marker.seconds:.1f} s")
+        assert f"{marker.length / 1000:.3f} m" in panel.last_summary
+        # what the widget paints: every copy, inside the roll's rectangle, the marker's outlines scaled
+        painted = panel.view.painted()
+        assert [name for name, _ in painted] == [marker.items[p.item].name for p in marker.placements]
+        roll = panel.view.roll_rect()
+        assert roll is not None and roll.width() > 50 and roll.height() > 50
+        assert roll.width() / roll.height() == pytest.approx(marker.length / marker.roll_width, rel=1e-9)
+        scale = roll.height() / marker.roll_width
+        for (_, pixels), outline in zip(painted, marker.outlines()):
+            assert pixels[:, 0].min() >= roll.left() - 0.5 and pixels[:, 0].max() <= roll.right() + 0.5
+            assert pixels[:, 1].min() >= roll.top() - 0.5 and pixels[:, 1].max() <= roll.bottom() + 0.5
+            # the roll's y runs up the screen: a piece is drawn face up, as the marker's files have it
+            np.testing.assert_allclose(pixels[:, 0], roll.left() + outline[:, 0] * scale, atol=1e-9)
+            np.testing.assert_allclose(pixels[:, 1], roll.bottom() - outline[:, 1] * scale, atol=1e-9)
+    assert panel.left_out == [] and not panel.left_label.isVisible()
+    assert panel.state.text() == "Nested 2 materials" and not panel.stale
+
+    # the pieces change: the marker stays, said stale; an undo brings the same pieces back
+    win.pieces_panel.rename(0, "lid")
+    assert panel.stale and panel.state.text().startswith(STALE[0].upper() + STALE[1:])
+    assert panel.view.stale and panel.view.marker is not None
+    win.undo()
+    assert not panel.stale and panel.state.text() == "Nested 2 materials"
+    win.pieces_panel.list.setCurrentRow(2)  # another piece active: the same pieces
+    assert not panel.stale
+    win.set_project(kit)  # another document: nothing of the last one's shown
+    assert panel.markers == {} and panel.view.marker is None and panel.number("length") == "-"
+
+
+def test_stop_keeps_the_best_marker_so_far(make_window, qtbot, kit):
+    win, panel = cut_plan(make_window, kit, seconds=60)
+    ended = []
+    panel.failed.connect(ended.append)
+    with qtbot.waitSignal(panel.progress, timeout=NEST_TIMEOUT_MS) as first:
+        panel.nest_button.click()
+    material = first.args[0]
+    assert material == "woven"  # the first in laying order; the one shown, live
+    assert panel.shown_material() == "woven" and panel.view.marker is not None
+    with qtbot.waitSignal(panel.finished, timeout=30000) as done:  # at once, not the minute asked
+        panel.stop_button.click()
+        assert not panel.stop_button.isEnabled()
+    assert not ended and STOPPED in done.args[0]
+    marker = panel.markers["woven"]
+    assert marker.stopped and marker_problems(marker) == []
+    assert len(marker.placements) == copies_by_material(kit)["woven"]
+    assert panel.view.marker is marker
+    assert STOPPED in panel.state.text().casefold() and STOPPED in panel.number("time")
+    assert "isotropic" not in panel.markers  # not reached: not nested
+    panel.choose_material("isotropic")
+    assert panel.view.marker is None and panel.view.message == "isotropic: not nested (stopped)"
+    assert panel.number("length") == "-"
+
+
+def test_a_piece_wider_than_the_roll_is_spliced_and_a_roll_narrower_than_a_splice_refused(make_window, qtbot, kit):
+    win, panel = cut_plan(make_window, P.add(kit, "extra"))  # an unsolved piece too: left out
+    panel.set_roll_width(1000.0)  # the octant's plies are about 1.5 m across: two parts each
+    with qtbot.waitSignal(panel.finished, timeout=NEST_TIMEOUT_MS) as done:
+        panel.nest_button.click()
+    assert "spliced (wider than the roll)" in done.args[0]
+    marker = panel.markers["woven"]
+    assert marker_problems(marker) == [] and marker.roll_width == 1000.0
+    assert all(" part " in it.name for it in marker.items)
+    assert [len(r.parts) for r in panel.spliced["woven"]] == [2, 2]
+    assert "Spliced, wider than the roll" in panel.left_label.text() and "extra" in panel.left_label.text()
+
+    panel.set_roll_width(20.0)  # not wider than the 25 mm overlap: no part would fit
+    with qtbot.waitSignal(panel.failed, timeout=NEST_TIMEOUT_MS) as failed:
+        panel.nest_button.click()
+    message = failed.args[0]
+    assert "not wider than the splice overlap" in message and "\n" not in message
+    assert panel.markers == {} and panel.view.marker is None and panel.view.painted() == []
+    assert all(panel.number(key) == "-" for key in panel.numbers)
+    assert panel.state.text() == message and "splice overlap" in panel.view.message
+    assert panel.left_out == ["extra"] and "extra" in panel.left_label.text()
+    assert "splice overlap" in win.statusBar().currentMessage()
+
+    bare = make_window(example="octant")  # nothing solved: the menu's Nest is off, the panel's says why
+    assert not bare.actions["nest"].isEnabled()
+    with qtbot.waitSignal(bare.cut_plan.failed, timeout=NEST_TIMEOUT_MS) as failed:
+        assert bare.cut_plan.nest()
+    assert failed.args[0].startswith("no piece is solved") and bare.cut_plan.left_out == ["octant"]
+
+
+def test_closing_the_window_while_nesting_stops_it(make_window, qtbot, kit):
+    win, panel = cut_plan(make_window, kit, seconds=60)
+    with qtbot.waitSignal(panel.progress, timeout=NEST_TIMEOUT_MS):
+        assert win.nest_pieces()
+    thread = panel.thread
+    assert thread is not None and thread.is_alive()
+    win.close()  # stops the Nest and waits for it
+    assert not panel.busy and not thread.is_alive()
+    assert not [p for p in multiprocessing.active_children() if p.name == "flatweave-nest"]
