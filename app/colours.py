@@ -1,5 +1,6 @@
 """Colour scales of the strain and shear displays, as plain numpy (no Qt, no VTK), and the
-colours of the seams drawn over them and their notches (:data:`SEAM`, :data:`NOTCH`).
+colours of the seams drawn over them and their notches (:data:`SEAM`, :data:`NOTCH`), and of a cut plan's
+splices (:data:`SPLICE`).
 
 A scale is a list of stops ``(value, (r, g, b))`` with values increasing and
 colours in [0, 1]; between stops the colour is interpolated linearly in RGB,
@@ -16,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["RED", "GREEN", "BLUE", "YELLOW", "PURPLE", "SEAM", "NOTCH", "strain_range", "strain_stops", "shear_stops",
-           "ramp", "SHEAR_SCALE_TOP", "STRAIN_NOISE_PCT"]
+__all__ = ["RED", "GREEN", "BLUE", "YELLOW", "PURPLE", "SEAM", "NOTCH", "SPLICE", "strain_range", "strain_stops",
+           "shear_stops", "ramp", "SHEAR_SCALE_TOP", "STRAIN_NOISE_PCT"]
 
 RED = (1.0, 0.0, 0.0)
 GREEN = (0.0, 1.0, 0.0)
@@ -30,6 +31,10 @@ darts' near black, the scales' red, green, blue and purple, the surface's sand a
 NOTCH = (0.1, 0.1, 0.1)
 """A notch on a seam: a dark bead on the seam's magenta, which shows on the sand, on the background and
 among the scales' colours (a white one was lost on the light background round a panel)."""
+SPLICE = (0.0, 0.78, 0.86)
+"""A splice of the Cut plan's markers on the surface (issue 43): a cyan apart from the seams' magenta (a splice
+is a cut the roll asks for, not a seam of the design), the darts' near black, the scales' pure green and blue,
+the weft and warp arrows' red and blue and the surface's sand."""
 
 SHEAR_SCALE_TOP = 1.5
 """The shear scale runs from 0 to this many times the limit angle (purple above the limit)."""

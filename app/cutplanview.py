@@ -20,7 +20,16 @@ solved before their last change) are said as left out.
 The panel never changes the document: a marker is a view of the pieces it was nested from, and
 once those change (a piece solved again, edited, added, deleted, a seam's allowance, the units)
 it says so ("pieces changed since: Nest again") and draws the marker faded; another document
-drops it. :meth:`CutPlanPanel.shutdown` (the window's close) stops a nest and waits for its
+drops it.
+
+Splices (a piece wider than the roll, :func:`flatweave.document.cutplan.splice_items`): the shown material's
+spliced pieces are listed in a small table (piece, width across, the splices' positions in mm from the piece's
+edge, chosen or placed by hand); a position typed there ("700", or "700, 1400") is checked against that piece
+at once (a refused one is ``input_error(message)``, one line, and nothing else changes) and re-nests with it;
+a cleared cell or Reset goes back to the chosen splices. Splices placed by hand last for the session (not
+saved in the project). :meth:`CutPlanPanel.piece_splices` gives the document's active piece's splices in the
+markers shown (none when stale), which the window draws on the surface; ``splices_changed`` says when
+they may have changed. :meth:`CutPlanPanel.shutdown` (the window's close) stops a nest and waits for its
 thread. No VTK here."""
 
 from __future__ import annotations
@@ -33,20 +42,21 @@ import traceback
 import numpy as np
 from PySide6.QtCore import QPointF, QRectF, QSignalBlocker, QSize, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QFont, QFontMetricsF, QPainter, QPen, QPolygonF
-from PySide6.QtWidgets import (QComboBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QLabel, QPushButton, QSizePolicy,
-                               QSpinBox, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QHeaderView,
+                               QLabel, QPushButton, QSizePolicy, QSpinBox, QTableWidget, QTableWidgetItem, QVBoxLayout,
+                               QWidget)
 from shapely.geometry import Polygon
 from shapely.ops import polylabel
 
 from flatweave.app.worker import one_line
-from flatweave.document.cutplan import by_material, project_items, splice_items
+from flatweave.document.cutplan import PlanItem, SpliceReport, by_material, project_items, splice_items
 from flatweave.document.project import Project
 from flatweave.document.sewing import MAX_ALLOWANCE_MM
 from flatweave.errors import FlatweaveError, SettingsError
 from flatweave.studies.nesting import DEFAULT_SECONDS, Marker, nest
 
-__all__ = ["CutPlanPanel", "MarkerView", "piece_colour", "same_pieces", "DEFAULT_ROLL_MM", "STOPPED", "STALE",
-           "NUMBERS"]
+__all__ = ["CutPlanPanel", "MarkerView", "piece_colour", "same_pieces", "read_splices", "DEFAULT_ROLL_MM", "STOPPED",
+           "STALE", "NUMBERS", "SPLICE_COLUMNS"]
 
 DEFAULT_ROLL_MM = 1500.0  # a material the table gives no roll width
 STOPPED = "stopped: the best so far"
@@ -57,6 +67,12 @@ NUMBERS = (("length", "Length"), ("utilisation", "Utilisation"), ("waste", "Wast
 PALETTE = ("#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#edc948", "#b07aa1", "#ff9da7", "#9c755f",
            "#bab0ac")
 ROLL_FILL, ROLL_EDGE, END_COLOUR, STALE_COLOUR = "#fbfaf5", "#505050", "#b00020", "#b86e00"
+SPLICE_COLUMNS = (("Piece", "The piece spliced (its pattern's piece number when it has several)"),
+                  ("Across", "The piece's width across the roll"),
+                  ("Splices", "The splices' positions across the piece, mm from its edge: double-click to type "
+                              "them (700, or 700, 1400), cleared to go back to the ones chosen"),
+                  ("By", "chosen (through the least shear) or placed by hand"))
+SPLICES = 2  # the editable column
 
 
 def piece_colour(k: int) -> QColor:
@@ -92,6 +108,23 @@ def _step_above(mm: float) -> float:
 
 def _length_m(mm: float) -> str:
     return f"{mm / 1000.0:.3f} m"
+
+
+def _mm(value: float) -> str:
+    return f"{round(float(value), 1):g}"
+
+
+def read_splices(text: str) -> list[float]:
+    """Splice positions typed in the table ("700", "700, 1400"; commas, semicolons or spaces apart), mm;
+    [] for an empty text (the chosen splices). ValueError (one line) for anything else."""
+    words = text.replace(",", " ").replace(";", " ").split()
+    try:
+        out = [float(w.removesuffix("mm")) for w in words]
+    except ValueError:
+        raise ValueError(f"{text.strip()!r} is not a list of positions in mm (as 700, or 700, 1400)") from None
+    if not all(math.isfinite(v) for v in out):
+        raise ValueError(f"{text.strip()!r}: a position must be a finite number of mm")
+    return out
 
 
 class MarkerView(QWidget):
@@ -285,11 +318,14 @@ class MarkerView(QWidget):
 class CutPlanPanel(QWidget):
     """The Cut plan panel (see the module docstring). Signals: ``progress(material, marker)`` after
     each better marker is shown; each Nest ends with exactly one of ``finished(summary)`` and
-    ``failed(message)``, one line each."""
+    ``failed(message)``, one line each; ``input_error(message)`` a splice position refused (one line);
+    ``splices_changed()`` when :meth:`piece_splices` may say otherwise (a Nest begun or ended, a document change)."""
 
     progress = Signal(str, object)
     finished = Signal(str)
     failed = Signal(str)
+    input_error = Signal(str)
+    splices_changed = Signal()
     # from the nesting thread to this one; the first argument is the Nest's number (a dropped one's is ignored)
     _planned = Signal(int, object)  # the pieces left out (names)
     _began = Signal(int, str)
@@ -305,6 +341,10 @@ class CutPlanPanel(QWidget):
         self.errors: dict[str, str] = {}  # a material's one-line failure (it has no marker)
         self.left_out: list[str] = []
         self.spliced: dict = {}  # per material, the pieces spliced (flatweave.document.cutplan.SpliceReport s)
+        # the splices placed by hand, mm from each piece's edge by item name: every Nest's, for the session
+        self.placed: dict[str, list[float]] = {}
+        self._items: dict[str, PlanItem] = {}  # the last Nest's items before splicing, by name (to check a position)
+        self._rows: list[SpliceReport] = []  # the splice table's rows
         self.workers: int | None = None  # the engine's threads (None: every core)
         self.last_summary: str | None = None  # how the last Nest ended, one line
         self._widths: dict[str, float] = {}  # roll widths typed, by material (the others: the table's)
@@ -383,10 +423,47 @@ class CutPlanPanel(QWidget):
         self.left_label.setWordWrap(True)
         self.left_label.setStyleSheet(f"color: {STALE_COLOUR}")
         col.addWidget(self.left_label)
+        self.splices = QTableWidget(0, len(SPLICE_COLUMNS))
+        for c, (header, tip) in enumerate(SPLICE_COLUMNS):
+            item = QTableWidgetItem(header)
+            item.setToolTip(tip)
+            self.splices.setHorizontalHeaderItem(c, item)
+        self.splices.setEditTriggers(QAbstractItemView.EditTrigger.DoubleClicked
+                                     | QAbstractItemView.EditTrigger.EditKeyPressed)
+        self.splices.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
+        self.splices.verticalHeader().setVisible(False)
+        self.splices.setWordWrap(False)
+        self.splices.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        self.splices.horizontalHeader().setStretchLastSection(True)
+        self.splices.setMaximumHeight(110)  # three rows: the roll above keeps the dock's height
+        self.splices.setToolTip("The shown material's pieces spliced to fit the roll: double-click a piece's "
+                                "Splices to type their positions across it, mm from its edge (700, or 700, 1400 "
+                                "for three parts), and the pieces are nested again; cleared, or Reset, the "
+                                "splices chosen through the least shear. Splices placed by hand last for this "
+                                "session: they are not saved in the project")
+        self.splices.itemChanged.connect(self._splice_typed)
+        self.reset_splices_button = QPushButton("Reset splices")
+        self.reset_splices_button.setToolTip("Forget the splices placed by hand on the shown material's pieces "
+                                             "and nest again with the ones chosen")
+        self.reset_splices_button.clicked.connect(lambda: self.reset_splices())
+        self.splice_error = QLabel()  # the last splice position refused, one line
+        self.splice_error.setWordWrap(True)
+        self.splice_error.setStyleSheet(f"color: {END_COLOUR}")
         col.addStretch(1)
         row.addWidget(side)
+        # the splices under the roll, which is long and thin and leaves the height: the side column is full
+        right = QVBoxLayout()
         self.view = MarkerView(self)
-        row.addWidget(self.view, 1)
+        right.addWidget(self.view, 1)
+        under = QHBoxLayout()
+        under.addWidget(self.splices, 1)
+        buttons = QVBoxLayout()
+        buttons.addWidget(self.reset_splices_button, 0, Qt.AlignmentFlag.AlignLeft)
+        buttons.addWidget(self.splice_error)
+        buttons.addStretch(1)
+        under.addLayout(buttons, 1)
+        right.addLayout(under)
+        row.addLayout(right, 1)
 
         self._planned.connect(self._on_planned)
         self._began.connect(self._on_began)
@@ -419,9 +496,11 @@ class CutPlanPanel(QWidget):
             self._stop.set()
             self._run += 1  # what the Nest under way still reports is dropped
             self.source, self.markers, self.errors, self.left_out, self._widths = None, {}, {}, [], {}
-            self.spliced = {}
+            self.spliced, self.placed, self._items = {}, {}, {}
             self._now, self._stopped, self._failed = None, False, None
+            self.splice_error.clear()
         self._show()
+        self.splices_changed.emit()  # stale now, or another piece active
 
     def materials(self) -> list[str]:
         """The material box's entries: the pieces' materials in order, then any other with a marker."""
@@ -475,16 +554,19 @@ class CutPlanPanel(QWidget):
         widths = {name: self.width_of(name) for name in self.materials()}
         gap, seconds, allowance = float(self.gap.value()), float(self.time_limit.value()), float(self.allowance.value())
         overlap = float(self.overlap.value())
+        placed = {name: list(mm) for name, mm in self.placed.items()}
         self._stop.clear()
         self._run += 1
         run, stop, workers = self._run, self._stop, self.workers
         self.source, self.markers, self.errors, self.left_out = source, {}, {}, []
-        self.spliced = {}  # per material, the pieces spliced (flatweave.document.cutplan.SpliceReport s)
+        self.spliced, self._items = {}, {}
         self._now, self._stopped, self._failed = None, False, None
+        self.splice_error.clear()
 
         def work():
             try:
                 items, left = project_items(source, source.name, allowance)
+                self._items = {it.item.name: it for it in items}
                 groups = by_material(items)
                 self._planned.emit(run, left)
                 if not items:
@@ -496,7 +578,10 @@ class CutPlanPanel(QWidget):
                     width = widths.get(material, DEFAULT_ROLL_MM)
                     try:
                         # a piece wider than the roll: spliced into the fewest parts that fit, as nest does
-                        group, spliced = splice_items(group, width, overlap)
+                        # the hand-placed splices of this material's pieces (a piece renamed or gone is not)
+                        names = {g.item.name for g in group}
+                        group, spliced = splice_items(group, width, overlap,
+                                                      {n: mm for n, mm in placed.items() if n in names})
                         self.spliced[material] = spliced
                         marker = nest([g.item for g in group], width, gap, seconds,
                                       workers=workers, stop=stop,
@@ -516,6 +601,7 @@ class CutPlanPanel(QWidget):
         self._thread = threading.Thread(target=work, name="flatweave-nest", daemon=True)
         self._thread.start()
         self._show()
+        self.splices_changed.emit()  # the last markers' are gone
         return True
 
     def stop(self) -> None:
@@ -570,12 +656,14 @@ class CutPlanPanel(QWidget):
         self._now = None
         if run != self._run:  # dropped (another document, the window closing): said, nothing shown
             self._show()
+            self.splices_changed.emit()
             self.finished.emit("Nest dropped: its document is no longer shown")
             return
         if outcome is None and self.errors:  # the materials nested keep their markers
             outcome = "; ".join(f"{m}: {e}" for m, e in self.errors.items())
         self._failed = outcome
         self._show()
+        self.splices_changed.emit()
         if outcome is not None:
             self.last_summary = " ".join(outcome.split())
             self.failed.emit(self.last_summary)
@@ -591,6 +679,101 @@ class CutPlanPanel(QWidget):
             summary += f"; spliced (wider than the roll): {', '.join(f'{r.name} in {len(r.parts)}' for r in spliced)}"
         self.last_summary = " ".join(summary.split())
         self.finished.emit(self.last_summary)
+
+    # ------------------------------------------------------------------ splices
+    def piece_splices(self) -> list[SpliceReport]:
+        """The splices of the document's active piece in the markers shown (a report per pattern piece
+        spliced, any material): none while nesting, with no marker, or when the markers are stale."""
+        if self.project is None or self.source is None or self.busy or self.stale:
+            return []
+        tail = f"#{self.project.piece_name}"
+        return [r for material, reports in self.spliced.items() if material in self.markers
+                for r in reports if r.source.endswith(tail)]
+
+    def splice_rows(self) -> list[tuple[str, ...]]:
+        """The splice table's cells' texts, row by row."""
+        return [tuple(self.splices.item(r, c).text() for c in range(self.splices.columnCount()))
+                for r in range(self.splices.rowCount())]
+
+    def place_splices(self, name: str, text: str) -> bool:
+        """Splice the piece ``name`` (an item's name, as the table's rows) at the positions ``text``
+        (:func:`read_splices`; empty: the chosen ones) and nest again. A position its piece cannot take
+        (checked now, on the roll width and overlap the Nest will use) is ``input_error``, one line, and
+        nothing else changes; so is a Nest under way. True when a Nest started."""
+        item = self._items.get(name)
+        try:
+            if self.busy:
+                raise SettingsError("wait for the Nest under way to end (or Stop it)")
+            if item is None:
+                raise SettingsError("no piece to nest is named so (Nest again)")
+            mm = read_splices(text)
+            if not mm and name not in self.placed:  # cleared, and the chosen ones are shown: nothing to do
+                self._show_splices(force=True)
+                return False
+            if mm:
+                splice_items([item], self.width_of(item.material), float(self.overlap.value()), {name: mm})
+        except (FlatweaveError, ValueError) as exc:
+            message = f"Splices of {name}: {one_line(exc)}"
+            self.splice_error.setText(message)
+            self._show_splices(force=True)  # the cell as it was
+            self.input_error.emit(message)
+            return False
+        if mm:
+            self.placed[name] = mm
+        else:
+            self.placed.pop(name, None)
+        return self.nest()
+
+    def reset_splices(self, material: str | None = None) -> bool:
+        """Forget the splices placed by hand on ``material``'s pieces (None: the shown material's) and
+        nest again; True when a Nest started (False: none was placed, or a Nest is on)."""
+        material = self.shown_material() if material is None else material
+        names = [n for n, it in self._items.items() if it.material == material and n in self.placed]
+        if not names or self.busy:
+            return False
+        for n in names:
+            del self.placed[n]
+        return self.nest()
+
+    def _splice_typed(self, item: QTableWidgetItem) -> None:
+        r = item.row()
+        if item.column() != SPLICES or not 0 <= r < len(self._rows):
+            return
+        report = self._rows[r]
+        if item.text().strip() == self._positions_text(report):
+            return  # not changed (an editor opened and closed)
+        self.place_splices(report.name, item.text())
+
+    @staticmethod
+    def _positions_text(report: SpliceReport) -> str:
+        return ", ".join(_mm(y - report.start) for y in report.positions)
+
+    def _show_splices(self, force: bool = False) -> None:
+        """The splice table: the shown material's spliced pieces (refilled when they change, or ``force``)."""
+        name = self.shown_material()
+        rows = list(self.spliced.get(name, [])) if name is not None else []
+        placed = any(it.material == name and n in self.placed for n, it in self._items.items())
+        self.reset_splices_button.setEnabled(placed and not self.busy)
+        self.splices.setEnabled(not self.busy)
+        self.splices.setVisible(bool(rows))
+        self.reset_splices_button.setVisible(bool(rows) or placed)
+        if rows == self._rows and not force:
+            return  # an editor open in it stays open
+        self._rows = rows
+        fixed = Qt.ItemFlag.ItemIsSelectable | Qt.ItemFlag.ItemIsEnabled
+        with QSignalBlocker(self.splices):
+            self.splices.clearContents()
+            self.splices.setRowCount(len(rows))
+            for r, report in enumerate(rows):
+                cells = (report.name, f"{_mm(report.width)} mm", self._positions_text(report),
+                         "by hand" if report.asked else "chosen")
+                for c, text in enumerate(cells):
+                    cell = QTableWidgetItem(text)
+                    cell.setFlags(fixed | Qt.ItemFlag.ItemIsEditable if c == SPLICES else fixed)
+                    cell.setToolTip(SPLICE_COLUMNS[c][1])
+                    if c in (1, SPLICES):
+                        cell.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+                    self.splices.setItem(r, c, cell)
 
     # ------------------------------------------------------------------ shown
     def _show(self) -> None:
@@ -625,6 +808,8 @@ class CutPlanPanel(QWidget):
                   if spliced else [])
         self.left_label.setText("\n".join(lines))
         self.left_label.setVisible(bool(lines))
+        self._show_splices()
+        self.splice_error.setVisible(bool(self.splice_error.text()))
 
     def _message(self, name: str | None) -> str:
         """What the view says with no marker of ``name`` to draw."""

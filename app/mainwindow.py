@@ -11,7 +11,8 @@ docs/ARCHITECTURE.md); each part holds one concern:
 * :mod:`flatweave.app.files`: open, save, autosave and recovery;
 * :mod:`flatweave.app.exporting`: File > Export;
 * :mod:`flatweave.app.cutplanview`: the Cut plan dock (Solve > Nest pieces on the roll), a view of the
-  solved pieces nested on the roll that never edits the document;
+  solved pieces nested on the roll that never edits the document (the active piece's splices drawn on the
+  surface by the presenter);
 * :mod:`flatweave.app.runcontrol`: Run, Pause, Stop, re-runs and a run's end;
 * :mod:`flatweave.app.tooling`: the 3D view's tools (one table) and the darts panel's edits.
 
@@ -237,6 +238,10 @@ class MainWindow(QMainWindow):
         self.solve_all.finished.connect(self._solve_all_finished)
         self.cut_plan.finished.connect(lambda summary: self.statusBar().showMessage(summary, 20000))
         self.cut_plan.failed.connect(lambda message: self.statusBar().showMessage(f"Cut plan: {message}", 20000))
+        self.cut_plan.input_error.connect(lambda message: self.statusBar().showMessage(f"Cut plan: {message}", 20000))
+        # the active piece's splices on the surface: after a Nest, another piece active, the markers stale or gone
+        self.cut_plan.splices_changed.connect(
+            lambda: self.presenter.show_splices(self.project, self.cut_plan.piece_splices()))
 
     # ------------------------------------------------------------------ actions and title
     def update_actions(self) -> None:

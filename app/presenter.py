@@ -18,6 +18,7 @@ from PySide6.QtWidgets import QToolTip
 
 from flatweave.method.energy import yarn_nodes
 from flatweave.errors import FlatweaveError
+from flatweave.document.cutplan import SpliceReport, splice_curves
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.document.project import Project
 from flatweave.document.rosettes import rosette_named
@@ -25,7 +26,7 @@ from flatweave.document.sewing import split_of
 from flatweave.method.rosette import rosette, rosette_arrows, zero_angle
 
 from flatweave.app.aspects import HISTORY, WHOLE, Aspect
-from flatweave.app.colours import NOTCH, SEAM
+from flatweave.app.colours import NOTCH, SEAM, SPLICE
 from flatweave.app.frames import FrameMaker
 from flatweave.app.overlay import LayerStyle
 from flatweave.app.plot import result_note
@@ -36,8 +37,8 @@ from flatweave.geometry.region import loops_on_surface
 from flatweave.reading.meshes import fit_mesh
 from flatweave.geometry.meshfit import vertex_deviation
 
-__all__ = ["Presenter", "surface_grid", "piece_grid", "piece_surface", "PieceSurface", "PieceCut", "history_rows",
-           "fit_summary", "GRID_POINTS"]
+__all__ = ["Presenter", "SPLICES", "surface_grid", "piece_grid", "piece_surface", "PieceSurface", "PieceCut",
+           "history_rows", "fit_summary", "GRID_POINTS"]
 
 GRID_POINTS = 60
 CURVE_CACHE = 256  # dart curves kept (a plane dart's takes a grid search)
@@ -53,6 +54,9 @@ SEAMS = LayerStyle(SEAM, width=7.0)
 the piece's outline it runs along, so both show."""
 NOTCHES = LayerStyle(NOTCH, size=15.0)
 """The notches placed on the seams (the Notch tool): a bead on the seam's line, wider than it."""
+SPLICES = LayerStyle(SPLICE, width=5.0)
+"""The active piece's splices in the Cut plan's markers (issue 43): the lines along the roll where a piece
+wider than it is cut in parts, on the surface; narrower than a seam, so a splice along a seam shows both."""
 AXES_FRACTION = 0.08  # the piece's weft arrow's length, of the surface's size (the Seed tool's is 0.12)
 """A live frame without a pattern leaves the pattern view as it is when that shows a pattern (the
 last result's, or an earlier frame's): it changes when the run has a pattern of its own. The first
@@ -386,6 +390,29 @@ class Presenter:
         notches = [q for sewing in sewings for seam in sewing.seams for q in seam.notches]
         self.view.draw("seams", SEAMS, lines, render=False)
         self.view.draw("notches", NOTCHES, (), s.points(np.array(notches, dtype=float)) if notches else None)
+
+    def show_splices(self, project: Project | None, reports) -> None:
+        """The splices ``reports`` (:class:`flatweave.document.cutplan.SpliceReport` s of the active piece, as
+        :meth:`flatweave.app.cutplanview.CutPlanPanel.piece_splices` gives them) on its surface through its
+        result (:func:`flatweave.document.cutplan.splice_curves`); none without a result on the surface."""
+        r = None if project is None else project.result
+        lines = []
+        if r is not None and r.surface is project.surface:
+            mm = 1000.0 * project.metres_per_unit
+            lines = [c for report in reports for c in self._splice_curves(r, report, mm) if len(c)]
+        if lines or len(self.view.layer_lines("splices")):  # an empty layer left empty: no render
+            self.view.draw("splices", SPLICES, lines)
+
+    def _splice_curves(self, result, report: SpliceReport, mm: float) -> list:
+        """A report's splices on the surface, kept by result (immutable) and report (a value): the layer is
+        drawn again at every document change."""
+        key = ("splices", id(result), report, mm)
+        hit = self._curve_cache.get(key)
+        if hit is None or hit[0] is not result:
+            if len(self._curve_cache) >= CURVE_CACHE:
+                self._curve_cache.clear()
+            hit = self._curve_cache[key] = (result, splice_curves(result, report, mm))
+        return hit[1]
 
     def _sew_lines(self, surface, sewing) -> list:
         """A sewing's sew lines on the surface, (k, 3) each, kept by sewing (immutable, as its split)."""

@@ -16,7 +16,9 @@
   a shelf packer of bounding boxes
   (pieces by falling length along the roll, stacked across it shelf by shelf):
   the utilisation each reaches, and the headline ``gain_pp``, nest's gain at
-  worst; the laminate's wall time is ``laminate_s``.
+  worst; the laminate's wall time is ``laminate_s``;
+- case ``splice_laminate``: the dome laminate's plies on their 1,270 mm rolls, every
+  one wider: the seconds ``splice_items`` takes to splice them (the items made first).
 """
 
 from __future__ import annotations
@@ -162,3 +164,25 @@ def examples_kit():
         p = P.add(p, name, FlattenSettings(spacing=0.05), surface=surface, source=name)
     p, _ = solve_pieces(p, workers=WORKERS)
     return p
+
+
+def measure_splices(plies: int) -> dict:
+    """The bundled dome laminate (solved) on its materials' 1,270 mm rolls: the first ``plies`` plies'
+    items made and spliced as nest splices them (every ply is wider than the roll); the seconds."""
+    from flatweave.document import pieces as P
+    from flatweave.document.cutplan import project_items, splice_items
+    from flatweave.document.project import load_project
+
+    with tempfile.TemporaryDirectory() as tmp:
+        lam = Path(tmp) / "dome-laminate.flatweave"
+        subprocess.run([sys.executable, "-m", "flatweave", "solve", "dome-laminate", "--quiet", "--out", str(lam)],
+                       check=True, capture_output=True, cwd=tmp, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        project = load_project(lam)
+    names = [p.name for p in project.pieces][plies:]
+    for name in names:
+        project = P.remove(project, name)
+    items, _ = project_items(project, "lam", 0.0)
+    t0 = time.perf_counter()
+    parts, reports = splice_items(items, 1270.0, 25.0)
+    seconds = time.perf_counter() - t0
+    return {"seconds": seconds, "spliced": float(len(reports)), "parts": float(len(parts))}

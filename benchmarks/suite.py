@@ -348,6 +348,12 @@ def nest_vs_shelf(seconds: int) -> dict:
     return measure_vs_shelf(seconds)
 
 
+def splice_laminate(plies: int) -> dict:
+    from benchmarks.nesting import measure_splices
+
+    return measure_splices(plies)
+
+
 def faces_join(faces: int) -> dict:
     from benchmarks.faces_join import measure
 
@@ -496,6 +502,9 @@ CASES: tuple[Case, ...] = (
          Target("gain_pp", ">=", {10: 15.0}, "pp"), nest_vs_shelf, (1, 10), size_unit="s of budget",
          keys=("gain_pp", "laminate_nest", "laminate_shelf", "laminate_s", "panels_nest", "panels_shelf",
                "kit_nest", "kit_shelf")),
+    Case("splice_laminate", "the dome laminate's plies on 1,270 mm rolls (every one wider): splice_items' seconds "
+         "to splice them into parts that fit", Target("seconds", "<", {24: 1.0}, "s"), splice_laminate, (2, 24),
+         size_unit="plies", keys=("seconds", "spliced", "parts")),
     Case("faces_join", "CAD faces (a STEP file) read and joined into one surface: 3 faces (plate, fillet, plate) "
          "or 9 (a rounded box's lid)", Target("seconds", "<", 10.0, "s"), faces_join, (3, 9), size_unit="faces",
          keys=("seconds", "read_s", "join_s", "max_dev_pct", "triangles")),

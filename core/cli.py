@@ -466,12 +466,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a piece wider than the roll is spliced into parts that fit, by lines along the roll; the "
                         "parts overlap by MM at each splice (default 25, a composite ply's; a sewn seam's: twice "
                         "its allowance)")
+    n.add_argument("--splice", action="append", default=[], metavar="NAME=MM[,MM...]",
+                   help="splice piece NAME at these positions, mm across it from its edge (along the roll), in "
+                        "place of the splices chosen for it; repeatable")
     n.add_argument("--seed", type=NEST_SEED, default=0, metavar="N", help="the engine's random seed (default 0)")
     n.add_argument("--export", action="append", default=[], metavar="MARKER.dxf|.svg|.pdf|.csv",
                    help="write the marker (repeatable): DXF (a block per piece, placed per copy; the roll on "
                         "layer 15), SVG (1:1, mm), PDF (the whole marker at a round scale, then at 1:1 tiled over "
                         "A4 pages with overlap and registration marks), CSV (a row per placed copy); several "
                         "markers (materials) are written as NAME-MATERIAL.EXT")
+    n.add_argument("--ply-book", default=None, metavar="BOOK.pdf",
+                   help="with one project: also write its ply book, with a page per marker after the pieces' pages")
     n.add_argument("--quiet", action="store_true", help="no progress on stderr")
     return p
 
@@ -1145,6 +1150,21 @@ def _nest_items(path: Path, copies: int, args) -> tuple[list, float | None, list
     return items, None, []
 
 
+def _splices(given: list[str]) -> dict:
+    """``--splice NAME=MM[,MM...]`` options as {name: [mm, ...]}."""
+    out = {}
+    for text in given:
+        name, sep, values = text.rpartition("=")
+        try:
+            at = [float(v) for v in values.split(",")] if sep and name else []
+        except ValueError:
+            at = []
+        if not at or not all(math.isfinite(v) for v in at):
+            raise SettingsError(f"--splice {text!r:.60}: give NAME=MM[,MM...], a piece's name and positions in mm")
+        out[name] = at
+    return out
+
+
 def _cmd_nest(args) -> int:
     """``nest INPUT[:QTY]...``: every piece on the roll (a marker per material), sparrow placing them; the
     marker's length and utilisation on stderr, the markers exported."""
@@ -1157,6 +1177,15 @@ def _cmd_nest(args) -> int:
             raise SettingsError(f"cannot write {path}: folder {path.parent} does not exist")
         check_output(path, SettingsError)
         targets.append(path)
+    book = Path(args.ply_book) if args.ply_book else None
+    projects = [p for p, _ in map(_nest_input, args.inputs) if p.suffix.lower() == PROJECT_SUFFIX]
+    if book is not None:
+        if book.suffix.lower() != ".pdf":
+            raise SettingsError(f"--ply-book {book.name}: a ply book is a PDF (.pdf)")
+        if len(projects) != 1 or len(args.inputs) != 1:
+            raise SettingsError("--ply-book is the ply book of one project: give one project (.flatweave) as INPUT")
+        check_target(book)
+        check_output(book, SettingsError)
     items, widths, left = [], [], []
     for text in args.inputs:
         path, copies = _nest_input(text)
@@ -1176,11 +1205,12 @@ def _cmd_nest(args) -> int:
                                 "the inputs' rolls differ in width: give --roll-width W (mm)")
         width = known.pop()
     # a piece wider than the roll in every rotation it may take: spliced into the fewest parts that fit
-    items, spliced = cutplan.splice_items(items, width, args.overlap)
+    items, spliced = cutplan.splice_items(items, width, args.overlap, _splices(args.splice))
     for r in spliced:
         at = ", ".join(f"{y - r.start:.0f}" for y in r.positions)
-        print(f"{r.name}: {r.width:.1f} mm across, wider than the roll: spliced into {len(r.parts)} parts at {at} "
-              f"mm from its edge ({args.overlap:g} mm overlap)", file=sys.stderr)
+        why = "spliced as asked" if r.asked else "wider than the roll: spliced"
+        print(f"{r.name}: {r.width:.1f} mm across, {why} into {len(r.parts)} parts at {at} mm from its edge "
+              f"({args.overlap:g} mm overlap)", file=sys.stderr)
     groups = cutplan.by_material(items)
     files, markers = [], []
     for material, group in groups.items():
@@ -1196,10 +1226,14 @@ def _cmd_nest(args) -> int:
             target = path if len(groups) == 1 else path.with_name(
                 f"{path.stem}-{file_stem(material)}{path.suffix}")
             mine += marker_files(marker, sources, target, f"{path.stem} {material}")
-        markers.append((material, marker, [p for p, _ in mine]))
+        markers.append((material, marker, [p for p, _ in mine], sources))
         files += mine
-    atomic_write_many(files)  # every marker's files, all or nothing
-    for material, m, written in markers:
+    if book is not None:  # the project's ply book, its markers' pages after its pieces'
+        project = load_project(projects[0])
+        files.append((book, plybook_bytes(project, seam_allowance_mm=args.seam_allowance,
+                                          markers=[(m, k, src) for m, k, _, src in markers])))
+    atomic_write_many(files)  # every marker's files and the book, all or nothing
+    for material, m, written, _ in markers:
         print(f"{material}: marker {m.length:.1f} mm long on a roll {width:g} mm wide, utilisation "
               f"{100 * m.utilisation:.2f} %, waste {m.waste / 1e6:.4g} m^2, {len(m.placements)} pieces placed "
               f"in {m.seconds:.1f} s" + (" (stopped: the best so far)" if m.stopped else "")

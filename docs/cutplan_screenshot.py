@@ -3,8 +3,9 @@
     xvfb-run -s '-screen 0 1600x1000x24' .venv/bin/python docs/cutplan_screenshot.py [OUT_DIR]
 
 A project of two woven plies of the octant (2 copies each, the second turned +45 degrees) and an
-isotropic half-cylinder panel, solved; Solve > Nest pieces on the roll with a 2.5 m roll and a
-2 s time limit; the woven marker shown.
+isotropic half-cylinder panel, solved; Solve > Nest pieces on the roll with a 1 m roll (every piece
+spliced in two) and a 2 s time limit; the woven marker shown, the ply "cap" selected, its splice on
+the surface.
 """
 
 from __future__ import annotations
@@ -49,12 +50,14 @@ def main() -> int:
     win.cut_plan.finished.connect(done.append)
     win.cut_plan.failed.connect(done.append)
     win.cut_plan.time_limit.setValue(2)
-    win.cut_plan.set_roll_width(2500.0)
+    win.cut_plan.set_roll_width(1000.0)  # every octant ply wider: spliced in two
     win.actions["nest"].trigger()
     shot.wait(lambda: done, 120)
     print(done[0])
     win.cut_plan.choose_material("woven")
-    shot.settle(0.5)
+    win.document.select_piece("cap")  # a woven ply shown, its splice drawn on it
+    shot.wait(lambda: win.view.is_ready())
+    shot.settle(1.0)
     win.grab().save(str(out / "cut_plan.png"))
     win.close()
     return 0

@@ -3,7 +3,8 @@ shows the panel and nests the document's solved pieces in a thread, a marker per
 improves; every copy is placed, the numbers shown are the marker's and the outlines painted lie on the
 roll; Stop keeps the best marker so far; a roll narrower than a piece, or no piece solved, is one line and
 no marker; the marker goes stale when the pieces change, and never edits the document; closing the window
-while nesting stops it."""
+while nesting stops it. A piece wider than the roll is spliced: the active piece's splices are drawn on its
+surface, and the table's positions typed by hand re-nest with the parts they imply."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import pytest
 
 from flatweave.app.cutplanview import STALE, STOPPED
 from flatweave.document import pieces as P
+from flatweave.document.cutplan import splice_curves
 from flatweave.document.project import new_project
 from flatweave.document.solving import solve_pieces
 from flatweave.method.lattice import MATERIALS
@@ -183,3 +185,93 @@ def test_closing_the_window_while_nesting_stops_it(make_window, qtbot, kit):
     win.close()  # stops the Nest and waits for it
     assert not panel.busy and not thread.is_alive()
     assert not [p for p in multiprocessing.active_children() if p.name == "flatweave-nest"]
+
+
+def across(outline: np.ndarray, frame_deg: float) -> np.ndarray:
+    """The outline's y in the frame turned by -frame_deg (across the roll, as tests.test_splices has it)."""
+    a = np.radians(-frame_deg)
+    return np.sin(a) * outline[:, 0] + np.cos(a) * outline[:, 1]
+
+
+def drawn_splices(win, report) -> np.ndarray:
+    """What the "splices" layer should hold for ``report`` of the window's active piece."""
+    project = win.project
+    return np.vstack(splice_curves(project.result, report, 1000.0 * project.metres_per_unit))
+
+
+def test_splices_are_drawn_on_the_active_piece_and_placed_by_hand_in_the_table(make_window, qtbot, kit):
+    win, panel = cut_plan(make_window, kit)
+    panel.set_roll_width(1000.0)  # the octant's plies (about 1.57 m across) in two parts each; the side too
+    assert win.select_piece("cap")
+    with qtbot.waitSignal(panel.finished, timeout=NEST_TIMEOUT_MS):
+        panel.nest_button.click()
+    view = win.view
+    reports = {r.name: r for r in panel.spliced["woven"]}
+    assert sorted(reports) == ["cap", "cap +45"] and not any(r.asked for r in reports.values())
+    assert panel.piece_splices() == [reports["cap"]]
+    # on the surface: the octant is a sphere's, radius 1 m, and the layer is the splice's curve through the result
+    drawn = view.layer_lines("splices")
+    assert len(drawn) > 50
+    np.testing.assert_allclose(np.linalg.norm(drawn, axis=1), 1.0, atol=1e-6)
+    np.testing.assert_allclose(drawn, drawn_splices(win, reports["cap"]), atol=1e-12)
+    assert len(view.layer_lines("seams")) == 0  # a layer of its own
+
+    assert win.select_piece("cap +45")  # another piece active: its splices
+    np.testing.assert_allclose(view.layer_lines("splices"), drawn_splices(win, reports["cap +45"]), atol=1e-12)
+    assert win.select_piece("side")
+    (side,) = panel.spliced["isotropic"]
+    np.testing.assert_allclose(view.layer_lines("splices"), drawn_splices(win, side), atol=1e-12)
+    assert win.select_piece("cap")
+
+    # the table: the shown material's spliced pieces, their widths and splices from the edge, chosen
+    panel.choose_material("woven")
+    rows = panel.splice_rows()
+    assert [row[0] for row in rows] == ["cap", "cap +45"] and all(row[3] == "chosen" for row in rows)
+    for row in rows:
+        r = reports[row[0]]
+        assert row[1] == f"{round(r.width, 1):g} mm"
+        assert [float(x) for x in row[2].split(",")] == pytest.approx([y - r.start for y in r.positions], abs=0.05)
+    assert panel.splices.isVisibleTo(panel) and not panel.reset_splices_button.isEnabled()
+
+    # a position typed: nested again with the parts it implies, drawn where it now is
+    with qtbot.waitSignal(panel.finished, timeout=NEST_TIMEOUT_MS):
+        panel.splices.item(0, 2).setText("700")
+    assert panel.placed == {"cap": [700.0]}
+    report = next(r for r in panel.spliced["woven"] if r.name == "cap")
+    assert report.asked and [y - report.start for y in report.positions] == pytest.approx([700.0])
+    marker = panel.markers["woven"]
+    assert marker_problems(marker) == []
+    widths = {it.name: float(np.ptp(across(it.outline, report.frame_deg))) for it in marker.items
+              if it.name.startswith("cap part")}
+    assert widths == pytest.approx({"cap part 1 of 2": 700.0 + 12.5, "cap part 2 of 2": report.width - 700.0 + 12.5},
+                                   abs=1e-6)
+    panel.choose_material("woven")  # the Nest showed each material as it nested it
+    assert panel.splice_rows()[0][2:] == ("700", "by hand") and panel.splice_rows()[1][3] == "chosen"
+    np.testing.assert_allclose(view.layer_lines("splices"), drawn_splices(win, report), atol=1e-12)
+    assert panel.reset_splices_button.isEnabled()
+
+    # a position that leaves a part too wide: one line, and nothing else changes
+    errors = []
+    panel.input_error.connect(errors.append)
+    panel.splices.item(0, 2).setText("100")
+    assert len(errors) == 1 and "part 2 of 2 would be" in errors[0] and "\n" not in errors[0]
+    assert panel.splice_error.text() == errors[0] and errors[0] in win.statusBar().currentMessage()
+    assert not panel.busy and panel.markers["woven"] is marker and panel.placed == {"cap": [700.0]}
+    assert panel.splice_rows()[0][2] == "700"
+    panel.splices.item(0, 2).setText("seven")  # not a number: likewise
+    assert len(errors) == 2 and "not a list of positions" in errors[1] and panel.markers["woven"] is marker
+
+    # Reset: the chosen splices again
+    with qtbot.waitSignal(panel.finished, timeout=NEST_TIMEOUT_MS):
+        panel.reset_splices_button.click()
+    panel.choose_material("woven")
+    assert panel.placed == {} and not any(r.asked for r in panel.spliced["woven"])
+    assert panel.splice_error.text() == "" and all(row[3] == "chosen" for row in panel.splice_rows())
+
+    # the pieces change: the splices are no longer the marker's, nor drawn; another document drops them
+    win.pieces_panel.rename(0, "lid")
+    assert panel.stale and len(view.layer_lines("splices")) == 0
+    win.undo()
+    assert not panel.stale and len(view.layer_lines("splices")) > 50
+    win.set_project(kit)
+    assert len(view.layer_lines("splices")) == 0 and panel.splice_rows() == []

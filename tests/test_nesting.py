@@ -24,6 +24,7 @@ from flatweave.method.lattice import MATERIALS
 from flatweave.method.settings import FlattenSettings
 from flatweave.reading.examples import load_example
 from flatweave.studies.nesting import NestItem, marker_problems, nest
+from pypdf import PdfReader
 
 pytestmark = pytest.mark.slow
 
@@ -218,3 +219,19 @@ def test_nest_reads_a_nesting_instance(tmp_path, capsys):
     assert len(rows) == 5 and {r["source"] for r in rows} == {"tiny.json"}
     assert all(float(r["rotation_deg"]) % 180.0 == pytest.approx(0.0, abs=1e-9) for r in rows if r["piece"] == "0")
     assert "on a roll 40 mm wide" in capsys.readouterr().err
+
+
+def test_nest_writes_the_projects_ply_book_with_its_markers(kit, tmp_path, capsys):
+    book = tmp_path / "book.pdf"
+    assert main(["nest", str(kit), "--roll-width", "2500", "--time-limit", "1", "--ply-book", str(book),
+                 "--quiet"]) == 0
+    pages = [p.extract_text() for p in PdfReader(book).pages]
+    markers = [t for t in pages if t.startswith("Marker:")]
+    assert [t.splitlines()[0] for t in markers] == ["Marker: woven", "Marker: isotropic"]
+    assert all("utilisation" in t and "2500 mm" in t for t in markers)
+    capsys.readouterr()
+    instance = tmp_path / "i.json"
+    instance.write_text(json.dumps({"strip_height": 40.0, "items": [
+        {"id": 0, "demand": 1, "allowed_orientations": [0.0], "shape": {"data": [[0, 0], [5, 0], [5, 5], [0, 5]]}}]}))
+    assert status(["nest", str(instance), "--ply-book", str(tmp_path / "b2.pdf")]) == 2
+    assert "ply book of one project" in capsys.readouterr().err and not (tmp_path / "b2.pdf").exists()

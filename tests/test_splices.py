@@ -43,6 +43,8 @@ def test_parts_fit_cover_the_piece_and_share_the_overlap():
     assert unary_union(polys).area == pytest.approx(800.0 * 2600.0, rel=1e-12)  # nothing lost
     for a, b in zip(polys, polys[1:]):  # each splice shared by the parts either side, an overlap wide
         assert a.intersection(b).area == pytest.approx(800.0 * 25.0, rel=1e-9)
+    # the parts' areas add up to the piece's and an overlap's band per splice
+    assert sum(q.area for q in polys) == pytest.approx(800.0 * 2600.0 + 2 * 800.0 * 25.0, rel=1e-12)
 
 
 def test_a_splice_keeps_out_of_a_sheared_band_when_it_can():
@@ -95,3 +97,28 @@ def test_nest_splices_what_the_roll_cannot_hold(sleeve, tmp_path, capsys):
     assert "spliced into 2 parts" in err and "25 mm overlap" in err
     rows = list(csv.DictReader(table.read_text().splitlines()))
     assert sorted(r["name"] for r in rows) == ["sleeve part 1 of 2", "sleeve part 2 of 2"]
+
+
+def test_splices_given_by_the_user_are_taken_when_every_part_fits(sleeve, tmp_path, capsys):
+    project = load_project(sleeve)
+    items, _ = project_items(project, "sleeve.flatweave", 0.0)
+    spliced, (report,) = splice_items(items, 1000.0, 25.0, {"sleeve": [700.0]})
+    assert report.asked and [round(y - report.start, 9) for y in report.positions] == [700.0]
+    widths = sorted(float(np.ptp(_across(it.item.outline, report.frame_deg))) for it in spliced)
+    assert widths == pytest.approx(sorted([700.0 + 12.5, report.width - 700.0 + 12.5]), abs=1e-6)
+    for placed, says in (([200.0], "part 2 of 2 would be"), ([10.0], "within the 25 mm overlap"),
+                         ([700.0, 710.0], "within the 25 mm overlap")):
+        with pytest.raises(SettingsError, match=says) as info:
+            splice_items(items, 1000.0, 25.0, {"sleeve": placed})
+        assert "\n" not in str(info.value)
+    with pytest.raises(SettingsError, match="no piece to nest is named 'coat'"):
+        splice_items(items, 1000.0, 25.0, {"coat": [700.0]})
+    assert main(["nest", str(sleeve), "--roll-width", "1000", "--time-limit", "1", "--splice", "sleeve=800",
+                 "--quiet"]) == 0
+    assert "spliced as asked into 2 parts at 800 mm" in capsys.readouterr().err
+
+
+def _across(outline: np.ndarray, frame_deg: float) -> np.ndarray:
+    """The outline's y in the frame turned by -frame_deg (across the roll)."""
+    a = np.radians(-frame_deg)
+    return np.sin(a) * outline[:, 0] + np.cos(a) * outline[:, 1]

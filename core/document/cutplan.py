@@ -27,7 +27,7 @@ from flatweave.export.sheet import SheetPiece, build_sheet, mm_per_unit
 from flatweave.method.materials import fabric_kind
 from flatweave.method.metrics import cell_shear_deg
 from flatweave.studies.nesting import ROTATIONS, SIMPLIFY_MM, NestItem, min_width
-from flatweave.studies.splices import split_outline, splice_positions
+from flatweave.studies.splices import check_positions, split_outline, splice_positions
 
 __all__ = ["PlanItem", "SpliceReport", "project_items", "result_items", "instance_items", "by_material",
            "rotations_for", "check_rotations", "source_name", "splice_items", "splice_curves"]
@@ -49,7 +49,8 @@ class PlanItem:
 class SpliceReport:
     """A piece spliced: its name, its width across the roll (mm), the splices' positions across it (mm,
     in the frame turned ``frame_deg`` from its own, where they run along the roll; ``start`` the piece's
-    edge there) and its parts' names."""
+    edge there), its parts' names, whether the user placed them, and the piece's source and pattern
+    piece index (as its marker's CSV names them)."""
 
     name: str
     width: float
@@ -57,6 +58,9 @@ class SpliceReport:
     positions: tuple
     parts: tuple
     start: float = 0.0
+    asked: bool = False  # the user's splices (else chosen: the piece is wider than the roll)
+    source: str = ""  # where the piece came from (its MarkerSource's: "FILE#PIECE" for a project's piece)
+    index: int = 0  # the pattern piece's index in its result's pattern.pieces
 
 
 def rotations_for(material) -> str:
@@ -165,23 +169,32 @@ def _frame_deg(item: NestItem) -> float:
     return -float(angles[int(np.argmin(widths))])
 
 
-def splice_items(items, roll_width: float, overlap_mm: float) -> tuple[list[PlanItem], list[SpliceReport]]:
+def splice_items(items, roll_width: float, overlap_mm: float, placed=None) -> tuple[list[PlanItem], list]:
     """``items`` with each one wider than the roll in every rotation it may take split by splices along
     the roll into the fewest parts that fit (:mod:`flatweave.studies.splices`: the parts share
     ``overlap_mm`` at each splice, the splices placed through the least shear), each part an item
-    named "NAME part K of N" in the item's own frame; and a report per piece spliced."""
+    named "NAME part K of N" in the item's own frame; and a report per piece spliced. ``placed``:
+    {item name: splice positions, mm across the piece from its edge}, the user's splices, taken as
+    given when every part fits (a one-line SettingsError otherwise; a name no item has, too)."""
     usable = roll_width - 2.0 * min(SIMPLIFY_MM, 1e-4 * roll_width)
+    placed = dict(placed or {})
+    unknown = sorted(set(placed) - {it.item.name for it in items})
+    if unknown:
+        raise SettingsError(f"no piece to nest is named {unknown[0]!r} (splices are given by piece name)")
     out, reports = [], []
     for it in items:
         item = it.item
         frame = _frame_deg(item)
-        if min_width(item.outline, item.rotations, item.grain_deg) <= usable:
+        if item.name not in placed and min_width(item.outline, item.rotations, item.grain_deg) <= usable:
             out.append(it)
             continue
         # in the frame where the lines along the roll run along x: the outline, its shear field, the splices
         outline = _turned(item.outline, -frame)
         points, shear = (None, None) if it.field is None else (_turned(it.field[0], -frame), it.field[1])
-        positions = splice_positions(outline, usable, overlap_mm, points, shear)
+        if item.name in placed:
+            positions = check_positions(outline, placed[item.name], usable, overlap_mm, item.name)
+        else:
+            positions = splice_positions(outline, usable, overlap_mm, points, shear)
         parts = [_turned(q, frame) for q in split_outline(outline, positions, overlap_mm)]
         names = []
         for k, part in enumerate(parts):
@@ -194,17 +207,23 @@ def splice_items(items, roll_width: float, overlap_mm: float) -> tuple[list[Plan
             out.append(PlanItem(NestItem(name, part, item.quantity, item.grain_deg, item.rotations),
                                 MarkerSource(it.source.source, it.source.index, sp), it.material, None))
         reports.append(SpliceReport(item.name, float(np.ptp(outline[:, 1])), frame, tuple(positions), tuple(names),
-                                    float(outline[:, 1].min())))
+                                    float(outline[:, 1].min()), item.name in placed, it.source.source,
+                                    it.source.index))
     return out, reports
 
 
 def splice_curves(result, report: SpliceReport, mm: float) -> list[np.ndarray]:
     """Each splice of ``report`` (a piece of ``result``) on the 3D surface: the line along the roll at its
-    position, across the pattern, mapped from the flat to (u, v) through the lattice (each point by the
-    triangle of pattern nodes it falls in) and onto the surface; (k, 3) each."""
+    position, across its pattern piece (``report.index``), mapped from the flat to (u, v) through the
+    lattice (each point by the triangle of that piece's nodes it falls in) and onto the surface; (k, 3)
+    each."""
     from scipy.spatial import Delaunay
 
-    xy = np.asarray(result.pattern.xy, dtype=float) * mm
+    pieces = result.pattern.pieces
+    nodes = np.asarray(pieces[report.index].nodes, dtype=np.int64) if report.index < len(pieces) and len(
+        pieces[report.index].nodes) else np.arange(len(result.uv))  # the spliced pattern piece's nodes alone
+    xy = np.asarray(result.pattern.xy, dtype=float)[nodes] * mm
+    uv_nodes = np.asarray(result.uv, dtype=float)[nodes]
     tri = Delaunay(_turned(xy, -report.frame_deg))
     x0, x1 = tri.points[:, 0].min(), tri.points[:, 0].max()
     out = []
@@ -216,7 +235,7 @@ def splice_curves(result, report: SpliceReport, mm: float) -> list[np.ndarray]:
         t = tri.transform[simplex]
         b = np.einsum("nij,nj->ni", t[:, :2], line - t[:, 2])
         bary = np.column_stack([b, 1.0 - b.sum(axis=1)])
-        uv = np.einsum("ni,nic->nc", bary, np.asarray(result.uv, dtype=float)[tri.simplices[simplex]])
+        uv = np.einsum("ni,nic->nc", bary, uv_nodes[tri.simplices[simplex]])
         out.append(result.surface.points(uv))
     return out
 

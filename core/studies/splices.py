@@ -25,7 +25,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from flatweave.errors import SettingsError
 
-__all__ = ["splice_positions", "split_outline", "splices_needed", "STEP_MM", "EVEN_WEIGHT"]
+__all__ = ["splice_positions", "split_outline", "splices_needed", "check_positions", "STEP_MM", "EVEN_WEIGHT"]
 
 STEP_MM = 1.0  # the positions tried, across the piece
 EVEN_WEIGHT = 1e-3  # degrees of shear per mm away from the even split: a tie-break, no more
@@ -104,6 +104,33 @@ def splice_positions(outline: np.ndarray, usable: float, overlap: float, points=
         g = int(arg[g])
         out.append(g)
     return [float(grid[k]) for k in reversed(out)]
+
+
+def check_positions(outline: np.ndarray, positions, usable: float, overlap: float, name: str) -> list[float]:
+    """The splices at ``positions`` (mm from the outline's lowest y, any order), as y in its frame, when
+    every part they make fits ``usable`` and each lies at least ``overlap`` from its neighbours and the
+    piece's edges; else a one-line SettingsError naming the piece and what does not fit."""
+    p = np.asarray(outline, dtype=float)
+    y0, y1 = float(p[:, 1].min()), float(p[:, 1].max())
+    try:
+        at = sorted(float(v) for v in positions)
+    except (TypeError, ValueError):
+        raise SettingsError(f"{name}: splices are positions in mm across the piece") from None
+    if not at or not all(math.isfinite(v) for v in at):
+        raise SettingsError(f"{name}: splices are one or more finite positions in mm across the piece")
+    ys = [y0 + v for v in at]
+    edges = [y0] + ys + [y1]
+    for k in range(len(edges) - 1):
+        if edges[k + 1] - edges[k] < overlap:
+            near = at[min(k, len(at) - 1)]  # the splice that bounds this too narrow part
+            raise SettingsError(f"{name}: the splice at {near:.0f} mm is within the {overlap:g} mm overlap of "
+                                f"its neighbour or the piece's edge (the piece is {y1 - y0:.0f} mm across)")
+        lo = edges[k] - (0.5 * overlap if k > 0 else 0.0)
+        hi = edges[k + 1] + (0.5 * overlap if k + 1 < len(edges) - 1 else 0.0)
+        if hi - lo > usable:
+            raise SettingsError(f"{name}: part {k + 1} of {len(edges) - 1} would be {hi - lo:.0f} mm across, wider "
+                                f"than the roll ({usable:.0f} mm usable): splice it elsewhere or more")
+    return ys
 
 
 def split_outline(outline: np.ndarray, splices, overlap: float) -> list[np.ndarray]:
