@@ -26,11 +26,11 @@ from flatweave.export.marker import MarkerSource
 from flatweave.export.sheet import SheetPiece, build_sheet, mm_per_unit
 from flatweave.method.materials import fabric_kind
 from flatweave.method.metrics import cell_shear_deg
-from flatweave.studies.nesting import ROTATIONS, SIMPLIFY_MM, NestItem, min_width
+from flatweave.studies.nesting import SIMPLIFY_MM, NestItem, min_width
 from flatweave.studies.splices import check_positions, split_outline, splice_positions
 
 __all__ = ["PlanItem", "SpliceReport", "project_items", "result_items", "instance_items", "by_material",
-           "rotations_for", "check_rotations", "source_name", "splice_items", "splice_curves"]
+           "rotations_for", "source_name", "splice_items", "splice_curves"]
 
 
 @dataclass(frozen=True)
@@ -251,12 +251,6 @@ def by_material(items) -> dict:
 def _check_copies(copies) -> None:
     if isinstance(copies, bool) or not isinstance(copies, int) or not 1 <= copies <= 100_000:
         raise SettingsError(f"copies must be a whole number from 1 to 100000, got {copies!r:.40}")
-
-
-def check_rotations(rotations) -> None:
-    """A one-line SettingsError unless ``rotations`` is None or a key of ROTATIONS."""
-    if rotations is not None and rotations not in ROTATIONS:
-        raise SettingsError(f"rotations must be one of {', '.join(ROTATIONS)}, got {rotations!r:.40}")
 
 
 def source_name(path) -> str:
