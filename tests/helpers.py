@@ -274,3 +274,14 @@ def wavy_sheet(n: int, amp: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
     a = (i * (n + 1) + j).ravel()
     b = a + n + 1
     return V, np.concatenate([np.stack([a, b, a + 1], 1), np.stack([a + 1, b, b + 1], 1)])
+
+
+def rectangle(w: float, h: float) -> np.ndarray:
+    """A w x h rectangle's outline, counter-clockwise from the origin."""
+    return np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]])
+
+
+def ell(a: float) -> np.ndarray:
+    """An L-shaped outline a across (its arms a third of that)."""
+    t = a / 3.0
+    return np.array([[0.0, 0.0], [a, 0.0], [a, t], [t, t], [t, a], [0.0, a]])

@@ -25,6 +25,8 @@ from flatweave.export.pdf import MM, OVERLAP_MM, PAGE_MARGIN_MM, PAPERS, ROUND_S
 from flatweave.export.sheet import SheetPiece
 from flatweave.reading.examples import load_example
 from flatweave.studies.nesting import NestItem, nest
+
+from tests.helpers import rectangle, ell
 from tests.pdf_paths import page_drawing
 
 pytestmark = pytest.mark.slow
@@ -32,14 +34,6 @@ pytestmark = pytest.mark.slow
 ROLL = 1000.0
 
 
-def rectangle(w: float, h: float) -> np.ndarray:
-    return np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]])
-
-
-def ell(a: float) -> np.ndarray:
-    """An L-shaped piece a across (its arms a third of that)."""
-    t = a / 3.0
-    return np.array([[0.0, 0.0], [a, 0.0], [a, t], [t, t], [t, a], [0.0, a]])
 
 
 @pytest.fixture(scope="module")

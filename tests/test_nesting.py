@@ -26,17 +26,11 @@ from flatweave.reading.examples import load_example
 from flatweave.studies.nesting import NestItem, marker_problems, nest
 from pypdf import PdfReader
 
+from tests.helpers import rectangle, ell
+
 pytestmark = pytest.mark.slow
 
 
-def rectangle(w: float, h: float) -> np.ndarray:
-    return np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]])
-
-
-def ell(a: float) -> np.ndarray:
-    """An L-shaped piece a across (its arms a third of that)."""
-    t = a / 3.0
-    return np.array([[0.0, 0.0], [a, 0.0], [a, t], [t, t], [t, a], [0.0, a]])
 
 
 @pytest.fixture(scope="module")

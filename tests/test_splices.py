@@ -18,9 +18,8 @@ from flatweave.errors import SettingsError
 from flatweave.reading.examples import load_example
 from flatweave.studies.splices import splice_positions, splices_needed, split_outline
 
+from tests.helpers import rectangle
 
-def rectangle(w: float, h: float) -> np.ndarray:
-    return np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]])
 
 
 @pytest.mark.parametrize("width, usable, overlap, n", [(1000, 1270, 25, 0), (1593, 1270, 25, 1), (2540, 1270, 25, 2),

@@ -299,14 +299,20 @@ def _clip(c, text, width_mm, size, font="Helvetica"):
     return text + "..."
 
 
+def _headings(c, columns, y) -> float:
+    """A table's column headings ((title, width mm, align) each) at ``y``; the y of its first row."""
+    x = MARGIN
+    for title, w, align in columns:
+        _text(c, x + (w - 1 if align == "right" else 0), y, title, 7.5, "Helvetica-Bold", align=align)
+        x += w
+    return y - ROW_MM
+
+
 def _table(c, rows, y, bottom, header):
     """Draw the stacking table from ``y`` down; a new page (``header()`` drawn on it) when it reaches
     ``bottom``. Returns the y below it."""
     def heading(y):
-        x = MARGIN
-        for title, w, align in TABLE_COLUMNS:
-            _text(c, x + (w - 1 if align == "right" else 0), y, title, 7.5, "Helvetica-Bold", align=align)
-            x += w
+        _headings(c, TABLE_COLUMNS, y)
         c.setLineWidth(0.5)
         c.setStrokeColorRGB(0, 0, 0)
         c.line(MARGIN * MM, (y - 1.5) * MM, (MARGIN + sum(w for _, w, _ in TABLE_COLUMNS)) * MM, (y - 1.5) * MM)
@@ -352,11 +358,7 @@ def _seam_table(c, project, y, bottom, header, seam_allowance_mm):
     y -= 6
 
     def heading(y):
-        x = MARGIN
-        for title, w, align in SEAM_COLUMNS:
-            _text(c, x + (w - 1 if align == "right" else 0), y, title, 7.5, "Helvetica-Bold", align=align)
-            x += w
-        return y - ROW_MM
+        return _headings(c, SEAM_COLUMNS, y)
     y = heading(y)
     for row in rows:
         if y < bottom:
@@ -560,11 +562,7 @@ def _marker_page(c, material, marker, sources, paper, number, total, title):
     y -= 10
 
     def heading(y):
-        x = MARGIN
-        for name, w, align in MARKER_COLUMNS:
-            _text(c, x + (w - 1 if align == "right" else 0), y, name, 7.5, "Helvetica-Bold", align=align)
-            x += w
-        return y - ROW_MM
+        return _headings(c, MARKER_COLUMNS, y)
     _text(c, MARGIN, y, "Pieces on the marker", 10, "Helvetica-Bold")
     y = heading(y - 6)
     copies = [sum(1 for p in marker.placements if p.item == k) for k in range(len(marker.items))]
