@@ -26,11 +26,12 @@ class Aspect(enum.Flag):
     NAME = enum.auto()
     PIECES = enum.auto()    # the list of pieces: which is active, names, order, quantities, the others
     SEAMS = enum.auto()     # the shapes split by seams into panels: a seam drawn, moved, deleted, its options
+    PLAN = enum.auto()      # the cut plan's settings: roll widths, gap, splices placed by hand, mirror pairs
 
 
 _FROM_CORE = {"surface": Aspect.SURFACE, "settings": Aspect.SETTINGS, "labels": Aspect.LABELS,
               "display": Aspect.DISPLAY, "result": Aspect.RESULT, "name": Aspect.NAME, "pieces": Aspect.PIECES,
-             "seams": Aspect.SEAMS}
+             "seams": Aspect.SEAMS, "plan": Aspect.PLAN}
 
 HISTORY = frozenset({"undo", "redo"})  # causes that swap whole projects back
 WHOLE = HISTORY | {"reset"}  # causes after which every view is refreshed

@@ -8,7 +8,13 @@ material's numbers: length (m), utilisation (%), waste (m^2), copies placed and 
 
 Its controls: the material shown (a marker each), that material's roll width (mm; the
 materials table's ``roll_width_mm`` until typed, else :data:`DEFAULT_ROLL_MM`), and for every
-material the gap, the time limit (per material) and the seam allowance; Nest and Stop. Nest
+material the gap, the time limit (per material), the seam allowance and the splice overlap; the pieces
+cut in mirror pairs (a checkable list: a left and a right panel, half a piece's copies its mirror image);
+Nest and Stop. These settings are the project's cut plan
+(:class:`flatweave.document.cutsettings.CutPlanSettings`, saved with it): the widgets show
+``project.cut_plan`` after every change of the document (an undo, another document), and an edit of one
+of them is asked for by ``plan_edited(plan, label)`` (the window makes it one undoable edit of the
+document, which comes back through :meth:`CutPlanPanel.set_project`). Nest
 runs in a ``threading.Thread`` of its own (the window stays live): each better marker the
 engine finds is handed to this thread by a signal and drawn at once (``progress(material,
 marker)``); Stop ends it at once, the best marker so far staying shown ("stopped: the best so
@@ -25,42 +31,47 @@ drops it.
 Splices (a piece wider than the roll, :func:`flatweave.document.cutplan.splice_items`): the shown material's
 spliced pieces are listed in a small table (piece, width across, the splices' positions in mm from the piece's
 edge, chosen or placed by hand); a position typed there ("700", or "700, 1400") is checked against that piece
-at once (a refused one is ``input_error(message)``, one line, and nothing else changes) and re-nests with it;
-a cleared cell or Reset goes back to the chosen splices. Splices placed by hand last for the session (not
-saved in the project). :meth:`CutPlanPanel.piece_splices` gives the document's active piece's splices in the
-markers shown (none when stale), which the window draws on the surface; ``splices_changed`` says when
-they may have changed. :meth:`CutPlanPanel.shutdown` (the window's close) stops a nest and waits for its
-thread. No VTK here."""
+at once (a refused one is ``input_error(message)``, one line, and nothing else changes), kept in the project's
+cut plan and re-nests with it; a cleared cell or Reset goes back to the chosen splices. Beside the table,
+:class:`SpliceView` draws the selected row's piece flat, turned so the splices run along the roll, with the
+roll's usable width: a splice line dragged up or down there is placed as typed. :meth:`CutPlanPanel.piece_splices`
+gives the document's active piece's splices in the markers shown (none when stale), which the window draws on
+the surface; ``splices_changed`` says when they may have changed. :meth:`CutPlanPanel.shutdown` (the window's
+close) stops a nest and waits for its thread. No VTK here."""
 
 from __future__ import annotations
 
 import math
+import re
 import sys
 import threading
 import traceback
+from dataclasses import replace
 
 import numpy as np
 from PySide6.QtCore import QPointF, QRectF, QSignalBlocker, QSize, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QFont, QFontMetricsF, QPainter, QPen, QPolygonF
 from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QHeaderView,
-                               QLabel, QPushButton, QSizePolicy, QSpinBox, QTableWidget, QTableWidgetItem, QVBoxLayout,
-                               QWidget)
+                               QLabel, QListWidget, QListWidgetItem, QPushButton, QSizePolicy, QSpinBox, QTableWidget,
+                               QTableWidgetItem, QVBoxLayout, QWidget)
 from shapely.geometry import Polygon
 from shapely.ops import polylabel
 
 from flatweave.app.worker import one_line
 from flatweave.document.cutplan import PlanItem, SpliceReport, by_material, project_items, splice_items
+from flatweave.document.cutsettings import CutPlanSettings
 from flatweave.document.project import Project
 from flatweave.document.sewing import MAX_ALLOWANCE_MM
 from flatweave.errors import FlatweaveError, SettingsError
-from flatweave.studies.nesting import DEFAULT_SECONDS, Marker, nest
+from flatweave.geometry.numerics import rotate
+from flatweave.studies.nesting import DEFAULT_SECONDS, Marker, nest, usable_width
 
-__all__ = ["CutPlanPanel", "MarkerView", "piece_colour", "same_pieces", "read_splices", "DEFAULT_ROLL_MM", "STOPPED",
-           "STALE", "NUMBERS", "SPLICE_COLUMNS"]
+__all__ = ["CutPlanPanel", "MarkerView", "SpliceView", "piece_colour", "same_pieces", "read_splices",
+           "DEFAULT_ROLL_MM", "STOPPED", "STALE", "NUMBERS", "SPLICE_COLUMNS", "MIRROR_TIP"]
 
 DEFAULT_ROLL_MM = 1500.0  # a material the table gives no roll width
 STOPPED = "stopped: the best so far"
-STALE = "pieces changed since: Nest again"
+STALE = "pieces or cut plan changed since: Nest again"
 NUMBERS = (("length", "Length"), ("utilisation", "Utilisation"), ("waste", "Waste"), ("placed", "Placed"),
            ("time", "Time"))
 # Tableau's ten: told apart on screen and in grey print; more items than these get hues a golden angle apart
@@ -73,6 +84,9 @@ SPLICE_COLUMNS = (("Piece", "The piece spliced (its pattern's piece number when 
                               "them (700, or 700, 1400), cleared to go back to the ones chosen"),
                   ("By", "chosen (through the least shear) or placed by hand"))
 SPLICES = 2  # the editable column
+MIRROR_TIP = ("A left and a right panel: half its copies cut as the mirror image (an odd number has one more as "
+              "drawn). Checked pieces are nested so at the next Nest")
+SPLICE_LINE, SPLICE_DRAGGED, PART_FITS, PART_TOO_WIDE = "#1f5fbf", "#e07000", "#2e7d32", END_COLOUR
 
 
 def piece_colour(k: int) -> QColor:
@@ -131,8 +145,9 @@ class MarkerView(QWidget):
     """A marker drawn with QPainter: the roll (x along it, left to right; y across it, 0 at the
     bottom, so a piece reads face up as in the marker's files) scaled to fit the widget with its
     aspect ratio kept (a long roll shrinks), the placed copies' cut outlines filled, one colour per
-    item, named when the name fits, a legend above, the marker's end (a red line and its length) and
-    a scale along the roll below. ``message`` is drawn when there is no marker; a ``stale`` marker is
+    item, named when the name fits (a mirror pair's mirrored copy edged dashed, "NAME (mirrored)" when
+    that fits), a legend above, the marker's end (a red line and its length) and a scale along the roll
+    below. ``message`` is drawn when there is no marker; a ``stale`` marker is
     faded and says so."""
 
     MARGIN = 12.0
@@ -270,13 +285,19 @@ class MarkerView(QWidget):
         for (name, pixels), placement, (lx, ly, room) in zip(self.painted(), m.placements, self._label_points()):
             colour = piece_colour(placement.item)
             p.setBrush(QBrush(colour.lighter(125)))
-            p.setPen(QPen(colour.darker(160), 1.0))
+            # a mirror pair's mirrored copy: its edge dashed, and said when there is room
+            edge = Qt.PenStyle.DashLine if placement.mirrored else Qt.PenStyle.SolidLine
+            p.setPen(QPen(colour.darker(160), 1.0, edge))
             p.drawPolygon(QPolygonF([QPointF(x, y) for x, y in pixels]))
-            w, h = fm.horizontalAdvance(name), fm.height()
-            if w <= 2.0 * room * s and h <= room * s:  # the name fits inside the piece
-                at = self.to_pixels([(lx, ly)])[0]
-                p.setPen(QColor("#111111"))
-                p.drawText(QRectF(at[0] - w / 2 - 2, at[1] - h / 2, w + 4, h), Qt.AlignmentFlag.AlignCenter, name)
+            h = fm.height()
+            texts = [f"{name} (mirrored)", name] if placement.mirrored else [name]
+            for text in texts:
+                w = fm.horizontalAdvance(text)
+                if w <= 2.0 * room * s and h <= room * s:  # the name fits inside the piece
+                    at = self.to_pixels([(lx, ly)])[0]
+                    p.setPen(QColor("#111111"))
+                    p.drawText(QRectF(at[0] - w / 2 - 2, at[1] - h / 2, w + 4, h), Qt.AlignmentFlag.AlignCenter, text)
+                    break
         p.setOpacity(1.0)
 
         # the marker's end: where the cutter stops
@@ -315,17 +336,265 @@ class MarkerView(QWidget):
                        STALE[0].upper() + STALE[1:])
 
 
+class SpliceView(QWidget):
+    """A spliced piece drawn flat, turned so its splices run along the roll (x along it, y across it, up the
+    screen as the marker has it): its outline before splicing, the roll's usable width as a band from the
+    edge of the part below the splice dragged (the piece's edge when none is), each splice a line across it
+    with its overlap shaded and its position (mm from the piece's edge, as the table says), and beside the
+    piece each part's width across, green when it fits the roll, red when not. A splice line dragged up or
+    down with the mouse (or :meth:`drag_splice`) asks for the splices there: ``moved(name, positions)``
+    (mm from the edge, 0.1 mm, in order) on release; the lines are drawn where the report has them again at
+    once (a refused drag snaps back; a taken one is drawn where it went once the piece is nested again)."""
+
+    moved = Signal(str, object)  # the item's name, its splices' positions asked (mm from its edge)
+
+    MARGIN = 8.0
+    RIGHT = 84.0  # right of the piece: the parts' brackets and the splices' positions
+    GRAB_PX = 6.0  # a press this near a splice line takes it
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self.report: SpliceReport | None = None
+        self.outline = np.zeros((0, 2))  # the piece's outline in the turned frame (mm)
+        self.usable = 0.0  # the roll's usable width (mm)
+        self.overlap = 0.0
+        self._source = None  # the outline as given (its item's frame)
+        self._at: list[float] = []  # the splices' y in the turned frame as drawn (a drag moves one)
+        self._drag: int | None = None  # the splice being dragged (its index in the report's positions)
+        self.setMouseTracking(True)
+        self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
+        self.setMinimumSize(220, 120)
+        self.setToolTip("The selected piece flat, turned so its splices run along the roll: drag a splice line "
+                        "up or down to place it there (the parts must each fit the roll's usable width, the "
+                        "shaded band); the pieces are nested again")
+
+    def sizeHint(self) -> QSize:
+        return QSize(340, 150)
+
+    def set_piece(self, report: SpliceReport | None, outline=None, usable: float = 0.0,
+                  overlap: float = 0.0) -> None:
+        """Show ``report``'s piece (None: nothing): ``outline`` its cut outline before splicing, mm in its
+        item's own frame; ``usable`` the roll's usable width and ``overlap`` the splices' (mm). The same
+        piece again leaves a drag under way alone."""
+        if report is self.report and outline is self._source and (usable, overlap) == (self.usable, self.overlap):
+            return
+        self.report, self._source, self.usable, self.overlap = report, outline, float(usable), float(overlap)
+        self.outline = (np.zeros((0, 2)) if report is None or outline is None
+                        else rotate(outline, -report.frame_deg))
+        self._at = [] if report is None else [float(y) for y in report.positions]
+        self._drag = None
+        self.update()
+
+    def positions(self) -> list[float]:
+        """The splices as drawn, mm from the piece's edge (what the table says, or where a drag has one)."""
+        return [] if self.report is None else [y - self.report.start for y in self._at]
+
+    def parts(self) -> list[tuple[float, float]]:
+        """Each part's extent across the roll in the turned frame (its lowest and highest y, mm, the overlap
+        taken at each splice), as the splices drawn make them, bottom to top."""
+        if self.report is None:
+            return []
+        edges = [self.report.start] + sorted(self._at) + [self.report.start + self.report.width]
+        half, last = 0.5 * self.overlap, len(edges) - 2
+        return [(edges[k] - (half if k > 0 else 0.0), edges[k + 1] + (half if k < last else 0.0))
+                for k in range(len(edges) - 1)]
+
+    # ------------------------------------------------------------------ geometry
+    def _frame(self) -> tuple[float, float, float, float, float] | None:
+        """(scale px/mm, the piece's least x and y (mm), its left and bottom in pixels), or None."""
+        r = self.report
+        if r is None or len(self.outline) < 3 or r.width <= 0:
+            return None
+        x0, x1 = float(self.outline[:, 0].min()), float(self.outline[:, 0].max())
+        top = self.MARGIN + QFontMetricsF(self.font()).height() + 6.0
+        room_w = self.width() - 2 * self.MARGIN - self.RIGHT
+        room_h = self.height() - top - self.MARGIN
+        if room_w <= 4 or room_h <= 4 or x1 <= x0:
+            return None
+        s = min(room_w / (x1 - x0), room_h / r.width)
+        left = self.MARGIN + 0.5 * (room_w - (x1 - x0) * s)
+        return s, x0, r.start, left, top + 0.5 * (room_h + r.width * s)
+
+    def to_pixels(self, points) -> np.ndarray:
+        """(k, 2) points of the turned frame (mm; y as the report's positions) in widget pixels as drawn now
+        (empty when nothing is drawn)."""
+        frame = self._frame()
+        p = np.asarray(points, dtype=float).reshape(-1, 2)
+        if frame is None:
+            return np.zeros((0, 2))
+        s, x0, y0, left, bottom = frame
+        return np.column_stack([left + (p[:, 0] - x0) * s, bottom - (p[:, 1] - y0) * s])
+
+    def line_pixels(self, k: int) -> QPointF:
+        """The middle of splice ``k``'s line in widget pixels (where a press takes it)."""
+        x = 0.5 * (self.outline[:, 0].min() + self.outline[:, 0].max())
+        px, py = self.to_pixels([(x, self._at[k])])[0]
+        return QPointF(px, py)
+
+    def _y_at(self, py: float) -> float | None:
+        """The turned frame's y (mm) at pixel row ``py``, within the piece."""
+        frame = self._frame()
+        if frame is None:
+            return None
+        s, _, y0, _, bottom = frame
+        return min(max(y0 + (bottom - py) / s, y0), y0 + self.report.width)
+
+    def _line_near(self, pos: QPointF) -> int | None:
+        """The splice whose line is nearest ``pos`` within GRAB_PX (None: none)."""
+        if self._frame() is None or not self._at:
+            return None
+        xs = self.to_pixels([(self.outline[:, 0].min(), 0.0), (self.outline[:, 0].max(), 0.0)])[:, 0]
+        if not xs[0] - self.GRAB_PX <= pos.x() <= xs[1] + self.GRAB_PX:
+            return None
+        ys = self.to_pixels([(0.0, y) for y in self._at])[:, 1]
+        k = int(np.argmin(np.abs(ys - pos.y())))
+        return k if abs(ys[k] - pos.y()) <= self.GRAB_PX else None
+
+    # ------------------------------------------------------------------ dragging
+    def drag_splice(self, k: int, to_mm: float) -> list[float]:
+        """Splice ``k`` moved to ``to_mm`` mm from the piece's edge, as a drag released there does: the
+        positions asked (``moved`` emitted when they differ from the report's)."""
+        if self.report is None or not 0 <= k < len(self._at):
+            return []
+        self._at[k] = self.report.start + float(to_mm)
+        self._drag = k
+        return self._release()
+
+    def _release(self) -> list[float]:
+        r = self.report
+        self._drag = None
+        asked = sorted(round(y - r.start, 1) for y in self._at)
+        self._at = [float(y) for y in r.positions]  # as the report has them until the piece is nested again
+        self.update()
+        if asked != sorted(round(y - r.start, 1) for y in r.positions):
+            self.moved.emit(r.name, asked)
+        return asked
+
+    def mousePressEvent(self, event) -> None:
+        if event.button() == Qt.MouseButton.LeftButton and self.isEnabled():
+            k = self._line_near(event.position())
+            if k is not None:
+                self._drag = k
+                self.update()
+                event.accept()
+                return
+        super().mousePressEvent(event)
+
+    def mouseMoveEvent(self, event) -> None:
+        if self._drag is not None:
+            y = self._y_at(event.position().y())
+            if y is not None:
+                self._at[self._drag] = y
+                self.update()
+            event.accept()
+            return
+        if self._line_near(event.position()) is not None:
+            self.setCursor(Qt.CursorShape.SizeVerCursor)
+        else:
+            self.unsetCursor()
+        super().mouseMoveEvent(event)
+
+    def mouseReleaseEvent(self, event) -> None:
+        if self._drag is not None and event.button() == Qt.MouseButton.LeftButton:
+            y = self._y_at(event.position().y())
+            if y is not None:
+                self._at[self._drag] = y
+            self._release()
+            event.accept()
+            return
+        super().mouseReleaseEvent(event)
+
+    # ------------------------------------------------------------------ paint
+    def paintEvent(self, _event) -> None:
+        p = QPainter(self)
+        try:
+            p.setRenderHint(QPainter.RenderHint.Antialiasing)
+            p.fillRect(self.rect(), self.palette().base())
+            frame = self._frame()
+            if frame is None:
+                return
+            self._paint_piece(p, frame)
+        finally:
+            p.end()
+
+    def _paint_piece(self, p: QPainter, frame) -> None:
+        r = self.report
+        s, x0, y0, left, bottom = frame
+        fm = QFontMetricsF(self.font())
+        right = left + float(np.ptp(self.outline[:, 0])) * s
+        top = bottom - r.width * s
+        parts = self.parts()
+        wide = [(k, hi - lo) for k, (lo, hi) in enumerate(parts) if hi - lo > self.usable + 1e-9]
+        ink = self.palette().color(self.foregroundRole())
+
+        # the title: the piece, or the part a splice there leaves too wide
+        if wide:
+            k, w = wide[0]
+            title = f"{r.name}: part {k + 1} of {len(parts)} {w:.0f} mm, wider than the roll"
+            p.setPen(QColor(PART_TOO_WIDE))
+        else:
+            title = f"{r.name}: {r.width:.0f} mm across; roll {self.usable:.0f} mm"
+            p.setPen(ink)
+        p.drawText(QRectF(self.MARGIN, self.MARGIN, self.width() - 2 * self.MARGIN, fm.height()),
+                   Qt.AlignmentFlag.AlignLeft, fm.elidedText(title, Qt.TextElideMode.ElideRight,
+                                                             self.width() - 2 * self.MARGIN))
+
+        # the roll's usable width, from the edge of the part below the splice dragged (else the piece's)
+        lo = y0
+        if self._drag is not None:
+            lo = parts[sorted(self._at).index(self._at[self._drag])][0]
+        band_top = max(bottom - (lo + self.usable - y0) * s, top)
+        band_bottom = min(bottom - (lo - y0) * s, bottom)
+        if band_bottom > band_top:
+            p.fillRect(QRectF(left - 4.0, band_top, right - left + 8.0, band_bottom - band_top), QColor("#e3eef9"))
+            p.setPen(QPen(QColor("#7aa6d6"), 1.0, Qt.PenStyle.DashLine))
+            p.drawLine(QPointF(left - 4.0, band_top), QPointF(right + 4.0, band_top))
+            p.drawLine(QPointF(left - 4.0, band_bottom), QPointF(right + 4.0, band_bottom))
+
+        # the piece's outline before splicing
+        pixels = self.to_pixels(self.outline)
+        p.setBrush(QBrush(QColor("#d5dde2")))
+        p.setPen(QPen(QColor("#455a64"), 1.0))
+        p.drawPolygon(QPolygonF([QPointF(x, y) for x, y in pixels]))
+
+        # each splice: its overlap shaded, its line, its position from the edge
+        half = 0.5 * self.overlap * s
+        for k, y in enumerate(self._at):
+            py = bottom - (y - y0) * s
+            colour = QColor(SPLICE_DRAGGED if k == self._drag else SPLICE_LINE)
+            shade = QColor(colour)
+            shade.setAlpha(50)
+            p.fillRect(QRectF(left, py - half, right - left, 2 * half), shade)
+            p.setPen(QPen(colour, 2.0))
+            p.drawLine(QPointF(left - 4.0, py), QPointF(right + 4.0, py))
+            p.setPen(colour)
+            p.drawText(QRectF(right + 18.0, py - fm.height() / 2, self.RIGHT - 18.0, fm.height()),
+                       Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignVCenter, f"{_mm(y - y0)} mm")
+
+        # each part's width across: a bracket beside the piece, red when wider than the roll
+        for k, (a, b) in enumerate(parts):
+            x = right + 8.0 + 4.0 * (k % 2)
+            fits = b - a <= self.usable + 1e-9
+            p.setPen(QPen(QColor(PART_FITS if fits else PART_TOO_WIDE), 2.0 if fits else 3.0))
+            p.drawLine(QPointF(x, bottom - (a - y0) * s), QPointF(x, bottom - (b - y0) * s))
+
+
 class CutPlanPanel(QWidget):
     """The Cut plan panel (see the module docstring). Signals: ``progress(material, marker)`` after
     each better marker is shown; each Nest ends with exactly one of ``finished(summary)`` and
     ``failed(message)``, one line each; ``input_error(message)`` a splice position refused (one line);
-    ``splices_changed()`` when :meth:`piece_splices` may say otherwise (a Nest begun or ended, a document change)."""
+    ``splices_changed()`` when :meth:`piece_splices` may say otherwise (a Nest begun or ended, a document change);
+    ``plan_edited(plan, label)`` a setting, a splice or a mirror pair edited: ``plan`` the project's cut plan
+    (a :class:`flatweave.document.cutsettings.CutPlanSettings`) as asked, for the document to make one undoable
+    edit called ``label`` (it comes back through :meth:`set_project`; the panel keeps no settings of its own,
+    and one not taken is shown as the project has it)."""
 
     progress = Signal(str, object)
     finished = Signal(str)
     failed = Signal(str)
     input_error = Signal(str)
     splices_changed = Signal()
+    plan_edited = Signal(object, str)
     # from the nesting thread to this one; the first argument is the Nest's number (a dropped one's is ignored)
     _planned = Signal(int, object)  # the pieces left out (names)
     _began = Signal(int, str)
@@ -341,13 +610,10 @@ class CutPlanPanel(QWidget):
         self.errors: dict[str, str] = {}  # a material's one-line failure (it has no marker)
         self.left_out: list[str] = []
         self.spliced: dict = {}  # per material, the pieces spliced (flatweave.document.cutplan.SpliceReport s)
-        # the splices placed by hand, mm from each piece's edge by item name: every Nest's, for the session
-        self.placed: dict[str, list[float]] = {}
         self._items: dict[str, PlanItem] = {}  # the last Nest's items before splicing, by name (to check a position)
         self._rows: list[SpliceReport] = []  # the splice table's rows
         self.workers: int | None = None  # the engine's threads (None: every core)
         self.last_summary: str | None = None  # how the last Nest ended, one line
-        self._widths: dict[str, float] = {}  # roll widths typed, by material (the others: the table's)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._run = 0  # the Nest's number: a run dropped (another document) is told apart by it
@@ -375,7 +641,6 @@ class CutPlanPanel(QWidget):
         self.roll_width.setKeyboardTracking(False)
         self.roll_width.setToolTip("The roll's width across, for the material shown: the materials table's "
                                    f"until typed ({DEFAULT_ROLL_MM:g} mm when the table gives none)")
-        self.roll_width.valueChanged.connect(self._width_typed)
         form.addRow("Roll width", self.roll_width)
         self.gap = QDoubleSpinBox(minimum=0.0, maximum=500.0, decimals=1, value=0.0, suffix=" mm")
         self.gap.setToolTip("The least distance kept between two pieces' cut outlines")
@@ -393,7 +658,23 @@ class CutPlanPanel(QWidget):
                                 "along the roll through its least sheared cells; the parts overlap by this much "
                                 "at each splice (a composite ply's 25 mm; a sewn seam's: twice its allowance)")
         form.addRow("Splice overlap", self.overlap)
+        # each setting typed is an edit of the project's cut plan (on Enter or leaving the box, not each key)
+        self._fields = {self.roll_width: (None, "Roll width"), self.gap: ("gap_mm", "Gap"),
+                        self.time_limit: ("seconds", "Time limit"), self.allowance: ("allowance_mm", "Seam allowance"),
+                        self.overlap: ("overlap_mm", "Splice overlap")}
+        for box in self._fields:
+            box.setKeyboardTracking(False)
+            box.valueChanged.connect(lambda value, box=box: self._setting_typed(box, value))
         col.addLayout(form)
+        self.mirror_title = QLabel("Mirror pairs")
+        self.mirror_title.setToolTip(MIRROR_TIP)
+        self.mirror_list = QListWidget()  # a checkable row per piece, in the pieces' order
+        self.mirror_list.setToolTip(MIRROR_TIP)
+        self.mirror_list.setMaximumHeight(110)
+        self.mirror_list.setMinimumWidth(120)
+        self.mirror_list.setMaximumWidth(180)
+        self.mirror_list.setSelectionMode(QAbstractItemView.SelectionMode.NoSelection)
+        self.mirror_list.itemChanged.connect(self._mirror_toggled)
         buttons = QHBoxLayout()
         self.nest_button = QPushButton("Nest")
         self.nest_button.setToolTip("Place every solved piece's copies on the roll, as short as the time allows "
@@ -431,6 +712,7 @@ class CutPlanPanel(QWidget):
         self.splices.setEditTriggers(QAbstractItemView.EditTrigger.DoubleClicked
                                      | QAbstractItemView.EditTrigger.EditKeyPressed)
         self.splices.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
+        self.splices.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)  # a piece: the view's
         self.splices.verticalHeader().setVisible(False)
         self.splices.setWordWrap(False)
         self.splices.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
@@ -438,10 +720,14 @@ class CutPlanPanel(QWidget):
         self.splices.setMaximumHeight(110)  # three rows: the roll above keeps the dock's height
         self.splices.setToolTip("The shown material's pieces spliced to fit the roll: double-click a piece's "
                                 "Splices to type their positions across it, mm from its edge (700, or 700, 1400 "
-                                "for three parts), and the pieces are nested again; cleared, or Reset, the "
-                                "splices chosen through the least shear. Splices placed by hand last for this "
-                                "session: they are not saved in the project")
+                                "for three parts), or drag them in the view beside, and the pieces are nested "
+                                "again; cleared, or Reset, the splices chosen through the least shear. Splices "
+                                "placed by hand are saved with the project")
         self.splices.itemChanged.connect(self._splice_typed)
+        self.splices.itemSelectionChanged.connect(self._show_splice_view)
+        self.splice_view = SpliceView(self)
+        self.splice_view.moved.connect(
+            lambda name, mm: self.place_splices(name, ", ".join(str(v) for v in mm)))
         self.reset_splices_button = QPushButton("Reset splices")
         self.reset_splices_button.setToolTip("Forget the splices placed by hand on the shown material's pieces "
                                              "and nest again with the ones chosen")
@@ -455,14 +741,23 @@ class CutPlanPanel(QWidget):
         right = QVBoxLayout()
         self.view = MarkerView(self)
         right.addWidget(self.view, 1)
+        # under the roll: the mirror pairs, the splices (the table, the selected piece flat); then Reset and
+        # the last splice refused, one line across
         under = QHBoxLayout()
+        mirror = QVBoxLayout()
+        mirror.setSpacing(2)
+        mirror.addWidget(self.mirror_title)
+        mirror.addWidget(self.mirror_list, 1)
+        under.addLayout(mirror, 0)
         under.addWidget(self.splices, 1)
-        buttons = QVBoxLayout()
-        buttons.addWidget(self.reset_splices_button, 0, Qt.AlignmentFlag.AlignLeft)
-        buttons.addWidget(self.splice_error)
-        buttons.addStretch(1)
-        under.addLayout(buttons, 1)
+        under.addWidget(self.splice_view, 1)
+        under.addStretch(0)  # the room the splices leave when there are none
         right.addLayout(under)
+        buttons = QHBoxLayout()
+        buttons.addWidget(self.reset_splices_button, 0, Qt.AlignmentFlag.AlignLeft)
+        buttons.addWidget(self.splice_error, 1)
+        buttons.addStretch(0)
+        right.addLayout(buttons)
         row.addLayout(right, 1)
 
         self._planned.connect(self._on_planned)
@@ -484,19 +779,20 @@ class CutPlanPanel(QWidget):
 
     @property
     def stale(self) -> bool:
-        """The markers shown were nested from pieces that have changed since."""
-        return self.source is not None and self.project is not None and not same_pieces(self.source, self.project)
+        """The markers shown were nested from pieces, or with cut plan settings, that have changed since."""
+        return self.source is not None and self.project is not None and (
+            not same_pieces(self.source, self.project) or self.source.cut_plan != self.project.cut_plan)
 
     def set_project(self, project: Project | None, cause: str = "reset") -> None:
         """The document's project after a change (``cause`` as :class:`flatweave.document.history.Change`
         says): another document ("reset") drops the markers and stops a Nest; any other change leaves
-        them shown, said stale when their pieces changed."""
+        them shown, said stale when their pieces changed. The settings shown are ``project.cut_plan``'s."""
         self.project = project
         if cause == "reset" or project is None:
             self._stop.set()
             self._run += 1  # what the Nest under way still reports is dropped
-            self.source, self.markers, self.errors, self.left_out, self._widths = None, {}, {}, [], {}
-            self.spliced, self.placed, self._items = {}, {}, {}
+            self.source, self.markers, self.errors, self.left_out = None, {}, {}, []
+            self.spliced, self._items = {}, {}
             self._now, self._stopped, self._failed = None, False, None
             self.splice_error.clear()
         self._show()
@@ -513,15 +809,94 @@ class CutPlanPanel(QWidget):
         width = None if fabric is None else fabric.roll_width_mm
         return float(width) if width is not None else DEFAULT_ROLL_MM
 
-    def width_of(self, material: str) -> float:
-        """The roll width a Nest uses for ``material`` (mm): typed, else the table's."""
-        return self._widths.get(material, self.default_width(material))
+    @property
+    def plan(self) -> CutPlanSettings:
+        """The project's cut plan (the settings as made with no project)."""
+        return CutPlanSettings() if self.project is None else self.project.cut_plan
 
-    def set_roll_width(self, mm: float, material: str | None = None) -> None:
-        """Nest ``material`` (None: every material listed) on a roll ``mm`` wide (what the width box sets)."""
-        for name in [material] if material is not None else self.materials():
-            self._widths[name] = float(mm)
+    def width_of(self, material: str) -> float:
+        """The roll width a Nest uses for ``material`` (mm): the cut plan's, else the table's."""
+        width = self.plan.width_for(material)
+        return self.default_width(material) if width is None else width
+
+    def set_roll_width(self, mm: float, material: str | None = None) -> bool:
+        """Nest ``material`` (None: every material listed) on a roll ``mm`` wide (what the width box sets):
+        one edit of the cut plan; True when the project's plan has it."""
+        plan = self.plan
+        try:
+            for name in [material] if material is not None else self.materials():
+                plan = plan.with_width(name, float(mm))
+        except (FlatweaveError, TypeError, ValueError) as exc:
+            self.input_error.emit(f"Roll width: {one_line(exc)}")
+            self._show()
+            return False
+        return self._edit_plan(plan, "Roll width")
+
+    def _edit_plan(self, plan: CutPlanSettings, label: str) -> bool:
+        """Ask for ``plan`` (``plan_edited``), then show the project's plan as it is: the new one when the
+        document took it, the old one when not. True when the project's plan is ``plan``."""
+        if self.project is None:
+            return False
+        if plan != self.project.cut_plan:
+            self.plan_edited.emit(plan, label)
         self._show()
+        return self.project is not None and self.project.cut_plan == plan
+
+    def _setting_typed(self, box, value) -> None:
+        """A setting's box edited: that setting of the cut plan (the roll width: the shown material's)."""
+        if self.project is None:
+            return
+        field, label = self._fields[box]
+        plan = self.plan
+        try:
+            if field is None:
+                name = self.shown_material()
+                if name is None or float(value) == self.width_of(name):
+                    return
+                plan = plan.with_width(name, float(value))
+            else:
+                plan = replace(plan, **{field: float(value)})
+        except (FlatweaveError, TypeError, ValueError) as exc:
+            self.input_error.emit(f"{label}: {one_line(exc)}")
+            self._show()
+            return
+        self._edit_plan(plan, label)
+
+    def _mirror_toggled(self, row: QListWidgetItem) -> None:
+        name = row.data(Qt.ItemDataRole.UserRole)
+        on = row.checkState() == Qt.CheckState.Checked
+        if self.project is None or name is None or on == self.plan.mirrored(name):
+            return
+        self._edit_plan(self.plan.with_mirror(name, on), "Mirror pairs")
+
+    def set_mirror(self, piece: str, on: bool) -> bool:
+        """Cut piece ``piece`` in mirror pairs (``on``) or all as drawn, as its row's box does."""
+        for k in range(self.mirror_list.count()):
+            row = self.mirror_list.item(k)
+            if row.data(Qt.ItemDataRole.UserRole) == piece:
+                row.setCheckState(Qt.CheckState.Checked if on else Qt.CheckState.Unchecked)
+                return self.plan.mirrored(piece) == bool(on)
+        return False
+
+    def mirror_rows(self) -> list[tuple[str, bool]]:
+        """The mirror pairs list: each row's piece and whether it is checked."""
+        return [(self.mirror_list.item(k).data(Qt.ItemDataRole.UserRole),
+                 self.mirror_list.item(k).checkState() == Qt.CheckState.Checked)
+                for k in range(self.mirror_list.count())]
+
+    def _material_of(self, name: str) -> str | None:
+        """The material of item ``name`` (a piece's name, numbered "NAME K" when its pattern has several)."""
+        if name in self._items:
+            return self._items[name].material
+        if self.project is None:
+            return None
+        for piece in self.project.pieces:
+            if name == piece.name:
+                return piece.settings.material.name
+        for piece in self.project.pieces:
+            if re.fullmatch(re.escape(piece.name) + r" \d+", name):
+                return piece.settings.material.name
+        return None
 
     def shown_material(self) -> str | None:
         return self.material.currentData()
@@ -535,11 +910,6 @@ class CutPlanPanel(QWidget):
     def _material_chosen(self, _index: int) -> None:
         self._show()
 
-    def _width_typed(self, value: float) -> None:
-        name = self.shown_material()
-        if name is not None and value != self.width_of(name):
-            self._widths[name] = float(value)
-
     def number(self, key: str) -> str:
         """The text of number ``key`` (a key of NUMBERS) as shown."""
         return self.numbers[key].text()
@@ -551,10 +921,10 @@ class CutPlanPanel(QWidget):
         if self.busy or self.project is None:
             return False
         source = self.project
+        plan = source.cut_plan  # the project's: what it was nested with
         widths = {name: self.width_of(name) for name in self.materials()}
-        gap, seconds, allowance = float(self.gap.value()), float(self.time_limit.value()), float(self.allowance.value())
-        overlap = float(self.overlap.value())
-        placed = {name: list(mm) for name, mm in self.placed.items()}
+        gap, seconds, allowance, overlap = plan.gap_mm, plan.seconds, plan.allowance_mm, plan.overlap_mm
+        placed, rotations = plan.splice_map(), plan.rotations
         self._stop.clear()
         self._run += 1
         run, stop, workers = self._run, self._stop, self.workers
@@ -565,7 +935,7 @@ class CutPlanPanel(QWidget):
 
         def work():
             try:
-                items, left = project_items(source, source.name, allowance)
+                items, left = project_items(source, source.name, allowance, rotations=rotations)
                 self._items = {it.item.name: it for it in items}
                 groups = by_material(items)
                 self._planned.emit(run, left)
@@ -697,42 +1067,48 @@ class CutPlanPanel(QWidget):
 
     def place_splices(self, name: str, text: str) -> bool:
         """Splice the piece ``name`` (an item's name, as the table's rows) at the positions ``text``
-        (:func:`read_splices`; empty: the chosen ones) and nest again. A position its piece cannot take
-        (checked now, on the roll width and overlap the Nest will use) is ``input_error``, one line, and
-        nothing else changes; so is a Nest under way. True when a Nest started."""
+        (:func:`read_splices`; empty: the chosen ones), kept in the project's cut plan (one edit, asked by
+        ``plan_edited``), and nest again. A position its piece cannot take (checked now, on the roll width
+        and overlap the Nest will use) is ``input_error``, one line, and nothing else changes; so is a Nest
+        under way. True when a Nest started."""
         item = self._items.get(name)
+        plan = self.plan
         try:
             if self.busy:
                 raise SettingsError("wait for the Nest under way to end (or Stop it)")
             if item is None:
                 raise SettingsError("no piece to nest is named so (Nest again)")
             mm = read_splices(text)
-            if not mm and name not in self.placed:  # cleared, and the chosen ones are shown: nothing to do
+            if not mm and name not in plan.splice_map():  # cleared, and the chosen ones are shown: nothing to do
                 self._show_splices(force=True)
                 return False
             if mm:
-                splice_items([item], self.width_of(item.material), float(self.overlap.value()), {name: mm})
+                splice_items([item], self.width_of(item.material), plan.overlap_mm, {name: mm})
+            plan = plan.with_splices(name, mm or None)
         except (FlatweaveError, ValueError) as exc:
             message = f"Splices of {name}: {one_line(exc)}"
             self.splice_error.setText(message)
             self._show_splices(force=True)  # the cell as it was
             self.input_error.emit(message)
             return False
-        if mm:
-            self.placed[name] = mm
-        else:
-            self.placed.pop(name, None)
+        self.splice_error.clear()
+        if not self._edit_plan(plan, "Splices"):  # not taken (the document said why): the cell as it was
+            self._show_splices(force=True)
+            return False
         return self.nest()
 
     def reset_splices(self, material: str | None = None) -> bool:
-        """Forget the splices placed by hand on ``material``'s pieces (None: the shown material's) and
-        nest again; True when a Nest started (False: none was placed, or a Nest is on)."""
+        """Forget the splices placed by hand on ``material``'s pieces (None: the shown material's), one edit
+        of the cut plan, and nest again; True when a Nest started (False: none was placed, or a Nest is on)."""
         material = self.shown_material() if material is None else material
-        names = [n for n, it in self._items.items() if it.material == material and n in self.placed]
+        names = [n for n in self.plan.splice_map() if self._material_of(n) == material]
         if not names or self.busy:
             return False
+        plan = self.plan
         for n in names:
-            del self.placed[n]
+            plan = plan.with_splices(n, None)
+        if not self._edit_plan(plan, "Reset splices"):
+            return False
         return self.nest()
 
     def _splice_typed(self, item: QTableWidgetItem) -> None:
@@ -752,13 +1128,18 @@ class CutPlanPanel(QWidget):
         """The splice table: the shown material's spliced pieces (refilled when they change, or ``force``)."""
         name = self.shown_material()
         rows = list(self.spliced.get(name, [])) if name is not None else []
-        placed = any(it.material == name and n in self.placed for n, it in self._items.items())
+        placed = name is not None and any(self._material_of(n) == name for n in self.plan.splice_map())
         self.reset_splices_button.setEnabled(placed and not self.busy)
         self.splices.setEnabled(not self.busy)
+        self.splice_view.setEnabled(not self.busy)
         self.splices.setVisible(bool(rows))
+        self.splice_view.setVisible(bool(rows))
         self.reset_splices_button.setVisible(bool(rows) or placed)
+        self.splice_error.setVisible(bool(self.splice_error.text()))
         if rows == self._rows and not force:
+            self._show_splice_view()
             return  # an editor open in it stays open
+        viewed = self.splice_view.report.name if self.splice_view.report is not None else None
         self._rows = rows
         fixed = Qt.ItemFlag.ItemIsSelectable | Qt.ItemFlag.ItemIsEnabled
         with QSignalBlocker(self.splices):
@@ -774,6 +1155,29 @@ class CutPlanPanel(QWidget):
                     if c in (1, SPLICES):
                         cell.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
                     self.splices.setItem(r, c, cell)
+            # the piece viewed stays selected when it is still spliced
+            for r, report in enumerate(rows):
+                if report.name == viewed:
+                    self.splices.selectRow(r)
+        self._show_splice_view(force=force)
+
+    def selected_splice_row(self) -> int:
+        """The splice table's selected row (the first when none is; -1 when the table is empty)."""
+        chosen = self.splices.selectionModel().selectedIndexes()
+        return chosen[0].row() if chosen else (0 if self._rows else -1)
+
+    def _show_splice_view(self, force: bool = False) -> None:
+        """The splice view: the selected row's piece (the first row's when none is selected)."""
+        r = self.selected_splice_row()
+        report = self._rows[r] if 0 <= r < len(self._rows) else None
+        item = None if report is None else self._items.get(report.name)
+        if report is None or item is None:
+            self.splice_view.set_piece(None)
+            return
+        if force:
+            self.splice_view.set_piece(None)  # drawn again from the report: a refused drag snaps back
+        self.splice_view.set_piece(report, item.item.outline, usable_width(self.width_of(item.material)),
+                                   self.plan.overlap_mm)
 
     # ------------------------------------------------------------------ shown
     def _show(self) -> None:
@@ -786,13 +1190,12 @@ class CutPlanPanel(QWidget):
                 self.material.addItem(name, name)
             self.material.setCurrentIndex(max(0, self.material.findData(current)))
         name = self.shown_material()
-        with QSignalBlocker(self.roll_width):
-            self.roll_width.setValue(self.width_of(name) if name is not None else DEFAULT_ROLL_MM)
+        self._show_plan(name)
         busy, has = self.busy, self.project is not None
         self.nest_button.setEnabled(has and not busy)
         self.stop_button.setEnabled(busy and not self._stop.is_set())
         self.material.setEnabled(has)
-        for w in (self.roll_width, self.gap, self.time_limit, self.allowance, self.overlap):
+        for w in (self.roll_width, self.gap, self.time_limit, self.allowance, self.overlap, self.mirror_list):
             w.setEnabled(has and not busy)  # a Nest under way keeps the values it started with
 
         marker = self.markers.get(name) if name is not None else None
@@ -809,7 +1212,34 @@ class CutPlanPanel(QWidget):
         self.left_label.setText("\n".join(lines))
         self.left_label.setVisible(bool(lines))
         self._show_splices()
-        self.splice_error.setVisible(bool(self.splice_error.text()))
+
+    def _show_plan(self, name: str | None) -> None:
+        """The settings' boxes and the mirror pairs list as the project's cut plan has them (their signals
+        blocked: showing is no edit); a box already showing its value is left alone (an edit in it stays)."""
+        plan = self.plan
+        values = {self.roll_width: self.width_of(name) if name is not None else DEFAULT_ROLL_MM,
+                  self.gap: plan.gap_mm, self.time_limit: max(1, round(plan.seconds)),
+                  self.allowance: plan.allowance_mm, self.overlap: plan.overlap_mm}
+        for box, value in values.items():
+            shown = box.valueFromText(box.textFromValue(value))  # as the box rounds it
+            if box.value() != shown:
+                with QSignalBlocker(box):
+                    box.setValue(value)
+        names = [] if self.project is None else [p.name for p in self.project.pieces]
+        with QSignalBlocker(self.mirror_list):
+            if [row for row, _ in self.mirror_rows()] != names:
+                self.mirror_list.clear()
+                for piece in names:
+                    row = QListWidgetItem(piece)
+                    row.setData(Qt.ItemDataRole.UserRole, piece)
+                    row.setFlags(Qt.ItemFlag.ItemIsEnabled | Qt.ItemFlag.ItemIsUserCheckable)
+                    row.setToolTip(f"{piece}: {MIRROR_TIP[0].lower()}{MIRROR_TIP[1:]}")
+                    row.setCheckState(Qt.CheckState.Unchecked)  # shows its box
+                    self.mirror_list.addItem(row)
+            for k, piece in enumerate(names):
+                state = Qt.CheckState.Checked if plan.mirrored(piece) else Qt.CheckState.Unchecked
+                if self.mirror_list.item(k).checkState() != state:
+                    self.mirror_list.item(k).setCheckState(state)
 
     def _message(self, name: str | None) -> str:
         """What the view says with no marker of ``name`` to draw."""

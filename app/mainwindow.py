@@ -239,6 +239,7 @@ class MainWindow(QMainWindow):
         self.cut_plan.finished.connect(lambda summary: self.statusBar().showMessage(summary, 20000))
         self.cut_plan.failed.connect(lambda message: self.statusBar().showMessage(f"Cut plan: {message}", 20000))
         self.cut_plan.input_error.connect(lambda message: self.statusBar().showMessage(f"Cut plan: {message}", 20000))
+        self.cut_plan.plan_edited.connect(self.edit_cut_plan)  # the dock's settings are the project's cut plan
         # the active piece's splices on the surface: after a Nest, another piece active, the markers stale or gone
         self.cut_plan.splices_changed.connect(
             lambda: self.presenter.show_splices(self.project, self.cut_plan.piece_splices()))
@@ -418,6 +419,19 @@ class MainWindow(QMainWindow):
             self.cut_plan_dock.show()
             self.resizeDocks([self.cut_plan_dock], [max(self.height() // 3, 300)], Qt.Orientation.Vertical)
         self.cut_plan_dock.raise_()
+
+    def edit_cut_plan(self, plan, label: str) -> bool:
+        """The Cut plan dock's settings edited: ``plan`` (a CutPlanSettings) made the project's cut plan as one
+        undoable edit called ``label``; a refused one shows its message in one line (the dock shows the plan
+        as it was)."""
+        if self.document is None:
+            return False
+        try:
+            self.document.set_cut_plan(plan, label)
+        except FlatweaveError as exc:
+            self.show_error(f"{label}: {exc}")
+            return False
+        return True
 
     def nest_pieces(self) -> bool:
         """Solve > Nest pieces on the roll: the Cut plan shown and a Nest started with its values

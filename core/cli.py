@@ -56,6 +56,7 @@ from flatweave.document.project import PROJECT_SUFFIX, Project, project_to_dict
 from flatweave.document.recovery import save_with_backups
 from flatweave.document.matching import solve_all
 from flatweave.document import cutplan
+from flatweave.document.cutsettings import CutPlanSettings
 from flatweave.document.project import load_project, result_from_dict
 from flatweave.export.marker import MARKER_FORMATS, marker_files
 from flatweave.studies.nesting import DEFAULT_SECONDS, ROTATIONS, nest
@@ -451,24 +452,30 @@ def build_parser() -> argparse.ArgumentParser:
                         "--out: its pattern pieces) or a nesting instance (sparrow's or ESICUP's JSON, in mm); QTY "
                         "copies of each (default 1)")
     n.add_argument("--roll-width", type=ROLL_MM, default=None, metavar="W",
-                   help="the roll's width in mm (default: the material's, from a project's materials table; an "
-                        "instance's strip height)")
-    n.add_argument("--gap", type=GAP_MM, default=0.0, metavar="G", help="the gap kept between pieces, mm (default 0)")
-    n.add_argument("--time-limit", type=NEST_SECONDS, default=DEFAULT_SECONDS, metavar="S",
+                   help="the roll's width in mm (default: the material's, from a project's cut plan or materials "
+                        "table; an instance's strip height)")
+    n.add_argument("--gap", type=GAP_MM, default=None, metavar="G",
+                   help="the gap kept between pieces, mm (default a project's cut plan's, else 0); the options "
+                        "below default to a project's cut plan too, when one project is nested")
+    n.add_argument("--time-limit", type=NEST_SECONDS, default=None, metavar="S",
                    help=f"seconds the engine may take per marker (default {DEFAULT_SECONDS:g}; whole seconds)")
     n.add_argument("--rotations", choices=list(ROTATIONS), default=None,
                    help="how pieces may turn on the roll: grain (0 or 180 degrees, the warp along the roll), "
                         "one-way (0: a napped material), free (any: an isotropic sheet); default from each "
                         "piece's material (woven: grain, isotropic: free)")
-    n.add_argument("--seam-allowance", type=SEAM_MM, default=0.0, metavar="MM",
+    n.add_argument("--seam-allowance", type=SEAM_MM, default=None, metavar="MM",
                    help="the pieces' seam allowance, mm (default 0; a seam's own where it has one)")
-    n.add_argument("--overlap", type=GAP_MM, default=25.0, metavar="MM",
+    n.add_argument("--overlap", type=GAP_MM, default=None, metavar="MM",
                    help="a piece wider than the roll is spliced into parts that fit, by lines along the roll; the "
                         "parts overlap by MM at each splice (default 25, a composite ply's; a sewn seam's: twice "
                         "its allowance)")
     n.add_argument("--splice", action="append", default=[], metavar="NAME=MM[,MM...]",
                    help="splice piece NAME at these positions, mm across it from its edge (along the roll), in "
-                        "place of the splices chosen for it; repeatable")
+                        "place of the splices chosen for it (and of its project's); repeatable")
+    n.add_argument("--mirror", action="append", default=[], metavar="NAME",
+                   help="cut piece NAME in mirror pairs, a left and a right panel: of its copies, half are its "
+                        "mirror image (an odd quantity has one more as drawn); repeatable; a project's cut plan "
+                        "names its own")
     n.add_argument("--seed", type=NEST_SEED, default=0, metavar="N", help="the engine's random seed (default 0)")
     n.add_argument("--export", action="append", default=[], metavar="MARKER.dxf|.svg|.pdf|.csv",
                    help="write the marker (repeatable): DXF (a block per piece, placed per copy; the roll on "
@@ -477,6 +484,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "markers (materials) are written as NAME-MATERIAL.EXT")
     n.add_argument("--ply-book", default=None, metavar="BOOK.pdf",
                    help="with one project: also write its ply book, with a page per marker after the pieces' pages")
+    n.add_argument("--paper", default="a4", choices=["a4", "letter"],
+                   help="paper of the marker PDF's pages (its 1:1 tiles) and of the ply book")
     n.add_argument("--quiet", action="store_true", help="no progress on stderr")
     return p
 
@@ -1120,18 +1129,22 @@ def _nest_input(text: str) -> tuple[Path, int]:
     return Path(text), 1
 
 
-def _nest_items(path: Path, copies: int, args) -> tuple[list, float | None, list[str]]:
-    """The plan items of one nest input, the roll width it knows (mm, or None) and the pieces left out."""
+def _nest_items(path: Path, copies: int, args) -> tuple:
+    """The plan items of one nest input, the roll width it knows (mm, or None), the pieces left out and,
+    for a project, its cut plan (:class:`flatweave.document.cutsettings.CutPlanSettings`; else None)."""
     name = cutplan.source_name(path)
+    allowance = 0.0 if args.seam_allowance is None else args.seam_allowance
     if path.suffix.lower() == PROJECT_SUFFIX:
         project = load_project(path)
-        items, left = cutplan.project_items(project, name, args.seam_allowance, copies, args.rotations)
-        widths = {f.name: f.roll_width_mm for f in project.materials}
-        known = [widths.get(it.material) for it in items]
-        return items, (known[0] if known and len(set(known)) == 1 else None), left
+        plan = project.cut_plan
+        allowance = plan.allowance_mm if args.seam_allowance is None else args.seam_allowance
+        items, left = cutplan.project_items(project, name, allowance, copies, args.rotations or plan.rotations)
+        known = [plan.width_for(it.material) or getattr(project.fabric(it.material), "roll_width_mm", None)
+                 for it in items]
+        return items, (known[0] if known and len(set(known)) == 1 else None), left, plan
     doc = _read_json(str(path))
     if isinstance(doc, dict) and "strip_height" in doc and "items" in doc:  # a nesting instance
-        return cutplan.instance_items(doc, name, copies, args.rotations), float(doc["strip_height"]), []
+        return cutplan.instance_items(doc, name, copies, args.rotations), float(doc["strip_height"]), [], None
     if not isinstance(doc, dict) or doc.get("format") != "flatweave-result":
         raise SettingsError(f"{path.name}: nest takes a project (.flatweave), a result file (flatten --out) or a "
                             f"nesting instance (sparrow's JSON: items, strip_height)")
@@ -1146,8 +1159,23 @@ def _nest_items(path: Path, copies: int, args) -> tuple[list, float | None, list
                             f"project instead (flatten --out NAME.flatweave)") from None
     result = result_from_dict(doc, opened.surface, str(path))
     units = doc.get("settings", {}).get("units") or opened.units or "m"
-    items = cutplan.result_items(result, path.stem, name, units, args.seam_allowance, copies, args.rotations)
-    return items, None, []
+    items = cutplan.result_items(result, path.stem, name, units, allowance, copies, args.rotations)
+    return items, None, [], None
+
+
+def _mirrored(items, names: list[str]) -> list:
+    """``items`` with those named by ``--mirror NAME`` (a piece's name: its item, or its items "NAME K" when
+    its pattern has several pieces) cut in mirror pairs; a one-line SettingsError for a name none has."""
+    out = list(items)
+    for name in names:
+        hit = [k for k, it in enumerate(out) if it.item.name == name or (
+            it.item.name.startswith(name + " ") and it.item.name[len(name) + 1:].isdigit())]
+        if not hit:
+            raise SettingsError(f"--mirror {name!r:.60}: no piece to nest is named so (the pieces: "
+                                f"{', '.join(it.item.name for it in out)[:200]})")
+        for k in hit:
+            out[k] = dataclasses.replace(out[k], item=dataclasses.replace(out[k].item, mirror=True))
+    return out
 
 
 def _splices(given: list[str]) -> dict:
@@ -1186,13 +1214,21 @@ def _cmd_nest(args) -> int:
             raise SettingsError("--ply-book is the ply book of one project: give one project (.flatweave) as INPUT")
         check_target(book)
         check_output(book, SettingsError)
-    items, widths, left = [], [], []
+    items, widths, left, plans = [], [], [], []
     for text in args.inputs:
         path, copies = _nest_input(text)
-        got, width, out = _nest_items(path, copies, args)
+        got, width, out, plan = _nest_items(path, copies, args)
         items += got
         widths.append(width)
         left += out
+        plans.append(plan)
+    # one project: its cut plan's settings where no option is given (several: the defaults)
+    own = plans[0] if len(plans) == 1 and plans[0] is not None else CutPlanSettings()
+    gap = own.gap_mm if args.gap is None else args.gap
+    seconds = own.seconds if args.time_limit is None else args.time_limit
+    overlap = own.overlap_mm if args.overlap is None else args.overlap
+    allowance = own.allowance_mm if args.seam_allowance is None else args.seam_allowance
+    items = _mirrored(items, args.mirror)
     if left:
         _print_warnings([f"{', '.join(left)}: not solved (or changed since): not nested"])
     if not items:
@@ -1205,12 +1241,14 @@ def _cmd_nest(args) -> int:
                                 "the inputs' rolls differ in width: give --roll-width W (mm)")
         width = known.pop()
     # a piece wider than the roll in every rotation it may take: spliced into the fewest parts that fit
-    items, spliced = cutplan.splice_items(items, width, args.overlap, _splices(args.splice))
+    names = {it.item.name for it in items}
+    placed = {n: at for plan in plans if plan is not None for n, at in plan.splice_map().items() if n in names}
+    items, spliced = cutplan.splice_items(items, width, overlap, {**placed, **_splices(args.splice)})
     for r in spliced:
         at = ", ".join(f"{y - r.start:.0f}" for y in r.positions)
         why = "spliced as asked" if r.asked else "wider than the roll: spliced"
         print(f"{r.name}: {r.width:.1f} mm across, {why} into {len(r.parts)} parts at {at} mm from its edge "
-              f"({args.overlap:g} mm overlap)", file=sys.stderr)
+              f"({overlap:g} mm overlap)", file=sys.stderr)
     groups = cutplan.by_material(items)
     files, markers = [], []
     for material, group in groups.items():
@@ -1218,19 +1256,19 @@ def _cmd_nest(args) -> int:
             if not args.quiet:
                 print(f"  {material}: {marker.length:.1f} mm, {100 * marker.utilisation:.2f} % "
                       f"({marker.seconds:.1f} s)", file=sys.stderr)
-        marker = nest([g.item for g in group], width, args.gap, args.time_limit, seed=args.seed,
+        marker = nest([g.item for g in group], width, gap, seconds, seed=args.seed,
                       on_progress=progress)
         sources = [g.source for g in group]
         mine = []
         for path in targets:
             target = path if len(groups) == 1 else path.with_name(
                 f"{path.stem}-{file_stem(material)}{path.suffix}")
-            mine += marker_files(marker, sources, target, f"{path.stem} {material}")
+            mine += marker_files(marker, sources, target, f"{path.stem} {material}", paper=args.paper)
         markers.append((material, marker, [p for p, _ in mine], sources))
         files += mine
     if book is not None:  # the project's ply book, its markers' pages after its pieces'
         project = load_project(projects[0])
-        files.append((book, plybook_bytes(project, seam_allowance_mm=args.seam_allowance,
+        files.append((book, plybook_bytes(project, args.paper, seam_allowance_mm=allowance,
                                           markers=[(m, k, src) for m, k, _, src in markers])))
     atomic_write_many(files)  # every marker's files and the book, all or nothing
     for material, m, written, _ in markers:

@@ -4,8 +4,8 @@
 
 A project of two woven plies of the octant (2 copies each, the second turned +45 degrees) and an
 isotropic half-cylinder panel, solved; Solve > Nest pieces on the roll with a 1 m roll (every piece
-spliced in two) and a 2 s time limit; the woven marker shown, the ply "cap" selected, its splice on
-the surface.
+spliced in two), "cap" cut in mirror pairs, and a 2 s time limit; the woven marker shown, the ply
+"cap" selected, its splice on the surface and in the Cut plan's splice view.
 """
 
 from __future__ import annotations
@@ -51,6 +51,7 @@ def main() -> int:
     win.cut_plan.failed.connect(done.append)
     win.cut_plan.time_limit.setValue(2)
     win.cut_plan.set_roll_width(1000.0)  # every octant ply wider: spliced in two
+    win.cut_plan.set_mirror("cap", True)  # its two copies a left and a right
     win.actions["nest"].trigger()
     shot.wait(lambda: done, 120)
     print(done[0])

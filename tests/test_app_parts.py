@@ -200,7 +200,7 @@ def test_every_core_aspect_has_a_flag():
     flags = [aspects_of([name]) for name in ASPECTS]
     assert len(set(flags)) == len(ASPECTS) and Aspect.NONE not in flags
     assert aspects_of(ASPECTS) == Aspect.SURFACE | Aspect.SETTINGS | Aspect.LABELS | Aspect.DISPLAY | \
-        Aspect.RESULT | Aspect.NAME | Aspect.PIECES | Aspect.SEAMS
+        Aspect.RESULT | Aspect.NAME | Aspect.PIECES | Aspect.SEAMS | Aspect.PLAN
     assert aspects_of(frozenset()) == Aspect.NONE
     with pytest.raises(KeyError):
         aspects_of(["colour"])

@@ -5,6 +5,7 @@ each piece's pattern outline onto the marker."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 import threading
@@ -29,8 +30,6 @@ from pypdf import PdfReader
 from tests.helpers import rectangle, ell
 
 pytestmark = pytest.mark.slow
-
-
 
 
 @pytest.fixture(scope="module")
@@ -82,6 +81,39 @@ def test_a_stop_keeps_the_best_marker_so_far():
     assert marker.stopped and seen and marker.length == seen[-1].length
     assert marker.seconds < 30.0  # not the minute asked: stopped at the first marker
     assert marker_problems(marker) == []
+
+
+def test_mirror_pairs_place_half_the_copies_reflected_with_their_grain_along_the_roll():
+    """An L (not its own mirror image) cut in mirror pairs: of 5 copies, the last 2 reflected. A reflected
+    copy's outline is the L's mirror image (congruent to the L with x negated, not to the L itself), its
+    warp still along the roll; an odd piece out and a piece not in pairs stay as drawn."""
+    items = [NestItem("ell", ell(240.0), 5, 30.0, "grain", mirror=True),
+             NestItem("odd", ell(120.0), 1, 90.0, "grain", mirror=True),
+             NestItem("plain", ell(150.0), 2, 90.0, "grain")]
+    marker = nest(items, 800.0, gap=3.0, seconds=1, workers=1)
+    assert marker_problems(marker) == []
+    flags = sorted((items[p.item].name, p.copy, p.mirrored) for p in marker.placements)
+    assert flags == [("ell", 0, False), ("ell", 1, False), ("ell", 2, False), ("ell", 3, True), ("ell", 4, True),
+                     ("odd", 0, False), ("plain", 0, False), ("plain", 1, False)]
+    ell_area = Polygon(ell(240.0)).area
+    for p, outline in zip(marker.placements, marker.outlines()):
+        it = items[p.item]
+        g = math.radians(it.grain_deg)
+        warp = p.place(np.array([[0.0, 0.0], [math.cos(g), math.sin(g)]]))
+        d = warp[1] - warp[0]
+        assert abs(d[1]) < 1e-9, (it.name, p)  # the warp along the roll, either way
+        if it.name != "ell":
+            continue
+        # signed area: a reflection turns the outline's winding, a rotation does not
+        signed = 0.5 * float(np.sum(outline[:, 0] * np.roll(outline[:, 1], -1) - outline[:, 1] *
+                                    np.roll(outline[:, 0], -1)))
+        assert abs(abs(signed) - ell_area) < 1e-6 * ell_area
+        assert (signed < 0) == p.mirrored
+    # a marker that claims a pair's copy as drawn is refused by the check
+    bad = marker.placements[0]
+    wrong = dataclasses.replace(marker, placements=(dataclasses.replace(bad, mirrored=not bad.mirrored),)
+                                + marker.placements[1:])
+    assert any("its pair asks otherwise" in line for line in marker_problems(wrong))
 
 
 @pytest.mark.parametrize("kw, says", [
@@ -183,6 +215,37 @@ def test_nest_places_a_projects_pieces_and_its_files_agree(kit, tmp_path, capsys
             assert best < 1e-6
 
 
+def test_nest_mirror_cuts_a_piece_in_pairs_in_every_file(kit, tmp_path, capsys):
+    """--mirror cap: of its 2 copies 1 is reflected: the CSV says so, the DXF inserts a block of their own
+    ("... mirrored") drawn reflected, and each CSV row (its outline reflected first when mirrored) lands on
+    a DXF copy; a name no piece has is one line, nothing written."""
+    dxf, table = tmp_path / "m.dxf", tmp_path / "m.csv"
+    assert main(["nest", str(kit), "--roll-width", "2500", "--time-limit", "1", "--rotations", "grain",
+                 "--mirror", "cap", "--export", str(dxf), "--export", str(table), "--quiet"]) == 0
+    rows = list(csv.DictReader((tmp_path / "m-woven.csv").read_text().splitlines()))
+    cap = [r for r in rows if r["name"] == "cap"]
+    assert sorted(r["mirrored"] for r in cap) == ["false", "true"]
+    assert all(r["mirrored"] == "false" for r in rows if r["name"] != "cap")
+    copies, _, _ = _dxf_marker(tmp_path / "m-woven.dxf")
+    assert sorted(name for name, _, _ in copies) == ["cap", "cap_45", "cap_45", "cap_mirrored"]
+    polys = [Polygon(c) for _, c, _ in copies]
+    outlines = {p.name: p.result.pattern.pieces for p in load_project(kit).pieces}
+    for row in rows:
+        outline = np.asarray(outlines[row["source"].split("#", 1)[1]][int(row["piece"])].outline) * 1000.0
+        if row["mirrored"] == "true":
+            outline = outline * np.array([-1.0, 1.0])
+        a = math.radians(float(row["rotation_deg"]))
+        c, s = math.cos(a), math.sin(a)
+        placed = np.column_stack([c * outline[:, 0] - s * outline[:, 1] + float(row["x"]),
+                                  s * outline[:, 0] + c * outline[:, 1] + float(row["y"])])
+        assert min(Polygon(placed).symmetric_difference(p).area / p.area for p in polys) < 1e-6
+    capsys.readouterr()
+    assert status(["nest", str(kit), "--roll-width", "2500", "--mirror", "hat",
+                   "--export", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--mirror 'hat'" in err[0] and not (tmp_path / "x.csv").exists()
+
+
 def test_a_roll_narrower_than_a_splice_and_bad_options_write_nothing(kit, tmp_path, capsys):
     out = tmp_path / "m.dxf"
     refusals = ((["--roll-width", "20"], "not wider than the splice overlap"),
@@ -216,9 +279,14 @@ def test_nest_reads_a_nesting_instance(tmp_path, capsys):
 
 
 def test_nest_writes_the_projects_ply_book_with_its_markers(kit, tmp_path, capsys):
-    book = tmp_path / "book.pdf"
+    book, pdf = tmp_path / "book.pdf", tmp_path / "m.pdf"
     assert main(["nest", str(kit), "--roll-width", "2500", "--time-limit", "1", "--ply-book", str(book),
-                 "--quiet"]) == 0
+                 "--paper", "letter", "--export", str(pdf), "--quiet"]) == 0
+    # --paper: the book's and the marker's pages are US letter (612 x 792 points), either way up
+    for path in (book, tmp_path / "m-woven.pdf"):
+        sizes = {tuple(sorted((round(float(p.mediabox.width)), round(float(p.mediabox.height)))))
+                 for p in PdfReader(path).pages}
+        assert sizes == {(612, 792)}, (path.name, sizes)
     pages = [p.extract_text() for p in PdfReader(book).pages]
     markers = [t for t in pages if t.startswith("Marker:")]
     assert [t.splitlines()[0] for t in markers] == ["Marker: woven", "Marker: isotropic"]

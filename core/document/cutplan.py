@@ -25,8 +25,9 @@ from flatweave.errors import SettingsError
 from flatweave.export.marker import MarkerSource
 from flatweave.export.sheet import SheetPiece, build_sheet, mm_per_unit
 from flatweave.method.materials import fabric_kind
+from flatweave.geometry.numerics import rotate
 from flatweave.method.metrics import cell_shear_deg
-from flatweave.studies.nesting import SIMPLIFY_MM, NestItem, min_width
+from flatweave.studies.nesting import NestItem, min_width, usable_width
 from flatweave.studies.splices import check_positions, split_outline, splice_positions
 
 __all__ = ["PlanItem", "SpliceReport", "project_items", "result_items", "instance_items", "by_material",
@@ -83,31 +84,33 @@ def _shear_field(result, mm: float):
     return middles, cell_shear_deg(result.xyz, result.mesh)
 
 
-def _items(sheet, name: str, source: str, quantity: int, material, rotations: str | None, field=None):
+def _items(sheet, name: str, source: str, quantity: int, material, rotations: str | None, field=None,
+           mirror: bool = False):
     out = []
     many = len(sheet.pieces) > 1
     for k, sp in enumerate(sheet.pieces):
         outline = np.asarray(sp.outer, dtype=float) - np.asarray(sp.offset, dtype=float)
         item = NestItem(f"{name} {k + 1}" if many else name, outline, quantity, _grain_deg(sp),
-                        rotations or rotations_for(material))
+                        rotations or rotations_for(material), mirror)
         out.append(PlanItem(item, MarkerSource(source, k, sp), material.name, field))
     return out
 
 
 def result_items(result, name: str, source: str, units: str, seam_allowance_mm: float, copies: int = 1,
-                 rotations: str | None = None) -> list[PlanItem]:
-    """The items of a result's pattern pieces (``copies`` each), named ``name`` (numbered when several),
-    ``source`` the input's name, the model in ``units``."""
+                 rotations: str | None = None, mirror: bool = False) -> list[PlanItem]:
+    """The items of a result's pattern pieces (``copies`` each; ``mirror``: in mirror pairs), named ``name``
+    (numbered when several), ``source`` the input's name, the model in ``units``."""
     _check_copies(copies)
     sheet = build_sheet(result, units, seam_allowance_mm, name, copies)
     return _items(sheet, name, source, copies, result.settings.material, rotations,
-                  _shear_field(result, mm_per_unit(units)))
+                  _shear_field(result, mm_per_unit(units)), mirror)
 
 
 def project_items(project, source: str, seam_allowance_mm: float, copies: int = 1,
                   rotations: str | None = None) -> tuple[list[PlanItem], list[str]]:
-    """The items of every solved piece of ``project`` (each its quantity times ``copies``), in laying
-    order, and the names of the pieces left out (not solved, or solved before their last change)."""
+    """The items of every solved piece of ``project`` (each its quantity times ``copies``, in mirror pairs
+    when its cut plan says so), in laying order, and the names of the pieces left out (not solved, or
+    solved before their last change)."""
     _check_copies(copies)
     out, left = [], []
     for p in book_order(project):
@@ -117,7 +120,7 @@ def project_items(project, source: str, seam_allowance_mm: float, copies: int = 
             continue
         sheet = piece_sheet(project, p.name, seam_allowance_mm)
         out += _items(sheet, p.name, f"{source}#{p.name}", p.quantity * copies, p.settings.material, rotations,
-                      _shear_field(r, mm_per_unit(project.units)))
+                      _shear_field(r, mm_per_unit(project.units)), project.cut_plan.mirrored(p.name))
     return out, left
 
 
@@ -152,13 +155,6 @@ def instance_items(doc: dict, source: str, copies: int = 1, rotations: str | Non
     return out
 
 
-def _turned(points: np.ndarray, deg: float) -> np.ndarray:
-    a = math.radians(deg)
-    c, s = math.cos(a), math.sin(a)
-    p = np.asarray(points, dtype=float)
-    return np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1]])
-
-
 def _frame_deg(item: NestItem) -> float:
     """The angle that turns the item so the lines along the roll run along x: its grain's, or, free to
     turn, the one in which it is narrowest across the roll."""
@@ -176,7 +172,7 @@ def splice_items(items, roll_width: float, overlap_mm: float, placed=None) -> tu
     named "NAME part K of N" in the item's own frame; and a report per piece spliced. ``placed``:
     {item name: splice positions, mm across the piece from its edge}, the user's splices, taken as
     given when every part fits (a one-line SettingsError otherwise; a name no item has, too)."""
-    usable = roll_width - 2.0 * min(SIMPLIFY_MM, 1e-4 * roll_width)
+    usable = usable_width(roll_width)
     placed = dict(placed or {})
     unknown = sorted(set(placed) - {it.item.name for it in items})
     if unknown:
@@ -189,22 +185,22 @@ def splice_items(items, roll_width: float, overlap_mm: float, placed=None) -> tu
             out.append(it)
             continue
         # in the frame where the lines along the roll run along x: the outline, its shear field, the splices
-        outline = _turned(item.outline, -frame)
-        points, shear = (None, None) if it.field is None else (_turned(it.field[0], -frame), it.field[1])
+        outline = rotate(item.outline, -frame)
+        points, shear = (None, None) if it.field is None else (rotate(it.field[0], -frame), it.field[1])
         if item.name in placed:
             positions = check_positions(outline, placed[item.name], usable, overlap_mm, item.name)
         else:
             positions = splice_positions(outline, usable, overlap_mm, points, shear)
-        parts = [_turned(q, frame) for q in split_outline(outline, positions, overlap_mm)]
+        parts = [rotate(q, frame) for q in split_outline(outline, positions, overlap_mm)]
         names = []
         for k, part in enumerate(parts):
             name = f"{item.name} part {k + 1} of {len(parts)}"
             names.append(name)
             mid = part.mean(axis=0)
-            d = 0.2 * float(np.ptp(_turned(part, -frame)[:, 0])) * np.array(
+            d = 0.2 * float(np.ptp(rotate(part, -frame)[:, 0])) * np.array(
                 [math.cos(math.radians(item.grain_deg)), math.sin(math.radians(item.grain_deg))])
             sp = SheetPiece(name, part, None, grain=np.array([mid - d, mid + d]))
-            out.append(PlanItem(NestItem(name, part, item.quantity, item.grain_deg, item.rotations),
+            out.append(PlanItem(NestItem(name, part, item.quantity, item.grain_deg, item.rotations, item.mirror),
                                 MarkerSource(it.source.source, it.source.index, sp), it.material, None))
         reports.append(SpliceReport(item.name, float(np.ptp(outline[:, 1])), frame, tuple(positions), tuple(names),
                                     float(outline[:, 1].min()), item.name in placed, it.source.source,
@@ -224,7 +220,7 @@ def splice_curves(result, report: SpliceReport, mm: float) -> list[np.ndarray]:
         pieces[report.index].nodes) else np.arange(len(result.uv))  # the spliced pattern piece's nodes alone
     xy = np.asarray(result.pattern.xy, dtype=float)[nodes] * mm
     uv_nodes = np.asarray(result.uv, dtype=float)[nodes]
-    tri = Delaunay(_turned(xy, -report.frame_deg))
+    tri = Delaunay(rotate(xy, -report.frame_deg))
     x0, x1 = tri.points[:, 0].min(), tri.points[:, 0].max()
     out = []
     for s in report.positions:

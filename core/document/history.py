@@ -37,14 +37,15 @@ from flatweave.document.project import Project, labels_equal, settings_equal
 
 __all__ = ["Document", "Edit", "Change", "ASPECTS", "unique_name"]
 
-ASPECTS = ("surface", "settings", "labels", "display", "result", "name", "pieces", "seams")
+ASPECTS = ("surface", "settings", "labels", "display", "result", "name", "pieces", "seams", "plan")
 """What a change can touch: listeners get the set of aspects that differ.
 "labels" are what never changes a solve: the darts' names and visibility and
 a curve dart's drawn points (see :func:`flatweave.document.project.labels_equal`).
 "pieces" are the list of pieces (flatweave.document.pieces): which is active, their
 names, order, quantities and sequence, the pieces not active, and the materials table.
 "seams" are the shapes split by seams (flatweave.document.sewing): a seam drawn, moved,
-renamed, its options."""
+renamed, its options. "plan" is the cut plan's settings (flatweave.document.cutsettings): roll widths,
+gap, splices placed by hand, mirror pairs."""
 
 
 @dataclass(frozen=True)
@@ -95,6 +96,8 @@ def changed_aspects(old: Project | None, new: Project) -> frozenset:
         out.add("pieces")  # the materials and rosette tables too: a row added that no piece uses yet is an edit
     if len(old.sewings) != len(new.sewings) or any(a is not b for a, b in zip(old.sewings, new.sewings)):
         out.add("seams")
+    if old.cut_plan != new.cut_plan:
+        out.add("plan")
     return frozenset(out)
 
 
@@ -212,6 +215,11 @@ class Document:
         to the display too, in the same edit: the colours and the verdicts then
         judge the shear by the cloth's own warning and lock angles."""
         return self.apply(label, self._project.with_settings(**changes))
+
+    def set_cut_plan(self, plan, label: str = "Cut plan") -> Edit | None:
+        """The cut plan's settings ``plan`` (:class:`flatweave.document.cutsettings.CutPlanSettings`): one
+        edit, which no solve answers (the pieces' results stay current)."""
+        return self.apply(label, replace(self._project, cut_plan=plan), answers_solve=False)
 
     def edit_display(self, label: str, **changes) -> Edit | None:
         """An edit of units or shear angles (no solve answers it). The shear

@@ -286,7 +286,8 @@ def remove(project, k):
     new = pieces[:i] + pieces[i + 1:]
     active = project.piece_index
     active = min(i, len(new) - 1) if active == i else active - (active > i)
-    return with_pieces(project, new, active, _sewings_renamed(project.sewings, {pieces[i].name: None}))
+    out = with_pieces(project, new, active, _sewings_renamed(project.sewings, {pieces[i].name: None}))
+    return replace(out, cut_plan=project.cut_plan.renamed({pieces[i].name: None}))
 
 
 def _changed(project, k, change, sewings=None):
@@ -298,9 +299,11 @@ def _changed(project, k, change, sewings=None):
 
 
 def rename(project, k, name: str):
-    """The project with piece ``k`` named ``name`` (distinct from the others; a panel's shape names it anew)."""
+    """The project with piece ``k`` named ``name`` (distinct from the others; a panel's shape names it anew,
+    and its splices and mirror pairing in the cut plan go with it)."""
     old = pieces_of(project)[index_of(project, k)].name
-    return _changed(project, k, lambda p: replace(p, name=name), _sewings_renamed(project.sewings, {old: name}))
+    out = _changed(project, k, lambda p: replace(p, name=name), _sewings_renamed(project.sewings, {old: name}))
+    return replace(out, cut_plan=project.cut_plan.renamed({old: name}))
 
 
 def move(project, k, to: int):

@@ -43,7 +43,10 @@ The file (``.flatweave``) is JSON::
                 [{"name", "source": the index of its surface, "region": as settings.region,
                   "seams": [{"name", "uv": [[u, v], ...], "closed", "allowance_mm" (optional, mm),
                              "notches": [[u, v], ...] (optional), "matched": true (optional)}],
-                  "panels": per panel of the split, in its order, its piece's name (null: deleted)}]}
+                  "panels": per panel of the split, in its order, its piece's name (null: deleted)}],
+     "cut_plan": optional, how its markers are nested (flatweave.document.cutsettings): {"roll_widths":
+                 [{"material", "mm"}], "gap_mm", "seconds", "allowance_mm", "overlap_mm", "rotations" (null:
+                 each material's), "splices": [{"piece": the item's name, "mm": [...]}], "mirror": [piece names]}}
 
 Versions. Version 2 added the result's ``history`` (the energy trace, so the
 energy plot comes back with the project). Version 3 added the result's
@@ -58,7 +61,8 @@ result and candidates are its one piece, named after the project. Version 6
 holds a list of sources (the surfaces its pieces lie on: faces of one CAD
 file, other files); an older file's surface is its only source. Version 7
 added ``sewings`` (seams splitting a piece into panels); an older file has
-none. A dart's ``visible``, ``handles``
+none. Version 8 added ``cut_plan`` (the nesting's settings, splices placed by
+hand and mirror pairs); an older file nests as made. A dart's ``visible``, ``handles``
 and ``view_dir`` came during version 1 and are optional (a dart without them
 is visible and has no drawn points). Older files are read by upgrading their
 document one version at a time (:data:`UPGRADES`) before it is read as the
@@ -113,6 +117,7 @@ from flatweave.document.pieces import (MAX_PIECES, Piece, check_piece, check_pie
                                       with_pieces)
 from flatweave.document.rosettes import MAX_ROSETTES, ToolRosette, check_rosettes
 from flatweave.document.sewing import SeamLine, Sewing, split_of
+from flatweave.document.cutsettings import CutPlanSettings
 
 __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSION", "PROJECT_SUFFIX",
            "DRAPE_KEYS", "settings_from_dict", "settings_equal", "labels_equal",
@@ -120,7 +125,7 @@ __all__ = ["Project", "ProjectError", "UNITS", "PROJECT_FORMAT", "PROJECT_VERSIO
            "load_project", "result_from_dict", "project_problems", "new_project", "UPGRADES"]
 
 PROJECT_FORMAT = "flatweave-project"
-PROJECT_VERSION = 7
+PROJECT_VERSION = 8
 PROJECT_SUFFIX = ".flatweave"
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254}
@@ -181,6 +186,8 @@ class Project:
     orientation: float | None = None
     # the shapes split by seams into panels (flatweave.document.sewing): each names the pieces its panels are
     sewings: tuple = ()
+    # how its markers are nested (flatweave.document.cutsettings): roll widths, gap, splices, mirror pairs
+    cut_plan: CutPlanSettings = CutPlanSettings()
 
     def __post_init__(self):
         if not self.piece_name:  # a project made as one piece: the piece is named after it
@@ -206,6 +213,8 @@ class Project:
             object.__setattr__(self, "sewings", tuple(self.sewings))
         if self.sewings:
             check_sewings(self.sewings, pieces_of(self))
+        if not isinstance(self.cut_plan, CutPlanSettings):
+            raise TypeError(f"Project.cut_plan must be a CutPlanSettings, got {type(self.cut_plan).__name__}")
         if not isinstance(self.surface, NurbsSurface):
             raise TypeError(f"Project.surface must be a NurbsSurface, got {type(self.surface).__name__}")
         if self.units not in UNITS:
@@ -525,6 +534,7 @@ def project_to_dict(project: Project) -> dict:
         "materials": [f.to_dict() for f in p.materials],
         **({"rosettes": [r.to_dict() for r in p.rosettes]} if p.rosettes else {}),
         **({"sewings": [s.to_dict(_source_of(sources, s.surface)) for s in p.sewings]} if p.sewings else {}),
+        **({"cut_plan": p.cut_plan.to_dict()} if not p.cut_plan.is_default else {}),
     }
 
 
@@ -627,8 +637,15 @@ def _upgrade_6_to_7(d: dict) -> dict:
     return d
 
 
+def _upgrade_7_to_8(d: dict) -> dict:
+    """Version 7 had no cut plan (the optional ``cut_plan`` absent: nesting as made)."""
+    d = dict(d)
+    d["version"] = 8
+    return d
+
+
 UPGRADES = {1: _upgrade_1_to_2, 2: _upgrade_2_to_3, 3: _upgrade_3_to_4, 4: _upgrade_4_to_5, 5: _upgrade_5_to_6,
-            6: _upgrade_6_to_7}
+            6: _upgrade_6_to_7, 7: _upgrade_7_to_8}
 """Version -> the function that turns a document of that version into one of the next."""
 
 
@@ -750,6 +767,12 @@ def project_from_dict(d: Any, where: str = "project") -> Project:
             raise f.fail(f"sewings must be a list of at most {MAX_PIECES} shapes split by seams")
         if rows:
             project = replace(project, sewings=tuple(_sewing_from(f, r, k, sources) for k, r in enumerate(rows)))
+        plan = d.get("cut_plan")  # optional: nested as made
+        if plan is not None:
+            try:
+                project = replace(project, cut_plan=CutPlanSettings.from_dict(plan))
+            except SettingsError as exc:
+                raise f.fail(f"cut_plan: {exc}") from None
         rows = d.get("materials")  # optional: a file without a table gets the presets and the pieces' own
         if rows is not None:
             if not isinstance(rows, list) or not rows or len(rows) > 200:

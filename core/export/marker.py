@@ -7,7 +7,9 @@ line, notches, grain line, label), in millimetres, x along the roll and y across
 
 * DXF: :func:`flatweave.export.dxf.dxf_bytes` with a block per piece (in its own
   frame) inserted once per copy placed, turned by the placement's rotation about
-  the block's origin, at its translation; the roll's edges and ends on layer 15.
+  the block's origin, at its translation (a mirror pair's mirrored copies insert a
+  block of their own, "NAME mirrored", drawn reflected with its text upright: no
+  negative scales, which not every cutter reads); the roll's edges and ends on layer 15.
 * SVG: the roll and every placed copy's cut line (and sew line, notches and grain
   line), at 1:1 in millimetres, y up as on the roll, the marker's length,
   width and utilisation in its title.
@@ -22,8 +24,8 @@ line, notches, grain line, label), in millimetres, x along the roll and y across
 * CSV: a row per placed copy: ``source`` (the input it came from), ``piece`` (its
   index in that input's ``pattern.pieces``), ``name``, ``copy``, ``x``, ``y``,
   ``rotation_deg``, ``mirrored``: the piece's cut outline, in the coordinates of
-  its ``pattern.pieces[k].outline`` in millimetres, rotated about the origin and
-  then moved by (x, y).
+  its ``pattern.pieces[k].outline`` in millimetres, reflected first when
+  ``mirrored`` is true (x negated), rotated about the origin and then moved by (x, y).
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ from flatweave.export.pdf import (MM, NAME_FONT, OVERLAP_MM, PAGE_MARGIN_MM, SHE
                                   draw_sheet, draw_tile_grid, draw_tiles, name_place, nice_length, paper_size,
                                   round_scale, scale_text, tile_grid, tiles)
 from flatweave.export.sheet import Sheet, SheetPiece
-from flatweave.studies.nesting import Marker
+from flatweave.studies.nesting import Marker, Placement
 
 __all__ = ["MarkerSource", "marker_csv", "marker_dxf", "marker_svg", "marker_pdf", "MARKER_FORMATS", "marker_files",
            "placed_sheet", "marker_scale", "draw_marker", "marker_summary"]
@@ -78,9 +80,16 @@ def marker_csv(marker: Marker, sources) -> bytes:
 
 def marker_dxf(marker: Marker, sources, name: str, variant: str = "astm") -> bytes:
     """The marker as a DXF: a block per item, inserted per copy (see the module docstring)."""
-    pieces = tuple(_framed(s.sheet_piece) for s in sources)
-    sheet = Sheet(pieces, 0.0, "mm", name)
-    inserts = {k: [(p.x, p.y, p.rotation_deg) for p in marker.placements if p.item == k] for k in range(len(pieces))}
+    pieces = [_framed(s.sheet_piece) for s in sources]
+    inserts = {k: [(p.x, p.y, p.rotation_deg) for p in marker.placements if p.item == k and not p.mirrored]
+               for k in range(len(pieces))}
+    for k in range(len(sources)):  # a mirror pair's other half: a block of its own, drawn mirrored, text upright
+        turns = [(p.x, p.y, p.rotation_deg) for p in marker.placements if p.item == k and p.mirrored]
+        if turns:
+            flip = Placement(k, 0, 0.0, 0.0, 0.0, mirrored=True)
+            inserts[len(pieces)] = turns
+            pieces.append(replace(_placed(pieces[k], flip), name=f"{pieces[k].name} mirrored"))
+    sheet = Sheet(tuple(pieces), 0.0, "mm", name)
     return dxf_bytes(sheet, variant, inserts=inserts, roll=(marker.length, marker.roll_width))
 
 

@@ -9,6 +9,8 @@ planar method compute them the same way, to the last bit.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from flatweave.errors import SolverError
@@ -180,3 +182,11 @@ def polygon_area(poly: np.ndarray) -> float:
     """Signed area of a closed polygon (k, 2) (shoelace; positive if counter-clockwise)."""
     x, y = poly[:, 0], poly[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def rotate(points, deg: float) -> np.ndarray:
+    """(k, 2) ``points`` turned ``deg`` degrees counter-clockwise about the origin."""
+    a = math.radians(deg)
+    c, s = math.cos(a), math.sin(a)
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    return np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1]])

@@ -29,11 +29,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from flatweave.errors import FlatweaveError, SettingsError
-from flatweave.geometry.numerics import polygon_area
+from flatweave.geometry.numerics import polygon_area, rotate
 from flatweave.studies.sweep import pool_context
 
 __all__ = ["NestItem", "Placement", "Marker", "nest", "ROTATIONS", "SIMPLIFY_MM", "marker_problems",
-           "min_width", "DEFAULT_SECONDS"]
+           "min_width", "DEFAULT_SECONDS", "outline_margin", "usable_width"]
 
 ROTATIONS = {"grain": (0.0, 180.0), "one-way": (0.0,), "free": None}
 """How a piece may turn on the roll from its grain along it: a woven piece keeps its grain (0 or 180
@@ -46,6 +46,17 @@ DEFAULT_SECONDS = 30.0
 POLL = 0.2  # seconds between looks at the child's progress
 
 
+def outline_margin(roll_width: float) -> float:
+    """How much the engine's polygon stands outside a cut outline (mm): :data:`SIMPLIFY_MM`, or a
+    ten-thousandth of the roll's width if less."""
+    return min(SIMPLIFY_MM, 1e-4 * roll_width)
+
+
+def usable_width(roll_width: float) -> float:
+    """The width across the roll a cut outline may take (mm): the roll's less the margin either side."""
+    return roll_width - 2.0 * outline_margin(roll_width)
+
+
 @dataclass(frozen=True)
 class NestItem:
     """One piece to place.
@@ -56,6 +67,8 @@ class NestItem:
     grain_deg : the direction of its warp in its own frame (degrees from +x): turned by -grain_deg the
         warp runs along the roll
     rotations : a key of :data:`ROTATIONS`, or the angles (degrees, from the grain along the roll) it may take
+    mirror : cut in mirror pairs (a left and a right panel): of its copies, the last ``quantity // 2`` are its
+        mirror image (its frame's x negated; an odd quantity has one more as drawn)
     """
 
     @property
@@ -68,6 +81,7 @@ class NestItem:
     quantity: int = 1
     grain_deg: float = 90.0
     rotations: str = "grain"
+    mirror: bool = False
 
     def __post_init__(self):
         outline = np.asarray(self.outline, dtype=float)
@@ -93,6 +107,17 @@ class NestItem:
             object.__setattr__(self, "rotations", turns)
         if not math.isfinite(self.grain_deg):
             raise SettingsError(f"piece {self.name!r}: its grain direction must be a finite angle")
+        if not isinstance(self.mirror, bool):
+            raise SettingsError(f"piece {self.name!r}: mirror pairs are on or off (True or False)")
+
+    @property
+    def drawn(self) -> int:
+        """How many of its copies are cut as drawn (the others mirrored)."""
+        return self.quantity - self.quantity // 2 if self.mirror else self.quantity
+
+    def copy_mirrored(self, copy: int) -> bool:
+        """Whether copy ``copy`` (from 0) is the mirror image."""
+        return copy >= self.drawn
 
     @property
     def area(self) -> float:
@@ -103,8 +128,8 @@ class NestItem:
 @dataclass(frozen=True)
 class Placement:
     """One copy placed: item ``item`` (index into the marker's items), copy ``copy`` (from 0),
-    its outline mapped by a rotation of ``rotation_deg`` about its frame's origin and then the
-    translation (``x``, ``y``) mm."""
+    its outline mapped (``mirrored``: first reflected, its frame's x negated) by a rotation of
+    ``rotation_deg`` about its frame's origin and then the translation (``x``, ``y``) mm."""
 
     item: int
     copy: int
@@ -115,10 +140,8 @@ class Placement:
 
     def place(self, points: np.ndarray) -> np.ndarray:
         """``points`` (k, 2) of the item's frame on the roll."""
-        a = math.radians(self.rotation_deg)
-        c, s = math.cos(a), math.sin(a)
-        p = np.asarray(points, dtype=float)
-        return np.column_stack([c * p[:, 0] - s * p[:, 1] + self.x, s * p[:, 0] + c * p[:, 1] + self.y])
+        p = np.asarray(points, dtype=float).reshape(-1, 2)
+        return rotate(p * np.array([-1.0, 1.0]) if self.mirrored else p, self.rotation_deg) + np.array([self.x, self.y])
 
 
 @dataclass(frozen=True)
@@ -174,11 +197,7 @@ def _engine_shape(outline: np.ndarray, grain_deg: float, grow: float) -> list[tu
     from shapely.geometry import Polygon
     from shapely.geometry.polygon import orient
 
-    a = math.radians(-grain_deg)
-    c, s = math.cos(a), math.sin(a)
-    p = np.asarray(outline, dtype=float)
-    turned = np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1]])
-    poly = Polygon(turned)
+    poly = Polygon(rotate(outline, -grain_deg))
     if not poly.is_valid:
         poly = poly.buffer(0)
     if poly.geom_type != "Polygon":
@@ -204,7 +223,7 @@ def _check(items, roll_width: float, gap: float, seconds: float) -> None:
         raise SettingsError("two pieces to nest have the same name")
     for it in items:
         w = min_width(it.outline, it.rotations, it.grain_deg)
-        if w + 2 * min(SIMPLIFY_MM, 1e-4 * roll_width) > roll_width:
+        if w > usable_width(roll_width):
             how = "in any rotation" if it.turns is None else "in the rotations its grain allows"
             raise SettingsError(f"piece {it.name!r} is {w:.1f} mm across the roll {how}, wider than the roll "
                                 f"({roll_width:g} mm): it must be spliced into parts, or cut from a wider roll")
@@ -255,16 +274,41 @@ def _child(job: dict, out) -> None:
         out.put(("error", f"{type(exc).__name__}: {exc}", []))
 
 
+def _engine_items(items) -> list[tuple[int, bool]]:
+    """The engine's items: (our item's index, mirrored) each; an item in mirror pairs is two, as drawn
+    and mirrored, the quantity split between them."""
+    out = []
+    for k, it in enumerate(items):
+        out.append((k, False))
+        if it.mirror and it.quantity > 1:
+            out.append((k, True))
+    return out
+
+
+def _engine_job_item(it: NestItem, mirrored: bool, grow: float) -> tuple:
+    """(shape, quantity, rotations) of ``it`` (its mirror image: x negated, the grain with it) for the engine."""
+    if not mirrored:
+        return _engine_shape(it.outline, it.grain_deg, grow), it.drawn, None if it.turns is None else list(it.turns)
+    flipped = it.outline * np.array([-1.0, 1.0])
+    return (_engine_shape(flipped, 180.0 - it.grain_deg, grow), it.quantity - it.drawn,
+            None if it.turns is None else list(it.turns))
+
+
 def _marker(items, placed, width: float, gap: float, length: float, t0: float, stopped: bool, reports: int):
-    """A Marker from the engine's placements (item index, rotation, x, y), in each item's own frame."""
+    """A Marker from the engine's placements (engine item index, rotation, x, y), in each item's own frame."""
+    engine = _engine_items(items)
     copies: dict = {}
     out = []
-    for k, rot, x, y in placed:
+    for e, rot, x, y in placed:
+        k, mirrored = engine[e]
         it = items[k]
-        copy = copies.get(k, 0)
-        copies[k] = copy + 1
-        # the engine placed the outline turned by -grain first: one rotation about the origin in all
-        out.append(Placement(k, copy, float((rot - it.grain_deg + 180.0) % 360.0 - 180.0), x, y))
+        copy = copies.get((k, mirrored), 0)
+        copies[(k, mirrored)] = copy + 1
+        # the engine placed the outline (reflected first if mirrored) turned so its grain runs along the
+        # roll: one rotation about the origin in all; a mirrored copy's grain is at 180 - grain
+        grain = 180.0 - it.grain_deg if mirrored else it.grain_deg
+        out.append(Placement(k, copy + (it.drawn if mirrored else 0), float((rot - grain + 180.0) % 360.0 - 180.0),
+                             x, y, mirrored))
     return Marker(tuple(items), tuple(out), float(width), float(length), float(gap), time.perf_counter() - t0,
                   stopped, reports)
 
@@ -282,9 +326,8 @@ def nest(items, roll_width: float, gap: float = 0.0, seconds: float = DEFAULT_SE
     """
     items = tuple(items)
     _check(items, roll_width, gap, seconds)
-    grow = min(SIMPLIFY_MM, 1e-4 * roll_width)
-    job = {"items": [(_engine_shape(it.outline, it.grain_deg, grow), it.quantity,
-                      None if it.turns is None else list(it.turns)) for it in items],
+    grow = outline_margin(roll_width)
+    job = {"items": [_engine_job_item(items[k], mirrored, grow) for k, mirrored in _engine_items(items)],
            "width": float(roll_width), "gap": float(gap), "seconds": max(1, int(math.ceil(seconds))),
            "workers": workers if workers is not None else (os.cpu_count() or 1), "seed": int(seed),
            "early": bool(early)}
@@ -335,8 +378,8 @@ def nest(items, roll_width: float, gap: float = 0.0, seconds: float = DEFAULT_SE
 
 def marker_problems(marker: Marker, tol: float = 1e-6) -> list[str]:
     """What is wrong with a marker, one line each (empty when all is well): a copy missing or placed
-    twice, a piece off the roll (beyond y 0 to the width or x below 0, or past the length), two pieces
-    overlapping or nearer than the gap (less ``tol`` mm)."""
+    twice, a mirror pair's copy not mirrored as its pair asks, a piece off the roll (beyond y 0 to the
+    width or x below 0, or past the length), two pieces overlapping or nearer than the gap (less ``tol`` mm)."""
     from shapely import STRtree
     from shapely.geometry import Polygon
 
@@ -345,6 +388,10 @@ def marker_problems(marker: Marker, tol: float = 1e-6) -> list[str]:
     have = [(p.item, p.copy) for p in marker.placements]
     if sorted(have) != sorted(want):
         problems.append(f"{len(have)} copies placed, {len(want)} asked for")
+    for p in marker.placements:
+        if p.mirrored != marker.items[p.item].copy_mirrored(p.copy):
+            problems.append(f"{marker.items[p.item].name} copy {p.copy + 1} is "
+                            f"{'mirrored' if p.mirrored else 'not mirrored'}, its pair asks otherwise")
     polys = [Polygon(o) for o in marker.outlines()]
     for p, poly in zip(marker.placements, polys):
         x0, y0, x1, y1 = poly.bounds
