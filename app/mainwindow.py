@@ -40,6 +40,7 @@ from flatweave.app.actions import (UiState, action_specs, build_actions, build_m
                                    show_view_choices, update_actions)
 from flatweave.app.aspects import Aspect, aspects_of
 from flatweave.app.cutplanview import CutPlanPanel
+from flatweave.app import gcguard
 from flatweave.app.dartpanel import DartPanel
 from flatweave.app.exporting import Exports
 from flatweave.app.files import Files, stored_view
@@ -149,6 +150,8 @@ class MainWindow(QMainWindow):
         self.update_actions()
         self._update_title()
         freeze_long_lived_objects()
+        gcguard.acquire()  # cyclic garbage collected in this (the GUI) thread only, while the window is open
+        self._gc_held = True
 
     # ------------------------------------------------------------------ building
     def _build_layout(self) -> None:
@@ -525,6 +528,9 @@ class MainWindow(QMainWindow):
         self.view.close()
         self.pattern_view.close()
         super().closeEvent(event)
+        if self._gc_held:
+            self._gc_held = False
+            gcguard.release()
 
 
 # The parts' names at the window's address (scripts, tests and the actions' slots use them).

@@ -354,6 +354,24 @@ def splice_laminate(plies: int) -> dict:
     return measure_splices(plies)
 
 
+def large_ply(nodes: int) -> dict:
+    from benchmarks.large import measure_time
+
+    return measure_time(nodes)
+
+
+def large_ply_memory(nodes: int) -> dict:
+    from benchmarks.large import shared
+
+    return shared("memory", nodes)
+
+
+def large_result_file(nodes: int) -> dict:
+    from benchmarks.large import shared
+
+    return shared("file", nodes)
+
+
 def faces_join(faces: int) -> dict:
     from benchmarks.faces_join import measure
 
@@ -402,6 +420,7 @@ def window_dart(nodes: int) -> dict:
     return measure(spacing_for("octant", nodes))
 
 
+LARGE_KEYS = ("seconds", "solve_s", "iterations", "nodes", "energy", "peak_mb", "file_mb", "write_s", "load_s")
 CASES: tuple[Case, ...] = (
     Case("file_to_pattern", "woven octant from the loaded surface to its pattern: drape, fast solve with "
          "population control, pattern, metrics (s)", Target("seconds", "<", {2_500: 0.5, 10_000: 1.5, 40_000: 8.0},
@@ -505,6 +524,15 @@ CASES: tuple[Case, ...] = (
     Case("splice_laminate", "the dome laminate's plies on 1,270 mm rolls (every one wider): splice_items' seconds "
          "to splice them into parts that fit", Target("seconds", "<", {24: 1.0}, "s"), splice_laminate, (2, 24),
          size_unit="plies", keys=("seconds", "spliced", "parts")),
+    Case("large_ply", "the woven octant file to pattern at shop resolution, in a child process of its own (s)",
+         Target("seconds", "<", {160_000: 8.0, 640_000: 45.0}, "s"), large_ply, (10_000, 160_000, 640_000),
+         keys=LARGE_KEYS),
+    Case("large_ply_memory", "the same runs' peak resident memory (MB)",
+         Target("peak_mb", "<", {160_000: 1024.0, 640_000: 4096.0}, "MB"), large_ply_memory,
+         (10_000, 160_000, 640_000), keys=LARGE_KEYS),
+    Case("large_result_file", "the same runs' result file: its size (MB); read back and every array decoded in "
+         "load_s", Target("file_mb", "<", {160_000: 25.0}, "MB"), large_result_file, (10_000, 160_000, 640_000),
+         keys=LARGE_KEYS),
     Case("faces_join", "CAD faces (a STEP file) read and joined into one surface: 3 faces (plate, fillet, plate) "
          "or 9 (a rounded box's lid)", Target("seconds", "<", 10.0, "s"), faces_join, (3, 9), size_unit="faces",
          keys=("seconds", "read_s", "join_s", "max_dev_pct", "triangles")),

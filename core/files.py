@@ -17,7 +17,8 @@ import numpy as np
 from flatweave.errors import FlatweaveError
 
 __all__ = ["exists", "check_output", "same_file", "atomic_write_bytes", "atomic_write_many", "json_bytes",
-           "write_json", "check_input", "read_input", "parse_json", "check_json_depth", "READ_LIMITS", "MAX_JSON_DEPTH"]
+           "write_json", "check_input", "read_input", "parse_json", "check_json_depth", "READ_LIMITS", "MAX_JSON_DEPTH",
+           "encode_array", "decode_array", "ARRAY_DTYPES"]
 
 MB = 1 << 20
 READ_LIMITS = {
@@ -274,3 +275,60 @@ def json_bytes(obj, path) -> bytes:
 def write_json(path, obj) -> None:
     """Write ``obj`` as JSON, atomically. NaN and infinity are refused."""
     atomic_write_bytes(path, json_bytes(obj, path))
+
+
+ARRAY_DTYPES = ("<f8", "<f4", "<i4", "<i8", "|u1")
+"""The element types an encoded array may have: little-endian float64, float32, int32, int64, and bytes."""
+
+
+def encode_array(a, dtype: str) -> dict:
+    """``a`` as a JSON object holding it compactly: ``{"dtype": dtype, "shape": [...], "zlib_base64": TEXT}``,
+    TEXT the base64 of the zlib-compressed (level 6) bytes of ``a`` in ``dtype`` (one of :data:`ARRAY_DTYPES`),
+    C order. Decoded by :func:`decode_array` or, anywhere, by ``numpy.frombuffer(zlib.decompress(
+    base64.b64decode(TEXT)), dtype).reshape(shape)``. A value that is not finite is a ValueError (JSON would
+    refuse it too)."""
+    import base64
+    import zlib
+
+    if dtype not in ARRAY_DTYPES:
+        raise ValueError(f"an encoded array's dtype is one of {', '.join(ARRAY_DTYPES)}, not {dtype!r}")
+    arr = np.ascontiguousarray(np.asarray(a), dtype=np.dtype(dtype))
+    if arr.dtype.kind == "f" and not np.isfinite(arr).all():
+        raise ValueError("an array to encode holds a number that is not finite (NaN or infinity)")
+    return {"dtype": dtype, "shape": list(arr.shape),
+            "zlib_base64": base64.b64encode(zlib.compress(arr.tobytes(), 6)).decode("ascii")}
+
+
+def decode_array(value, what: str, error=FlatweaveError) -> np.ndarray:
+    """The array a file holds as ``value``: a JSON list (nested lists of numbers, the older form) or an
+    :func:`encode_array` object. A one-line ``error`` naming ``what`` for anything else: an unknown dtype,
+    a shape that is not whole numbers, data that does not decompress to exactly that many elements (read
+    no further than that, so a small file cannot expand to a large one)."""
+    import base64
+    import binascii
+    import zlib
+
+    if isinstance(value, list):
+        try:
+            return np.asarray(value, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise error(f"{what} must be numbers") from None
+    if not isinstance(value, dict) or value.get("dtype") not in ARRAY_DTYPES \
+            or not isinstance(value.get("shape"), list) or not isinstance(value.get("zlib_base64"), str):
+        raise error(f"{what} must be a list of numbers or an encoded array ({{dtype, shape, zlib_base64}})")
+    shape = value["shape"]
+    if len(shape) > 4 or not all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < 2 ** 40 for k in shape):
+        raise error(f"{what}: an encoded array's shape must be up to four whole numbers")
+    dtype = np.dtype(value["dtype"])
+    size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    if size > READ_LIMITS["mesh"]:
+        raise error(f"{what}: an encoded array of {size / MB:,.0f} MB is past what a file may hold")
+    try:
+        raw = zlib.decompressobj().decompress(base64.b64decode(value["zlib_base64"], validate=True), size + 1)
+    except (binascii.Error, zlib.error, ValueError):
+        raise error(f"{what}: its encoded data is damaged (not base64 of zlib data)") from None
+    if len(raw) > size:
+        raise error(f"{what}: its encoded data holds more than the {size:,} bytes its shape and dtype ask for")
+    if len(raw) < size:
+        raise error(f"{what}: its encoded data holds {len(raw):,} bytes, its shape and dtype ask for {size:,}")
+    return np.frombuffer(raw, dtype=dtype).reshape(shape).copy()

@@ -17,7 +17,7 @@ from flatweave.export.registry import FORMATS, ExportOptions, check_target, expo
 from flatweave.export.sheet import build_sheet
 from flatweave.export.pdf import OVERLAP_MM, PAGE_MARGIN_MM, SHEET_MARGIN_MM
 from flatweave.export.svg import MARGIN_MM as SVG_MARGIN
-from flatweave.files import atomic_write_bytes
+from flatweave.files import atomic_write_bytes, decode_array
 from tests.helpers import NO_SPACE, FullDisk
 from flatweave.method.lattice import WARP
 from flatweave.method.metrics import cell_shear_deg, spring_strain
@@ -367,8 +367,8 @@ def test_obj_texture_coordinates_are_the_pattern(tmp_path, octant_dart):
     cells = octant_dart.mesh.cells
     np.testing.assert_array_equal(nodes, np.unique(cells))
     assert len(nodes) < octant_dart.mesh.n_nodes  # this mesh has a node in no quad
-    np.testing.assert_allclose(np.array(vt), np.array(d["nodes"]["xy"])[nodes], atol=1e-10)
-    np.testing.assert_allclose(np.array(v), np.array(d["nodes"]["xyz"])[nodes], atol=1e-10)
+    np.testing.assert_allclose(np.array(vt), decode_array(d["nodes"]["xy"], "xy")[nodes], atol=1e-10)
+    np.testing.assert_allclose(np.array(v), decode_array(d["nodes"]["xyz"], "xyz")[nodes], atol=1e-10)
     np.testing.assert_allclose(np.linalg.norm(vn, axis=1), 1.0, atol=1e-6)
     f = np.array(faces)
     assert f.shape == (len(cells), 4, 3)

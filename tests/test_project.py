@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
 
+from flatweave.files import decode_array, encode_array
 from flatweave.method.darts import CurveDart, PlaneDart
 from flatweave.document.history import Document
 from flatweave.method.energy import YarnConstraint
@@ -208,7 +209,10 @@ def _corruptions(octant, solved):
         return json.dumps(d)
 
     def damage_nodes(d):
-        d["pieces"][0]["result"]["nodes"]["uv"][3] = [7.0, 7.0]
+        nodes = d["pieces"][0]["result"]["nodes"]
+        uv = decode_array(nodes["uv"], "uv")
+        uv[3] = [7.0, 7.0]
+        nodes["uv"] = encode_array(uv, "<f8")
 
     result_doc = json.loads(full)
     return {

@@ -95,12 +95,12 @@ from flatweave.version import __version__
 from flatweave.method.darts import CUT_DART_KEYS, dart_from_dict
 from flatweave.method.energy import YarnConstraint
 from flatweave.errors import FlatweaveError, SettingsError
-from flatweave.files import check_json_depth, read_input, write_json
+from flatweave.files import check_json_depth, decode_array, read_input, write_json
 from flatweave.method.lattice import MATERIALS, Material
 from flatweave.method.materials import FABRICS, Fabric, check_table
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.method.settings import SETTINGS_KEYS as _SETTINGS_KEYS
-from flatweave.method.result import FlattenResult, result_to_dict, judged
+from flatweave.method.result import FlattenResult, judged, result_state_dict
 from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten_iter, state_from_dict
 from flatweave.method.settings import ease_from_list, settings_to_dict, validate_settings
@@ -561,7 +561,7 @@ def _piece_doc(piece: Piece, source: int) -> dict:
         "settings": settings_to_dict(piece.settings, "project"),
         "darts": _darts_to_list(piece.settings.darts),
         "yarns": _yarns_to_list(piece.settings.yarns),
-        "result": None if piece.result is None else _result_doc(piece.result, piece.source),
+        "result": None if piece.result is None else _result_doc(piece.result),
         **_candidates_entry(piece),
     }
 
@@ -572,8 +572,9 @@ def _candidates_entry(p) -> dict:
     return {} if entry is None else {"candidates": entry}
 
 
-def _result_doc(result: FlattenResult, source: str | None) -> dict:
-    doc = result_to_dict(result, source)
+def _result_doc(result: FlattenResult) -> dict:
+    """What the project keeps of a result: what rebuilds it, and its energy history."""
+    doc = result_state_dict(result)
     doc["history"] = [float(e) for e in result.history]
     return doc
 
@@ -666,10 +667,11 @@ def result_from_dict(d: Any, surface: NurbsSurface, where: str = "project") -> F
     stats = f.obj(d.get("drape", {}), "result.drape")
     nodes = f.obj(f.get(d, "nodes", "result"), "result.nodes")
     try:
-        ij = np.asarray(f.get(nodes, "ij", "result.nodes"), dtype=float).reshape(-1, 2)
-        uv = np.asarray(f.get(nodes, "uv", "result.nodes"), dtype=float).reshape(-1, 2)
-    except (TypeError, ValueError):
-        raise f.fail("result.nodes.ij and .uv must be lists of number pairs") from None
+        ij = decode_array(f.get(nodes, "ij", "result.nodes"), "result.nodes.ij", SettingsError).astype(float)
+        uv = decode_array(f.get(nodes, "uv", "result.nodes"), "result.nodes.uv", SettingsError).astype(float)
+        ij, uv = ij.reshape(-1, 2), uv.reshape(-1, 2)
+    except (SettingsError, TypeError, ValueError) as exc:
+        raise f.fail(f"result.nodes.ij and .uv must be lists of number pairs ({exc})") from None
     if len(ij) == 0 or len(ij) != len(uv):
         raise f.fail(f"result.nodes has {len(ij)} lattice positions and {len(uv)} (u, v): not one per node")
     if not (np.isfinite(ij).all() and np.array_equal(ij, np.round(ij))):

@@ -23,6 +23,7 @@ from flatweave.method.drape import DrapeResult, DrapeSettings, check_node_count,
 from flatweave.method.energy import resolve_yarns
 from flatweave.geometry.numerics import require_finite
 from flatweave.errors import SettingsError, SolverError
+from flatweave.files import decode_array
 from flatweave.method.lattice import Material, SpringMesh, bent, build_mesh, only_springs
 from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.method.pattern import Pattern, make_pattern, node_frames, resample_uv
@@ -574,8 +575,9 @@ def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -
         raise SettingsError("the warm-start file holds panels (flatten --seam), not one result: a warm start "
                             "takes one piece's result file")
     try:
-        ij = np.asarray(d["nodes"]["ij"], dtype=float).reshape(-1, 2)
-        uv = np.asarray(d["nodes"]["uv"], dtype=float).reshape(-1, 2)
+        what = "the warm-start file's nodes."
+        ij = decode_array(d["nodes"]["ij"], what + "ij", SettingsError).astype(float).reshape(-1, 2)
+        uv = decode_array(d["nodes"]["uv"], what + "uv", SettingsError).astype(float).reshape(-1, 2)
     except (KeyError, TypeError, ValueError, OverflowError):
         raise SettingsError("the warm-start file has no nodes.ij and nodes.uv") from None
     if not (np.isfinite(ij).all() and (np.abs(ij) < 2.0 ** 52).all() and (ij == np.round(ij)).all()):
@@ -595,7 +597,10 @@ def state_from_dict(d: dict, surface: NurbsSurface, settings: FlattenSettings) -
     ends = d.get("springs", {}).get("ends") if isinstance(d.get("springs"), dict) else None
     if ends is not None:  # the solved springs, which a build at the same (u, v) may exceed by one a dart cut
         try:
-            ends = np.asarray(ends, dtype=np.int64).reshape(-1, 2)
+            ends = decode_array(ends, "the warm-start file's springs.ends", SettingsError)
+            if not (np.isfinite(ends).all() and (ends == np.round(ends)).all()):
+                raise ValueError("not whole")
+            ends = ends.astype(np.int64).reshape(-1, 2)
         except (TypeError, ValueError):
             raise SettingsError("the warm-start file's springs.ends must be pairs of node indices") from None
         mesh = only_springs(mesh, ends)

@@ -1,4 +1,16 @@
-"""TODO docstring."""
+"""A flattened piece (:class:`FlattenResult`), its metrics and verdicts, and its result file.
+
+The result file (``flatten --out``, format ``flatweave-result``, :func:`result_to_dict`) is JSON.
+Version 2 (issue 44) holds the per-node, per-spring and per-cell arrays compactly, each an
+object ``{"dtype", "shape", "zlib_base64"}`` (:func:`flatweave.files.encode_array`; read with
+:func:`flatweave.files.decode_array` or numpy, zlib and base64 alone): ``nodes.ij`` (int32),
+``nodes.uv``, ``nodes.xyz``, ``nodes.xy``, ``springs.rest`` (float64), ``springs.ends``,
+``cells.corners`` (int32), ``springs.kind`` (uint8, an index into ``springs.kind_names``),
+and what is measured from the others in float32 (``springs.length``, ``springs.strain``,
+``cells.shear_deg``). Version 1 held them as JSON lists (and ``springs.kind`` as names); its
+files are read as before. A project keeps less of a result (:func:`result_state_dict`): what
+rebuilds it.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +20,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from flatweave.version import __version__
+from flatweave.files import encode_array
 from flatweave.geometry.coverage import cell_diagonal, coverage_grid, uncovered_regions
 from flatweave.method.darts import DartSet
 from flatweave.method.energy import Energy
@@ -139,34 +152,57 @@ def with_shear_angles(result: "FlattenResult", warn_deg: float, lock_deg: float)
     return judged(replace(result, settings=settings, mesh=mesh, metrics=metrics))
 
 
+RESULT_VERSION = 2
+
+
+def result_state_dict(result: FlattenResult) -> dict:
+    """What of a result rebuilds it (a project's saved result, :func:`flatweave.document.project.result_from_dict`):
+    the settings, metrics, drape statistics, warnings and status, and the nodes' lattice positions and (u, v)
+    and the springs' ends (encoded as in the result file); the rest is recomputed from them."""
+    mesh = result.mesh
+    return {
+        "format": "flatweave-result",
+        "version": RESULT_VERSION,
+        "flatweave": __version__,
+        "settings": settings_to_dict(result.settings, "result"),
+        "metrics": result.metrics,
+        "drape": result.drape_stats,
+        "nodes": {"ij": encode_array(mesh.ij, "<i4"), "uv": encode_array(result.uv, "<f8")},
+        "springs": {"ends": encode_array(mesh.ends, "<i4")},
+        "status": result.status,
+        "warnings": list(result.warnings),
+    }
+
+
 def result_to_dict(result: FlattenResult, surface_source: str | None = None) -> dict:
-    """The result file's content (see README, "Result file")."""
+    """The result file's content (see the module docstring and README, "Result file")."""
     mesh, xyz, pattern = result.mesh, result.xyz, result.pattern
     length = spring_lengths(xyz, mesh)
     return {
         "format": "flatweave-result",
-        "version": 1,
+        "version": RESULT_VERSION,
         "flatweave": __version__,
         "surface": surface_source,
         "settings": settings_to_dict(result.settings, "result"),
         "metrics": result.metrics,
         "drape": result.drape_stats,
         "nodes": {
-            "ij": mesh.ij.tolist(),
-            "uv": result.uv.tolist(),
-            "xyz": xyz.tolist(),
-            "xy": pattern.xy.tolist(),
+            "ij": encode_array(mesh.ij, "<i4"),
+            "uv": encode_array(result.uv, "<f8"),
+            "xyz": encode_array(xyz, "<f8"),
+            "xy": encode_array(pattern.xy, "<f8"),
         },
         "springs": {
-            "ends": mesh.ends.tolist(),
-            "kind": [KIND_NAMES[k] for k in mesh.kind.tolist()],
-            "rest": mesh.rest.tolist(),
-            "length": length.tolist(),
-            "strain": (length / mesh.rest - 1.0).tolist(),
+            "ends": encode_array(mesh.ends, "<i4"),
+            "kind": encode_array(mesh.kind, "|u1"),
+            "kind_names": list(KIND_NAMES),
+            "rest": encode_array(mesh.rest, "<f8"),
+            "length": encode_array(length, "<f4"),
+            "strain": encode_array(length / mesh.rest - 1.0, "<f4"),
         },
         "cells": {
-            "corners": mesh.cells.tolist(),
-            "shear_deg": cell_shear_deg(xyz, mesh).tolist(),
+            "corners": encode_array(mesh.cells, "<i4"),
+            "shear_deg": encode_array(cell_shear_deg(xyz, mesh), "<f4"),
         },
         "pattern": {
             "outline": pattern.outline.tolist(),

@@ -1202,6 +1202,9 @@ def iterate_fast(run: Run):
                 if not chord:
                     stale = None
             if not chord:
+                # one factorisation alive at a time: once a new one is made the last is never used again (every
+                # branch below keeps the new one, or none), and a large piece's factor is most of its memory
+                stale = held = lu = None
                 def fix(Hn, big, G):
                     if not rnd.alive.all():  # switched-off nodes keep still
                         Hn[~rnd.alive] = eye * big
