@@ -285,3 +285,17 @@ def ell(a: float) -> np.ndarray:
     """An L-shaped outline a across (its arms a third of that)."""
     t = a / 3.0
     return np.array([[0.0, 0.0], [a, 0.0], [a, t], [t, t], [t, a], [0.0, a]])
+
+
+def assert_refused_in_one_line(doc: dict, tmp_path, says: str) -> None:
+    """``doc`` (a damaged project document) written to bad.flatweave is refused on open with one line
+    (a ProjectError) that names the file and matches ``says``."""
+    import json
+
+    from flatweave.document.project import ProjectError, load_project
+
+    path = tmp_path / "bad.flatweave"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ProjectError, match=says) as info:
+        load_project(path)
+    assert "\n" not in str(info.value) and "bad.flatweave" in str(info.value)

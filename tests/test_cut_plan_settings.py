@@ -19,13 +19,15 @@ from shapely.geometry import Polygon
 from flatweave.cli import main
 from flatweave.document import pieces as P
 from flatweave.document.cutsettings import CutPlanSettings
-from flatweave.document.project import (PROJECT_VERSION, ProjectError, load_project, new_project, project_to_dict,
+from flatweave.document.project import (PROJECT_VERSION, load_project, new_project, project_to_dict,
                                         save_project)
 from flatweave.document.solving import solve_pieces
 from flatweave.errors import SettingsError
 from flatweave.method.lattice import MATERIALS
 from flatweave.method.settings import FlattenSettings
 from flatweave.reading.examples import load_example
+
+from tests.helpers import assert_refused_in_one_line
 
 OLD = Path(__file__).parent / "data" / "projects"
 
@@ -96,11 +98,7 @@ def test_bad_cut_plan_settings_are_one_line(kw, says):
 def test_a_damaged_cut_plan_is_named_in_one_line(kit, tmp_path, damage, says):
     doc = project_to_dict(kit)
     damage(doc)
-    path = tmp_path / "bad.flatweave"
-    path.write_text(json.dumps(doc))
-    with pytest.raises(ProjectError, match=says) as info:
-        load_project(path)
-    assert "\n" not in str(info.value) and "bad.flatweave" in str(info.value)
+    assert_refused_in_one_line(doc, tmp_path, says)
 
 
 def _rows(path):

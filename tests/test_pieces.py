@@ -18,11 +18,13 @@ from flatweave import FlattenSettings, flatten
 from flatweave.files import decode_array
 from flatweave.document import pieces as P
 from flatweave.document.history import Document
-from flatweave.document.project import (PROJECT_VERSION, ProjectError, load_project, new_project, project_problems,
+from flatweave.document.project import (PROJECT_VERSION, load_project, new_project, project_problems,
                                         project_to_dict, save_project)
 from flatweave.document.recovery import Session, find_orphans
 from flatweave.errors import SettingsError
 from flatweave.reading.examples import load_example
+
+from tests.helpers import assert_refused_in_one_line
 
 OLD = Path(__file__).parent / "data" / "projects"
 
@@ -198,11 +200,7 @@ def test_a_result_goes_only_to_the_piece_it_was_solved_for(octant):
 def test_a_damaged_pieces_list_is_refused_in_one_line(octant, tmp_path, damage, says):
     doc = project_to_dict(new_project(octant, "tool", spacing=0.1))
     damage(doc)
-    path = tmp_path / "bad.flatweave"
-    path.write_text(json.dumps(doc))
-    with pytest.raises(ProjectError, match=says) as exc:
-        load_project(path)
-    assert "\n" not in str(exc.value) and "bad.flatweave" in str(exc.value)
+    assert_refused_in_one_line(doc, tmp_path, says)
 
 
 def test_a_new_project_is_one_piece_named_after_it(octant):

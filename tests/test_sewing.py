@@ -20,7 +20,7 @@ from flatweave.document.checks import project_checks, seam_rows
 from flatweave.document.cutfiles import export_pieces
 from flatweave.document.history import Document
 from flatweave.document.plybook import plybook_bytes
-from flatweave.document.project import (PROJECT_VERSION, ProjectError, load_project, new_project, project_to_dict,
+from flatweave.document.project import (PROJECT_VERSION, load_project, new_project, project_to_dict,
                                         save_project, settings_equal)
 from flatweave.document.solving import solve_pieces
 from flatweave.errors import SettingsError
@@ -29,6 +29,8 @@ from flatweave.geometry.numerics import polyline_distance
 from flatweave.geometry.region import cover_for
 from flatweave.method.seams import flat_sew_line
 from flatweave.reading.examples import example_path, load_example
+
+from tests.helpers import assert_refused_in_one_line
 
 OLD = Path(__file__).parent / "data" / "projects"
 LENGTH = 1.5  # the bundled half cylinder: its generators
@@ -170,11 +172,7 @@ def test_the_project_file_keeps_the_seams_bit_for_bit(three, tmp_path):
 def test_a_damaged_sewing_is_named_in_one_line(three, tmp_path, damage, says):
     doc = project_to_dict(three)
     damage(doc)
-    path = tmp_path / "bad.flatweave"
-    path.write_text(json.dumps(doc))
-    with pytest.raises(ProjectError, match=says) as info:
-        load_project(path)
-    assert "\n" not in str(info.value) and "bad.flatweave" in str(info.value)
+    assert_refused_in_one_line(doc, tmp_path, says)
 
 
 def test_a_version_6_project_opens_with_no_seams():
