@@ -299,3 +299,33 @@ def assert_refused_in_one_line(doc: dict, tmp_path, says: str) -> None:
     with pytest.raises(ProjectError, match=says) as info:
         load_project(path)
     assert "\n" not in str(info.value) and "bad.flatweave" in str(info.value)
+
+
+TINY_INSTANCE = {"name": "tiny", "strip_height": 40.0, "items": [
+    {"id": 0, "demand": 3, "allowed_orientations": [0.0, 180.0],
+     "shape": {"type": "simple_polygon", "data": [[0, 0], [10, 0], [10, 6], [0, 6], [0, 0]]}},
+    {"id": 1, "demand": 2, "allowed_orientations": None,
+     "shape": {"type": "simple_polygon", "data": [[0, 0], [8, 0], [0, 8]]}}]}
+"""A nesting instance in sparrow's JSON (the ESICUP sets' form): a 10 x 6 box 3 times, grain kept, and
+a right triangle twice, free; a strip 40 mm high."""
+
+
+def solved_kit():
+    """A project of three solved pieces, units m, each about 1.6 m across: the woven octant "cap" (2
+    copies), its copy "cap +45" turned 45 degrees (2 copies), the isotropic half cylinder "side"."""
+    from flatweave.document import pieces as P
+    from flatweave.document.project import new_project
+    from flatweave.document.solving import solve_pieces
+    from flatweave.method.lattice import MATERIALS
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.reading.examples import load_example
+
+    p = new_project(load_example("octant"), "kit", "octant", spacing=0.1)
+    p = P.set_quantity(P.rename(p, 0, "cap"), 0, 2)
+    p = P.duplicate(p, 0, "cap +45", angle_deg=45.0)
+    p = P.add(p, "side", FlattenSettings(spacing=0.1, material=MATERIALS["isotropic"]),
+              surface=load_example("half_cylinder"), source="half_cylinder")
+    p, outcomes = solve_pieces(p, workers=1)
+    assert all(o.result is not None for o in outcomes)
+    return p
+

@@ -11,23 +11,20 @@ plan: undoable edits, saved with it."""
 from __future__ import annotations
 
 import multiprocessing
-from dataclasses import replace
 import os
+from dataclasses import replace
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QPoint, Qt
-
 from flatweave.app.cutplanview import MIRROR_TIP, STALE, STOPPED
 from flatweave.document import pieces as P
 from flatweave.document.cutplan import splice_curves
 from flatweave.document.cutsettings import CutPlanSettings
-from flatweave.document.project import load_project, new_project, save_project
-from flatweave.document.solving import solve_pieces
-from flatweave.method.lattice import MATERIALS
-from flatweave.method.settings import FlattenSettings
-from flatweave.reading.examples import load_example
+from flatweave.document.project import load_project, save_project
 from flatweave.studies.nesting import marker_problems
+from PySide6.QtCore import QPoint, Qt
+
+from tests.helpers import solved_kit
 
 pytestmark = pytest.mark.slow
 
@@ -37,17 +34,9 @@ ROLL_MM = 2500.0
 
 @pytest.fixture(scope="module")
 def kit():
-    """Three solved pieces (tests.test_nesting's kit, in memory): two woven octant plies of 2 copies each,
-    an isotropic half-cylinder panel; units m, so each piece is about 1.6 m across."""
-    p = new_project(load_example("octant"), "kit", "octant", spacing=0.1)
-    p = P.rename(p, 0, "cap")
-    p = P.set_quantity(p, 0, 2)
-    p = P.duplicate(p, 0, "cap +45", angle_deg=45.0)
-    p = P.add(p, "side", FlattenSettings(spacing=0.1, material=MATERIALS["isotropic"]),
-              surface=load_example("half_cylinder"), source="half_cylinder")
-    p, outcomes = solve_pieces(p, workers=1)
-    assert all(o.result is not None for o in outcomes)
-    return p
+    """Three solved pieces (tests.helpers.solved_kit): two woven octant plies of 2 copies each, an
+    isotropic half-cylinder panel; units m, so each piece is about 1.6 m across."""
+    return solved_kit()
 
 
 def copies_by_material(project) -> dict[str, int]:

@@ -13,10 +13,6 @@ import re
 
 import numpy as np
 import pytest
-from pypdf import PdfReader
-from shapely.geometry import Polygon, box
-from shapely.ops import unary_union
-
 from flatweave.cli import main
 from flatweave.document.plybook import plybook_bytes
 from flatweave.document.project import new_project
@@ -25,8 +21,11 @@ from flatweave.export.pdf import MM, OVERLAP_MM, PAGE_MARGIN_MM, PAPERS, ROUND_S
 from flatweave.export.sheet import SheetPiece
 from flatweave.reading.examples import load_example
 from flatweave.studies.nesting import NestItem, nest
+from pypdf import PdfReader
+from shapely.geometry import Polygon, box
+from shapely.ops import unary_union
 
-from tests.helpers import rectangle, ell
+from tests.helpers import TINY_INSTANCE, ell, rectangle
 from tests.pdf_paths import page_drawing
 
 pytestmark = pytest.mark.slow
@@ -174,11 +173,7 @@ def test_the_ply_book_has_a_page_per_marker_with_its_numbers(marker):
 
 
 def test_nest_exports_a_marker_pdf(tmp_path, capsys):
-    instance = {"name": "tiny", "strip_height": 40.0, "items": [
-        {"id": 0, "demand": 3, "allowed_orientations": [0.0, 180.0],
-         "shape": {"type": "simple_polygon", "data": [[0, 0], [10, 0], [10, 6], [0, 6], [0, 0]]}},
-        {"id": 1, "demand": 2, "allowed_orientations": None,
-         "shape": {"type": "simple_polygon", "data": [[0, 0], [8, 0], [0, 8]]}}]}
+    instance = TINY_INSTANCE
     path = tmp_path / "tiny.json"
     path.write_text(json.dumps(instance))
     out = tmp_path / "m.pdf"

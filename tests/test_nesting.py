@@ -13,21 +13,16 @@ import threading
 import ezdxf
 import numpy as np
 import pytest
-from shapely import STRtree
-from shapely.geometry import Polygon
-
 from flatweave.cli import main
-from flatweave.document import pieces as P
 from flatweave.document.project import load_project, new_project, save_project
-from flatweave.document.solving import solve_pieces
 from flatweave.errors import SettingsError
-from flatweave.method.lattice import MATERIALS
-from flatweave.method.settings import FlattenSettings
 from flatweave.reading.examples import load_example
 from flatweave.studies.nesting import NestItem, marker_problems, nest
 from pypdf import PdfReader
+from shapely import STRtree
+from shapely.geometry import Polygon
 
-from tests.helpers import rectangle, ell
+from tests.helpers import TINY_INSTANCE, ell, rectangle, solved_kit
 
 pytestmark = pytest.mark.slow
 
@@ -141,17 +136,9 @@ def status(argv) -> int:
 
 @pytest.fixture(scope="module")
 def kit(tmp_path_factory):
-    """A project of three solved pieces (two woven octant plies, 2 copies of each; an isotropic
-    half-cylinder panel), units m."""
+    """tests.helpers.solved_kit, saved."""
     folder = tmp_path_factory.mktemp("kit")
-    p = new_project(load_example("octant"), "kit", "octant", spacing=0.1)
-    p = P.rename(p, 0, "cap")
-    p = P.set_quantity(p, 0, 2)
-    p = P.duplicate(p, 0, "cap +45", angle_deg=45.0)
-    cyl = load_example("half_cylinder")
-    p = P.add(p, "side", FlattenSettings(spacing=0.1, material=MATERIALS["isotropic"]), surface=cyl,
-              source="half_cylinder")
-    p, _ = solve_pieces(p, workers=1)
+    p = solved_kit()
     return save_project(p, folder / "kit.flatweave")
 
 
@@ -263,11 +250,7 @@ def test_a_roll_narrower_than_a_splice_and_bad_options_write_nothing(kit, tmp_pa
 
 def test_nest_reads_a_nesting_instance(tmp_path, capsys):
     """A nesting instance in sparrow's JSON (the ESICUP sets' form): its strip height is the roll's width."""
-    instance = {"name": "tiny", "strip_height": 40.0, "items": [
-        {"id": 0, "demand": 3, "allowed_orientations": [0.0, 180.0],
-         "shape": {"type": "simple_polygon", "data": [[0, 0], [10, 0], [10, 6], [0, 6], [0, 0]]}},
-        {"id": 1, "demand": 2, "allowed_orientations": None,
-         "shape": {"type": "simple_polygon", "data": [[0, 0], [8, 0], [0, 8]]}}]}
+    instance = TINY_INSTANCE
     path = tmp_path / "tiny.json"
     path.write_text(json.dumps(instance))
     table = tmp_path / "tiny.csv"
