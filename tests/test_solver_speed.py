@@ -321,6 +321,13 @@ def test_the_newton_pattern_is_scipys_block_conversion():
             U, up = normal.upper(A), sp.triu(ref, format="csc")
             assert np.array_equal(U.indptr, up.indptr) and np.array_equal(U.indices, up.indices)
             assert np.array_equal(U.data, up.data)
+            # PARDISO's upper triangle by rows: the CSC lower triangle read by rows, which is the transpose's
+            # upper triangle (these random blocks are not symmetric; the solver's matrices are)
+            take, indptr, indices = normal.upper_csr
+            upr = sp.triu(ref.T, format="csr")
+            upr.sort_indices()
+            assert np.array_equal(indptr, upr.indptr) and np.array_equal(indices, upr.indices)
+            assert np.array_equal(A.data[take], upr.data)
 
 
 @pytest.mark.slow
