@@ -3,6 +3,8 @@
 - case ``large_ply``: the woven octant from the loaded surface to its pattern at n nodes (as
   ``file_to_pattern``), in a child process of its own so its peak memory is its own: the seconds;
 - case ``large_ply_memory``: the same runs' peak resident memory (MB);
+- case ``large_over_arap``: the same file to pattern over libigl's ARAP on the same piece (its nodes and
+  cells as triangles), both in this process one after the other;
 - case ``large_result_file``: the same runs' result file (``flatten --out``'s content, written by
   ``flatweave.files.write_json``): its size (MB) and the seconds it takes to read back, the JSON parsed
   and every node, spring and cell array decoded.
@@ -18,7 +20,10 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -72,3 +77,36 @@ def shared(case: str, nodes: int) -> dict:
     _taken[(case, nodes)] = k + 1
     made = _runs.get(nodes, [])
     return made[k] if k < len(made) else _measure(nodes)
+
+
+def _arap_seconds(V: np.ndarray, F: np.ndarray) -> tuple[float, np.ndarray]:
+    """libigl's ARAP parameterisation as its tutorial (503) makes it: a harmonic map onto a circle as the
+    start, then ARAP with the dynamic term and nothing fixed, 100 iterations at most: (seconds, uv)."""
+    import igl
+
+    t0 = time.perf_counter()
+    bnd = igl.boundary_loop(F)
+    start = igl.harmonic(V, F, bnd, igl.map_vertices_to_circle(V, bnd), 1)
+    data = igl.ARAPData()
+    data.max_iter = 100
+    data.with_dynamics = True
+    igl.arap_precomputation(V, F, 2, np.zeros(0, dtype=np.int64), data)
+    uv = igl.arap_solve(np.zeros((0, 2)), data, np.ascontiguousarray(start))
+    return time.perf_counter() - t0, uv
+
+
+def over_arap(nodes: int) -> dict:
+    """Our file to pattern of the woven octant at ``nodes`` over libigl's ARAP on the same piece: the
+    result's nodes and its cells split into two triangles each, timed one after the other in this process."""
+    from benchmarks.suite import _file_to_pattern
+
+    ours, r = _file_to_pattern("octant", "woven", nodes)
+    cells = r.mesh.cells
+    F = np.ascontiguousarray(np.concatenate([cells[:, [0, 1, 2]], cells[:, [0, 2, 3]]]), dtype=np.int64)
+    used = np.unique(F)
+    remap = np.full(len(r.xyz), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    V = np.ascontiguousarray(r.xyz[used])
+    arap, uv = _arap_seconds(V, remap[F])
+    return {"ratio": ours / arap, "ours_s": ours, "arap_s": arap, "vertices": float(len(V)),
+            "triangles": float(len(F))}

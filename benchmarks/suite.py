@@ -366,6 +366,12 @@ def large_ply_memory(nodes: int) -> dict:
     return shared("memory", nodes)
 
 
+def large_over_arap(nodes: int) -> dict:
+    from benchmarks.large import over_arap
+
+    return over_arap(nodes)
+
+
 def large_result_file(nodes: int) -> dict:
     from benchmarks.large import shared
 
@@ -530,6 +536,10 @@ CASES: tuple[Case, ...] = (
     Case("large_ply_memory", "the same runs' peak resident memory (MB)",
          Target("peak_mb", "<", {160_000: 1024.0, 640_000: 4096.0}, "MB"), large_ply_memory,
          (10_000, 160_000, 640_000), keys=LARGE_KEYS),
+    Case("large_over_arap", "the woven octant's file to pattern over libigl's ARAP (harmonic start, 100 iterations "
+         "at most) on the same piece: its nodes, its cells as two triangles each", Target("ratio", "<=", {10_000: 2.5},
+                                                                                           "x"),
+         large_over_arap, (10_000,), keys=("ratio", "ours_s", "arap_s", "vertices", "triangles")),
     Case("large_result_file", "the same runs' result file: its size (MB); read back and every array decoded in "
          "load_s", Target("file_mb", "<", {160_000: 25.0}, "MB"), large_result_file, (10_000, 160_000, 640_000),
          keys=LARGE_KEYS),

@@ -8,9 +8,9 @@ import pytest
 
 from flatweave.method.energy import YarnConstraint
 from flatweave.reading.examples import load_example
-from flatweave.method.lattice import MATERIALS
+from flatweave.method.lattice import MATERIALS, WARP
 from flatweave.geometry.quadrature import boundary_samples
-from flatweave.method.pattern import make_pattern, polygon_perimeter
+from flatweave.method.pattern import framed_nodes, make_pattern, node_frames, polygon_perimeter
 from flatweave.geometry.numerics import polygon_area
 from flatweave.method.settings import FlattenSettings
 from flatweave.method.pipeline import flatten
@@ -186,3 +186,23 @@ def test_the_sheet_veto_is_its_norm_formula_bitwise():
         assert np.array_equal(got, ref)
         vetoed += int((~ref).sum())
     assert vetoed > 0
+
+
+def test_framed_nodes_are_the_nodes_node_frames_gives_both_frames():
+    """The pipeline's check that a pattern can be made reads the springs only: the same nodes as
+    node_frames' ``ok``, on solved meshes with a curve dart (springs cut) and with a plane dart."""
+    from flatweave.method.darts import CurveDart, PlaneDart  # a test's own darts
+
+    darts = (CurveDart(np.array([[1.0, 0.5], [0.75, 0.52], [0.45, 0.5]]), name="curve dart"),
+             PlaneDart((1.0, -1.0, 0.0, 0.0), (-2, 2, -2, 2, -2, 0.55), name="plane dart"))
+    for name, dart in (("octant", darts[0]), ("saddle", darts[1]), ("garment", None)):
+        s = load_example(name)
+        settings = FlattenSettings(0.08, material=MATERIALS["woven"], darts=(dart,) if dart else ())
+        r = flatten(s, settings)
+        assert np.array_equal(framed_nodes(r.mesh), node_frames(r.mesh, r.xyz)[2])
+        # a node's warp springs dropped: it has no warp frame, in both
+        m = r.mesh
+        keep = ~((m.kind == WARP) & (m.ends == m.ends[m.kind == WARP][0, 0]).any(axis=1))
+        cut = replace(m, ends=m.ends[keep], kind=m.kind[keep], rest=m.rest[keep], k=m.k[keep])
+        ok = node_frames(cut, r.xyz)[2]
+        assert np.array_equal(framed_nodes(cut), ok) and 0 < ok.sum() < cut.n_nodes

@@ -106,6 +106,9 @@ class Cholesky:
         lib.pardisoinit(_ptr(self._handle), ctypes.byref(ctypes.c_int32(_SPD)), _ptr(self._iparm))
         self._iparm[34] = 1  # zero-based indices
         self._iparm[26] = 0  # no matrix checker: the solver's patterns are built sorted
+        # no iterative refinement (its default is 2 steps): a solve then costs half (0.11 against 0.24 s at
+        # 320,000 unknowns), and SuperLU's and QDLDL's solves, which the solver was made on, refine none
+        self._iparm[7] = 0
         self._lock = threading.Lock()
         self._finalizer = weakref.finalize(self, _release, lib, self._handle, self._iparm, self.n, self._lock)
         self.ok = False  # True while a factorisation is held

@@ -42,7 +42,7 @@ from flatweave.geometry.nurbs import NurbsSurface
 from flatweave.geometry.quadrature import boundary_samples
 from flatweave.geometry.numerics import polygon_area
 
-__all__ = ["Pattern", "node_frames", "surface_offsets", "map_points", "make_pattern", "polygon_area",
+__all__ = ["Pattern", "node_frames", "framed_nodes", "surface_offsets", "map_points", "make_pattern", "polygon_area",
            "polygon_perimeter"]
 
 BLEND_K = 6  # nodes blended per boundary point
@@ -170,6 +170,16 @@ def surface_offsets(d: np.ndarray, normals: np.ndarray, turn: np.ndarray | None 
             side = t - np.einsum("...c,...c->...", t, unit)[..., None] * unit
             out -= (h / 3.0)[..., None] * np.where(np.isfinite(side), side, 0.0)
     return out
+
+
+def framed_nodes(mesh: SpringMesh) -> np.ndarray:
+    """(n,) bool: the nodes with a weft and a warp spring, which are the ones :func:`node_frames` gives
+    both frames (its ``ok``), found from the springs alone (a pattern needs at least one)."""
+    weft = np.zeros(mesh.n_nodes, dtype=bool)
+    warp = np.zeros(mesh.n_nodes, dtype=bool)
+    weft[mesh.ends[mesh.kind == WEFT].ravel()] = True
+    warp[mesh.ends[mesh.kind == WARP].ravel()] = True
+    return weft & warp
 
 
 def node_frames(mesh: SpringMesh, xyz: np.ndarray, normals: np.ndarray | None = None):

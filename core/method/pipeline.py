@@ -26,7 +26,7 @@ from flatweave.errors import SettingsError, SolverError
 from flatweave.files import decode_array
 from flatweave.method.lattice import Material, SpringMesh, bent, build_mesh, only_springs
 from flatweave.geometry.nurbs import NurbsSurface
-from flatweave.method.pattern import Pattern, make_pattern, node_frames, resample_uv
+from flatweave.method.pattern import Pattern, framed_nodes, make_pattern, resample_uv
 from flatweave.geometry.quadrature import boundary_polyline, domain_gauss_rule, region_area
 from flatweave.geometry.region import Cover, Region, cover_for
 from flatweave.method.solver import STOPPED, Problem, SolveResult, SolverOptions, State, iterate
@@ -293,8 +293,9 @@ def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, c
         if coarse.yarns:
             cproblem.yarns = resolve_yarns(coarse.yarns, state.mesh, surface.points(state.uv))
         done = _coarse_iterations(stats)
-        solve = yield from _counted_from(iterate(cproblem, state, _carried(coarse.solver_options(), stats)),
-                                         done)
+        options = coarse.solver_options()
+        options = replace(options, tol=max(options.tol, COARSE_TOL))
+        solve = yield from _counted_from(iterate(cproblem, state, _carried(options, stats)), done)
         if "levels" in stats or solve.status != 0 or solve.deleted or solve.added:
             t = time.perf_counter()
             fine = multilevel.carry(surface, problem, solve.mesh, solve.uv, settings.material,
@@ -307,6 +308,13 @@ def _start(surface: NurbsSurface, settings: FlattenSettings, problem: Problem, c
     state, own = _drape_state(surface, settings, problem, cover, A3, drape_progress, drape_interval)
     # the drape time is both drapes'
     return state, {**own, "dropped": stats["dropped"], "seconds": own.get("seconds", 0.0) + stats.get("seconds", 0.0)}
+
+
+COARSE_TOL = 1e-6
+"""The tolerance a coarser level of a coarse-to-fine start is solved to (at least the settings'):
+its solution is only the next level's start. Against the settings' 1e-9 on every bundled example,
+woven and isotropic, at 2,500 and 10,000 nodes: the same nodes, errors and energy (to 6e-13), 16 %
+less time over them all, 9.9 -> 9.3 s at 160,000 nodes (tests/test_multilevel.py)."""
 
 
 UNCOVERED_LIMIT = 0.10
@@ -357,7 +365,7 @@ def _check_drape(surface: NurbsSurface, d, ds: DrapeSettings, cover: Cover | Non
     r = max(ds.r_weft, ds.r_warp)
     trimmed = cover is not None and cover.trimmed
     seed = f"({ds.seed[0]:g}, {ds.seed[1]:g})"
-    if not node_frames(d.mesh, d.xyz)[2].any():
+    if not framed_nodes(d.mesh).any():
         n = d.mesh.n_nodes
         placed = f"the drape placed {n:,} node{'s' if n != 1 else ''} but no complete cell of the mesh"
         if trimmed:
@@ -470,7 +478,7 @@ def flatten_iter(surface: NurbsSurface, settings: FlattenSettings, initial: Stat
     state = State(unease(state.mesh, surface, state.uv), state.uv)
     xyz = surface.points(state.uv)
     check_result_finite(state.uv, xyz)
-    if not node_frames(state.mesh, xyz)[2].any():
+    if not framed_nodes(state.mesh).any():
         raise SettingsError(f"no complete cell of the mesh is left ({state.mesh.n_nodes:,} nodes): there is "
                             f"nothing to make a pattern from; try a smaller spacing or another seed")
     darts = DartSet(surface, settings.darts)
