@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from geomdl import NURBS, exchange
 
+import flatweave.geometry.nurbs as nurbs
 from flatweave.errors import SurfaceError
 from flatweave.reading.examples import example_names, example_path, load_example
 from flatweave.geometry.nurbs import NurbsSurface
@@ -341,3 +342,20 @@ def test_constructor_accepts_good_data_and_freezes_arrays():
     assert not s.rational and s.shape == (2, 2)
     with pytest.raises(ValueError):
         s.ctrlpts[0, 0, 0] = 5.0
+
+
+@pytest.mark.parametrize("name", example_names())
+def test_many_points_evaluated_in_blocks_give_the_same_numbers(name, monkeypatch):
+    """Past EVAL_BLOCK points an evaluation goes block by block (its temporaries in the cache): bit for
+    bit what one block gives, with and without second derivatives, a last block shorter than the rest."""
+    s = load_example(name)
+    d = s.domain
+    rng = np.random.default_rng(7)
+    uv = np.column_stack([rng.uniform(d[0, 0], d[0, 1], 2_500), rng.uniform(d[1, 0], d[1, 1], 2_500)])
+    whole = s.evaluate(uv, second=True), s.evaluate(uv), s.derivatives(uv)
+    monkeypatch.setattr(nurbs, "EVAL_BLOCK", 300)  # 9 blocks, the last of 100 points
+    blocks = s.evaluate(uv, second=True), s.evaluate(uv), s.derivatives(uv)
+    for key in ("xyz", "su", "sv", "normal", "suu", "suv", "svv"):
+        assert np.array_equal(getattr(whole[0], key), getattr(blocks[0], key))
+    assert blocks[1].suu is None and np.array_equal(whole[1].normal, blocks[1].normal)
+    assert all(np.array_equal(a, b) for a, b in zip(whole[2], blocks[2]))
