@@ -3,6 +3,7 @@
 import errno
 import importlib.util
 import os
+import sys
 import threading
 
 import numpy as np
@@ -73,6 +74,7 @@ class SurfaceFault:
     iterations, such as a live pattern) and only until that solve ends."""
 
     def __init__(self, monkeypatch, order=(0, 0), value=float("nan")):
+        import flatweave.geometry.nurbs as nurbs
         from flatweave.geometry.nurbs import NurbsSurface
 
         real = NurbsSurface._homogeneous
@@ -90,6 +92,8 @@ class SurfaceFault:
             return out
 
         monkeypatch.setattr(NurbsSurface, "_homogeneous", homogeneous)
+        # one row of each evaluation: evaluated in one block (nurbs.EVAL_BLOCK), not one row per block
+        monkeypatch.setattr(nurbs, "EVAL_BLOCK", sys.maxsize)
 
     def arm_after(self, k: int, iterate):
         """Wrap a solver generator function (``flatweave.method.solver.iterate``'s signature):

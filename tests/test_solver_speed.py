@@ -398,10 +398,13 @@ def test_a_refill_tests_the_darts_on_the_points_it_has():
     assert max(added) > 0 and min(added) == 0
 
 
-def test_gathered_rows_are_the_fancy_indexed_ones():
-    """``_Gathered`` takes the springs' rows with np.take: the same arrays, bit for bit, as indexing."""
+@pytest.mark.parametrize("block", [solver._GATHER_BLOCK, 97])
+def test_gathered_rows_are_the_fancy_indexed_ones(block, monkeypatch):
+    """``_Gathered`` takes the springs' rows with np.take, in blocks of springs: the same arrays, bit for
+    bit, as indexing them all at once (97: many blocks, the last one shorter)."""
     from flatweave.geometry.numerics import rowdot
 
+    monkeypatch.setattr(solver, "_GATHER_BLOCK", block)
     s, settings = _settings("saddle", 500)
     d = drape(s, settings.drape_settings(), settings.material)
     ev = s.evaluate(d.uv + 1e-3 * np.cos(5 * d.uv), second=False, normals=False)
