@@ -400,8 +400,8 @@ def test_a_refill_tests_the_darts_on_the_points_it_has():
 
 @pytest.mark.parametrize("block", [solver._GATHER_BLOCK, 97])
 def test_gathered_rows_are_the_fancy_indexed_ones(block, monkeypatch):
-    """``_Gathered`` takes the springs' rows with np.take, in blocks of springs: the same arrays, bit for
-    bit, as indexing them all at once (97: many blocks, the last one shorter)."""
+    """``_Gathered`` takes the springs' rows with np.take, in blocks of springs: the same arrays and
+    tangent products, bit for bit, as indexing them all at once (97: many blocks, the last one shorter)."""
     from flatweave.geometry.numerics import rowdot
 
     monkeypatch.setattr(solver, "_GATHER_BLOCK", block)
@@ -414,6 +414,7 @@ def test_gathered_rows_are_the_fancy_indexed_ones(block, monkeypatch):
     length = np.sqrt(rowdot(dd, dd))
     t = dd / np.maximum(length, 1e-300)[:, None]
     Q = np.column_stack([rowdot(t, ev.su[a]), rowdot(t, ev.sv[a]), -rowdot(t, ev.su[b]), -rowdot(t, ev.sv[b])])
-    for got, want in ((g.d, dd), (g.length, length), (g.sua, ev.su[a]), (g.sva, ev.sv[a]), (g.sub, ev.su[b]),
-                      (g.svb, ev.sv[b]), (g.Q, Q)):
+    products = (rowdot(ev.su[a], ev.su[b]), rowdot(ev.su[a], ev.sv[b]), rowdot(ev.sv[a], ev.su[b]),
+                rowdot(ev.sv[a], ev.sv[b]))
+    for got, want in ((g.d, dd), (g.length, length), (g.Q, Q), *zip((g.uu, g.uv, g.vu, g.vv), products)):
         assert np.array_equal(got, want)
