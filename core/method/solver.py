@@ -517,7 +517,8 @@ class _Normal:
         if fixed is not None:
             free[fixed] = False
         order = np.flatnonzero(free)[_dissection_order(energy.mesh.ij[free])]
-        num = np.full(n, -1, dtype=np.int64)
+        # int32 indices throughout: a large piece's index arrays are a good part of its memory
+        num = np.full(n, -1, dtype=np.int32)
         num[order] = np.arange(len(order))
         self.num, self.order = num, order
         nb = len(order)
@@ -529,10 +530,10 @@ class _Normal:
         inner = np.flatnonzero(both)  # springs between free nodes
         # block pattern: diagonal blocks + (a, b) and (b, a) for springs between free nodes, in (row, column)
         # order (the keys are unique: one spring joins two nodes; a stable sort is the quicker here)
-        rows = np.concatenate([np.arange(nb), a[inner], b[inner]])
-        cols = np.concatenate([np.arange(nb), b[inner], a[inner]])
+        rows = np.concatenate([np.arange(nb), a[inner], b[inner]]).astype(np.int64)  # the keys need 64 bits
+        cols = np.concatenate([np.arange(nb), b[inner], a[inner]]).astype(np.int64)
         perm = np.argsort(rows * max(nb, 1) + cols, kind="stable")
-        self._perm, self._k = perm, len(inner)
+        self._perm, self._k = perm.astype(np.int32), len(inner)
         self.indices = cols[perm].astype(np.int32)
         self.indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=nb))]).astype(np.int32)
         self.nnzb = len(perm)
@@ -540,7 +541,7 @@ class _Normal:
         self._csc_places(perm, inner)
         # both ends of every spring, for one bincount per entry of the diagonal blocks
         self.ends_num = np.concatenate([a, b])
-        self.ends_all = np.concatenate([energy.a, energy.b])
+        self.ends_all = np.concatenate([energy.a, energy.b]).astype(np.int32)
 
     def _csc_places(self, perm: np.ndarray, inner: np.ndarray) -> None:
         """The scalar CSC pattern (``csc_indices``, ``csc_indptr``) and where each of its entries is
@@ -1278,6 +1279,7 @@ def iterate_fast(run: Run):
                 # one factorisation alive at a time: once a new one is made the last is never used again (every
                 # branch below keeps the new one, or none), and a large piece's factor is most of its memory
                 stale = held = lu = None
+                A = damp = None  # the last matrix too: not alive beside the new one while it is assembled
                 def fix(Hn, big, G):
                     if not rnd.alive.all():  # switched-off nodes keep still
                         Hn[~rnd.alive] = eye * big
