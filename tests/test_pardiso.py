@@ -65,6 +65,25 @@ def test_a_factorisation_solves_like_scipy_and_refactorises_in_place(ordered):
 
 
 @needs_mkl
+def test_a_released_factor_is_gone_and_the_analysis_serves_the_next():
+    """release_factor frees the factor (a solve then raises) and keeps the analysis: the next factor
+    on the same pattern solves as before."""
+    A = _grid_laplacian(40, 1e-2)
+    U = _upper(A)
+    chol = pardiso.Cholesky(U.indptr, U.indices)
+    b = np.random.default_rng(2).standard_normal(A.shape[0])
+    assert chol.factor(U.data)
+    x = chol.solve(b)
+    chol.release_factor()
+    with pytest.raises(RuntimeError, match="no factorisation"):
+        chol.solve(b)
+    chol.release_factor()  # twice: nothing to free
+    assert chol.factor(U.data * 2.0)
+    assert np.abs(chol.solve(b) - x / 2.0).max() <= 1e-12 * np.abs(x).max()
+    chol.close()
+
+
+@needs_mkl
 def test_a_matrix_not_positive_definite_is_refused_and_nothing_is_held():
     A = _grid_laplacian(20, -0.5)  # eigenvalues from -0.5 up: indefinite
     U = _upper(A)
@@ -180,15 +199,20 @@ def test_large_systems_take_pardiso_and_an_indefinite_one_falls_back_to_superlu(
     monkeypatch.setattr(solver._Round, "factorise", kept)
     flatten(s, settings)
     rnd, A = seen[-1]  # the last round and its last matrix (positive definite: PARDISO factorised it)
+    assert isinstance(A, solver._Upper)  # on PARDISO's path only its triangle is made
+    full = A.tocsc()
     b = np.random.default_rng(1).standard_normal(A.shape[0])
     lu = factorise(rnd, A, quick=True)
     assert isinstance(lu, pardiso.Cholesky)
-    assert np.abs(A @ lu.solve(b) - b).max() <= 1e-9 * np.abs(A).max() * np.abs(lu.solve(b)).max()
+    assert np.abs(full @ lu.solve(b) - b).max() <= 1e-9 * np.abs(full).max() * np.abs(lu.solve(b)).max()
     # the same pattern shifted down until indefinite: SuperLU (LU without pivoting) solves it instead
-    indefinite = (A - 2.0 * abs(A.diagonal()).max() * sp.eye(A.shape[0], format="csc")).tocsc()
-    indefinite.sort_indices()
+    on_diagonal = A.indices == np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    data = A.data.copy()
+    data[on_diagonal] -= 2.0 * abs(full.diagonal()).max()
+    indefinite = solver._Upper(data, A.indptr, A.indices)
     lu = factorise(rnd, indefinite, quick=True)
     assert not isinstance(lu, pardiso.Cholesky)
     x = lu.solve(b)
-    assert np.abs(indefinite @ x - b).max() <= 1e-9 * np.abs(indefinite).max() * np.abs(x).max()
+    whole = indefinite.tocsc()
+    assert np.abs(whole @ x - b).max() <= 1e-9 * np.abs(whole).max() * np.abs(x).max()
     assert not rnd._chol.ok  # nothing is held by the handle that refused it

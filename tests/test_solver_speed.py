@@ -229,6 +229,32 @@ def test_shared_gathers_give_the_same_numbers(name, yarn):
     assert np.array_equal(U.data, ref.data)
 
 
+@pytest.mark.parametrize("name", ["octant", "saddle"])
+def test_the_upper_triangle_alone_is_the_whole_matrix(name):
+    """On PARDISO's path (``upper_only``) assemble_exact makes only the upper triangle by rows (an
+    ``_Upper``): the whole matrix it stands for is bitwise the one the full pattern assembles, its
+    product the same to round-off, its pattern the one ``upper_csr`` gives the full pattern."""
+    s, settings = _settings(name, 600)
+    d = drape(s, settings.drape_settings(), settings.material)
+    energy = Energy(s, d.mesh, (_seed_row_yarn(s, settings),))
+    full, upper = solver._Normal(energy, 0), solver._Normal(energy, 0, upper_only=True)
+    assert not hasattr(upper, "src_take")  # the full pattern is not kept
+    ev = s.evaluate(d.uv + 1e-3 * np.sin(7 * d.uv[:, ::-1]), second=True, normals=False)
+    kept, (rs, Q, rd, Jd) = solver._gathered_residuals(energy, ev.xyz, ev.su, ev.sv)
+    A, damp, G, big = full.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True, kept)
+    U, damp_u, G_u, big_u = upper.assemble_exact(energy, ev, Q, Jd, 1e-3, None, True, kept)
+    assert isinstance(U, solver._Upper) and np.array_equal(damp, damp_u) and big == big_u
+    take, indptr, indices = full.upper_csr
+    assert np.array_equal(U.indptr, indptr) and np.array_equal(U.indices, indices)
+    assert np.array_equal(U.data, A.data[take])
+    W = U.tocsc()
+    W.sort_indices()
+    assert np.array_equal(W.indptr, A.indptr) and np.array_equal(W.indices, A.indices)
+    assert np.array_equal(W.data, A.data)
+    x = np.random.default_rng(3).standard_normal(A.shape[0])
+    np.testing.assert_allclose(U @ x, A @ x, rtol=1e-12, atol=1e-12 * np.abs(A @ x).max())
+
+
 def test_reuse_is_an_option_with_a_default():
     assert solver.SolverOptions().reuse is True
     assert solver.SolverOptions(reuse=False).reuse is False

@@ -31,6 +31,7 @@ __all__ = ["Cholesky", "available"]
 
 _SPD = 2  # real symmetric positive definite: a Cholesky factor, no pivoting
 _ANALYSE, _FACTOR, _SOLVE, _RELEASE = 11, 22, 33, -1
+_RELEASE_FACTOR = 0  # the factor's memory only: the analysis stays for the next phase 22
 _NOT_POSITIVE = -4  # "zero pivot, numerical factorization or iterative refinement problem"
 
 
@@ -159,6 +160,16 @@ class Cholesky:
         if err != 0:
             raise RuntimeError(f"PARDISO's solve failed (error {err})")
         return x
+
+    def release_factor(self) -> None:
+        """Free the factor's memory now and keep the analysis: the next :meth:`factor` works as
+        before, :meth:`solve` raises until then. A large piece's factor is most of its memory,
+        and the solver drops it before it assembles the next matrix."""
+        with self._lock:
+            if self.ok and self._handle.any():
+                _call(self._lib, self._handle, self._iparm, _RELEASE_FACTOR, self.n, None, None, None, None, None)
+            self.ok = False
+            self._data = None
 
     def close(self) -> None:
         """Free PARDISO's memory for this pattern now."""

@@ -499,6 +499,26 @@ def _dissection_order(ij: np.ndarray) -> np.ndarray:
     return np.argsort(rank, kind="stable")
 
 
+class _Upper:
+    """A symmetric matrix held as its upper triangle (diagonal included) in CSR: ``data``,
+    ``indptr``, ``indices`` as PARDISO takes them. ``A @ x`` is the whole matrix's product;
+    :meth:`tocsc` the whole matrix (for SuperLU, where PARDISO cannot serve)."""
+
+    def __init__(self, data: np.ndarray, indptr: np.ndarray, indices: np.ndarray):
+        n = len(indptr) - 1
+        self.data, self.indptr, self.indices = data, indptr, indices
+        self.shape = (n, n)
+        self._U = sp.csr_matrix((data, indices, indptr), shape=self.shape)  # shares the three arrays
+
+    def __matmul__(self, x: np.ndarray) -> np.ndarray:
+        U = self._U
+        return U @ x + U.T @ x - U.diagonal() * x
+
+    def tocsc(self) -> sp.csc_matrix:
+        U = self._U
+        return (U + U.T - sp.diags(U.diagonal())).tocsc()
+
+
 class _Normal:
     """The Newton system on a 2 x 2 block-sparse pattern fixed per population.
 
@@ -511,7 +531,7 @@ class _Normal:
     found once per pattern); SuperLU then factorises without reordering.
     """
 
-    def __init__(self, energy: Energy, fixed: int | None):
+    def __init__(self, energy: Energy, fixed: int | None, upper_only: bool = False):
         n = energy.n
         free = np.ones(n, dtype=bool)
         if fixed is not None:
@@ -539,6 +559,14 @@ class _Normal:
         self.nnzb = len(perm)
         self.dir_num = num[energy.dir_nodes]
         self._csc_places(perm, inner)
+        self.upper_only = upper_only
+        if upper_only:
+            # only the triangle PARDISO takes is kept, and assemble_exact makes only it (an _Upper): the full
+            # pattern and its values are a good part of a large piece's memory
+            take, indptr, indices = self._triangle(lower=True)
+            self.upper_take = self.src_take[take]
+            self.upper_csr = (None, indptr, indices)
+            del self.src_take, self.csc_indices, self.csc_indptr
         # both ends of every spring, for one bincount per entry of the diagonal blocks
         self.ends_num = np.concatenate([a, b])
         self.ends_all = np.concatenate([energy.a, energy.b]).astype(np.int32)
@@ -677,6 +705,9 @@ class _Normal:
         damp = damp_rel * np.maximum(dd, 1e-12 * max(dd.max(initial=0.0), 1e-300))
         diag[:, 0, 0] += damp[:, 0]
         diag[:, 1, 1] += damp[:, 1]
+        if self.upper_only:
+            _, indptr, indices = self.upper_csr
+            return _Upper(src[self.upper_take], indptr, indices), damp.ravel(), G, big
         A = sp.csc_matrix((src[self.src_take], self.csc_indices, self.csc_indptr), shape=(self.nvar, self.nvar))
         return A, damp.ravel(), G, big
 
@@ -1003,7 +1034,10 @@ class _Round:
         self.full = Energy(run.problem.surface, self.mesh, run.terms)
         self.energy = self.full
         self.fixed = _node_at(self.mesh, run.fixed_ij)
-        self.normal = _Normal(self.full, self.fixed)
+        # on PARDISO's path only its triangle of the matrix is made (quick factorisations of large systems)
+        upper_only = run.options.reuse and 2 * (self.full.n - (self.fixed is not None)) >= PARDISO_MIN \
+            and pardiso.available()
+        self.normal = _Normal(self.full, self.fixed, upper_only)
         self.alive = np.ones(self.mesh.n_nodes, dtype=bool)
         self.floor = _energy_floor(self.mesh)
         self.settled = False  # True once a refill found nothing to add
@@ -1100,6 +1134,11 @@ class _Round:
         a, b = self.mesh.ends[on, 0], self.mesh.ends[on, 1]
         return bool(_cut_at(cut, self.uv, xyz, a, b).any())
 
+    def release_factor(self) -> None:
+        """Free the round's PARDISO factor (kept: its analysis), once it is never to serve again."""
+        if self._chol is not None:
+            self._chol.release_factor()
+
     def factorise(self, A, quick: bool = False):
         """Factorisation of A: SuperLU in the pattern's own order (nested
         dissection; no iterative solver or other ordering measured was
@@ -1129,10 +1168,12 @@ class _Round:
             try:
                 if self._chol is None:
                     self._chol = pardiso.Cholesky(indptr, indices)
-                if self._chol.factor(A.data[take]):
+                if self._chol.factor(A.data if isinstance(A, _Upper) else A.data[take]):
                     return self._chol
             except RuntimeError:  # PARDISO refused the pattern or failed: SuperLU decides, as below
                 self._chol = None
+        if isinstance(A, _Upper):
+            A = A.tocsc()
         return splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
 
     def solve(self, A, g: np.ndarray) -> np.ndarray:
@@ -1280,6 +1321,7 @@ def iterate_fast(run: Run):
                 # branch below keeps the new one, or none), and a large piece's factor is most of its memory
                 stale = held = lu = None
                 A = damp = None  # the last matrix too: not alive beside the new one while it is assembled
+                rnd.release_factor()  # and PARDISO's factor (its analysis stays for the next)
                 def fix(Hn, big, G):
                     if not rnd.alive.all():  # switched-off nodes keep still
                         Hn[~rnd.alive] = eye * big
