@@ -16,6 +16,8 @@ stopping rule are the ones a solve from the drape has.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from flatweave.geometry.numerics import rowdot, solve2
@@ -173,11 +175,22 @@ def carry(surface, problem: Problem, mesh: SpringMesh, uv: np.ndarray, material:
     ij, fuv = refine(surface, mesh, uv, inside)
     if stretches(material):
         ij, fuv = extend(surface, ij, fuv, inside, problem.cut)
-    fine = problem.build(ij, fuv)
-    add_ij, add_uv = problem.refill(fine, fuv, np.zeros((0, 2), dtype=np.int64))
+    # the refill needs the nodes' places and the surface there, not their springs: the mesh is built once,
+    # with the nodes it adds (a build is most of a carry's time on a large piece)
+    ev = surface.evaluate(fuv)
+    placed = _Placed(ij, 0.5 * mesh.r_weft, 0.5 * mesh.r_warp)
+    add_ij, add_uv = problem.refill(placed, fuv, np.zeros((0, 2), dtype=np.int64), (ev.xyz, ev.su, ev.sv))
     if len(add_ij):
         ij, fuv = np.concatenate([ij, add_ij]), np.concatenate([fuv, add_uv])
         order = np.lexsort((ij[:, 1], ij[:, 0]))
         ij, fuv = ij[order], fuv[order]
-        fine = problem.build(ij, fuv)
-    return State(fine, fuv)
+    return State(problem.build(ij, fuv), fuv)
+
+
+@dataclass(frozen=True)
+class _Placed:
+    """Nodes placed on the fine lattice before their springs are built: what a refill reads of a mesh."""
+
+    ij: np.ndarray
+    r_weft: float
+    r_warp: float
