@@ -216,3 +216,23 @@ def test_large_systems_take_pardiso_and_an_indefinite_one_falls_back_to_superlu(
     whole = indefinite.tocsc()
     assert np.abs(whole @ x - b).max() <= 1e-9 * np.abs(whole).max() * np.abs(x).max()
     assert not rnd._chol.ok  # nothing is held by the handle that refused it
+
+
+@needs_mkl
+def test_systems_qdldl_takes_are_assembled_whole_with_pardiso_allowed_below_it(monkeypatch):
+    """Only the systems PARDISO factorises are assembled as their upper triangle: with PARDISO allowed
+    at every size, the ones QDLDL takes first (up to its 8,000 unknowns) stay whole and solve as before."""
+    s, settings = _settings("octant", 700)
+    ref = flatten(s, settings)
+    kinds = []
+    factorise = solver._Round.factorise
+
+    def seen(self, A, quick=False):
+        kinds.append(isinstance(A, solver._Upper))
+        return factorise(self, A, quick)
+
+    monkeypatch.setattr(solver, "PARDISO_MIN", 0)
+    monkeypatch.setattr(solver._Round, "factorise", seen)
+    r = flatten(s, settings)
+    assert kinds and not any(kinds)
+    assert r.metrics["energy"] == ref.metrics["energy"] and r.metrics["nodes"] == ref.metrics["nodes"]

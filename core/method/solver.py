@@ -529,6 +529,8 @@ class _Normal:
     nodes). ``assemble_exact`` writes the node blocks and the springs' blocks
     into one array and makes the CSC data by one gather from it (``src_take``,
     found once per pattern); SuperLU then factorises without reordering.
+    With ``upper_only`` (PARDISO's path) only the upper triangle's pattern is kept
+    (``upper_csr``, ``upper_take``) and ``assemble_exact`` makes an :class:`_Upper`.
     """
 
     def __init__(self, energy: Energy, fixed: int | None, upper_only: bool = False):
@@ -1034,9 +1036,10 @@ class _Round:
         self.full = Energy(run.problem.surface, self.mesh, run.terms)
         self.energy = self.full
         self.fixed = _node_at(self.mesh, run.fixed_ij)
-        # on PARDISO's path only its triangle of the matrix is made (quick factorisations of large systems)
-        upper_only = run.options.reuse and 2 * (self.full.n - (self.fixed is not None)) >= PARDISO_MIN \
-            and pardiso.available()
+        # on PARDISO's path (quick factorisations of systems QDLDL does not take) only its triangle is made
+        nvar = 2 * (self.full.n - (self.fixed is not None))
+        upper_only = run.options.reuse and nvar >= PARDISO_MIN and pardiso.available() \
+            and not (_qdldl is not None and nvar <= _QDLDL_MAX)
         self.normal = _Normal(self.full, self.fixed, upper_only)
         self.alive = np.ones(self.mesh.n_nodes, dtype=bool)
         self.floor = _energy_floor(self.mesh)
