@@ -56,7 +56,7 @@ from flatweave.document.project import PROJECT_SUFFIX, Project, project_to_dict
 from flatweave.document.recovery import save_with_backups
 from flatweave.document.matching import solve_all
 from flatweave.document import cutplan
-from flatweave.document.cutsettings import CutPlanSettings
+from flatweave.document.cutsettings import CutPlanSettings, part_of
 from flatweave.document.project import load_project, result_from_dict
 from flatweave.export.marker import MARKER_FORMATS, marker_files
 from flatweave.studies.nesting import DEFAULT_SECONDS, ROTATIONS, nest
@@ -1168,8 +1168,7 @@ def _mirrored(items, names: list[str]) -> list:
     its pattern has several pieces) cut in mirror pairs; a one-line SettingsError for a name none has."""
     out = list(items)
     for name in names:
-        hit = [k for k, it in enumerate(out) if it.item.name == name or (
-            it.item.name.startswith(name + " ") and it.item.name[len(name) + 1:].isdigit())]
+        hit = [k for k, it in enumerate(out) if part_of(it.item.name, name) is not None]
         if not hit:
             raise SettingsError(f"--mirror {name!r:.60}: no piece to nest is named so (the pieces: "
                                 f"{', '.join(it.item.name for it in out)[:200]})")

@@ -132,3 +132,15 @@ def test_nest_uses_the_projects_cut_plan_unless_told_otherwise(kit, tmp_path, ca
     woven = _rows(tmp_path / "m-woven.csv")
     assert sorted(r["mirrored"] for r in woven) == ["false", "false", "true", "true"]
     assert np.isfinite([float(r["x"]) for r in woven]).all()
+
+
+def test_an_item_is_a_piece_or_one_of_its_numbered_parts():
+    """The one rule the renames and ``nest --mirror`` share: an item "NAME" is the piece, "NAME K" its
+    K-th part; a longer name that starts the same is another piece's (names are matched literally)."""
+    from flatweave.document.cutsettings import part_of
+
+    assert part_of("front", "front") == "" and part_of("front 2", "front") == "2"
+    assert part_of("front 12", "front") == "12"
+    for other in ("front panel", "front 2a", "front2", "fronts", "back 2", "front 2 3"):
+        assert part_of(other, "front") is None, other
+    assert part_of("sleeve (L) 3", "sleeve (L)") == "3" and part_of("sleeveXL) 3", "sleeve.L)") is None

@@ -20,10 +20,19 @@ from typing import Any
 from flatweave.errors import SettingsError
 from flatweave.studies.nesting import DEFAULT_SECONDS, ROTATIONS
 
-__all__ = ["CutPlanSettings", "MAX_SPLICES"]
+__all__ = ["CutPlanSettings", "MAX_SPLICES", "part_of"]
 
 MAX_SPLICES = 100  # a piece's splices at most (a 100-part ply is a hundred rolls' widths)
 _MAX_MM = 100_000.0  # a roll, gap, allowance or overlap of 100 m is a typing slip
+
+
+def part_of(item: str, piece: str) -> str | None:
+    """How an item to nest is named after a piece: "" when it is the piece ("NAME"), "K" when it is
+    the piece's K-th part ("NAME K": its pattern has several pieces); None when it is not the piece's."""
+    if item == piece:
+        return ""
+    m = re.fullmatch(re.escape(piece) + r" (\d+)", item)
+    return m.group(1) if m else None
 
 
 def _length(label: str, value: Any, low_open: bool = False) -> float:
@@ -119,11 +128,9 @@ class CutPlanSettings:
 
         def item(n):
             for old, new in names.items():
-                if n == old:
-                    return new
-                m = re.fullmatch(re.escape(old) + r" (\d+)", n)
-                if m:
-                    return None if new is None else f"{new} {m.group(1)}"
+                k = part_of(n, old)
+                if k is not None:
+                    return new if new is None or not k else f"{new} {k}"
             return n
 
         splices = tuple((item(n), at) for n, at in self.splices if item(n) is not None)
