@@ -49,17 +49,12 @@ def main() -> int:
         picker.add_point(np.asarray(p, dtype=float))
     picker.ok_button.click()
     wait(lambda: win.project is not None)
-    for w in shot.app.topLevelWidgets():  # the units-and-fit dialog: its guess (mm) is the scan's unit
-        if w is not win and w.isVisible() and w.windowTitle().startswith("flatweave: units"):
-            w.close()
+    shot.close_units_dialog(win)  # the units-and-fit dialog: its guess (mm) is the scan's unit
     wait(lambda: win.view.is_ready() and win.pattern_view.is_ready())
     spacing = win.settings_panel.spacing
     spacing.setText("1.5")
     spacing.editingFinished.emit()
-    done = []
-    win.run_finished.connect(done.append)
-    win.run()
-    wait(lambda: done)
+    shot.solve(win)
     win.view.reset_camera()
     win.pattern_view.fit()
     shot.settle(1.0)

@@ -68,14 +68,9 @@ def main() -> int:
     picker.grab().save(str(out / "seam_picker.png"))
     picker.ok_button.click()
     wait(lambda: win.project is not None)
-    for w in shot.app.topLevelWidgets():  # the units-and-fit dialog: its question is answered (mm) already
-        if w is not win and w.isVisible() and w.windowTitle().startswith("flatweave: units"):
-            w.close()
+    shot.close_units_dialog(win)  # the units-and-fit dialog: its question is answered (mm) already
     wait(lambda: win.view.is_ready() and win.pattern_view.is_ready())
-    done = []
-    win.run_finished.connect(done.append)
-    win.run()
-    wait(lambda: done)
+    shot.solve(win)
     win.view.reset_camera()
     win.pattern_view.fit()
     shot.settle(1.0)

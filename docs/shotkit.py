@@ -65,8 +65,18 @@ class Shot:
         win.set_project(new_project(load_example(example), example, str(example_path(example)), spacing))
         win.show()
         self.wait(lambda: win.view.is_ready() and win.pattern_view.is_ready())
+        self.solve(win)
+        return win
+
+    def solve(self, win) -> None:
+        """Run the window's solve and wait for its end."""
         done = []
         win.run_finished.connect(done.append)
         win.run()
         self.wait(lambda: done)
-        return win
+
+    def close_units_dialog(self, win) -> None:
+        """Close the units-and-fit dialog a mesh opens with (its guess of the units taken)."""
+        for w in self.app.topLevelWidgets():
+            if w is not win and w.isVisible() and w.windowTitle().startswith("flatweave: units"):
+                w.close()
