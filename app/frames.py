@@ -54,6 +54,8 @@ class Frame:
     status : the solver's message (final frames)
     fibre : (c,) the weft's signed deviation from the rosette per cell, degrees
         (:mod:`flatweave.method.fibres`; NaN where the rosette does not reach)
+    result : the finished result the frame shows (:meth:`FrameMaker.from_result`), else None:
+        the metrics panel judges it, not the document's, when it is a preview
     """
 
     topology: int
@@ -75,6 +77,7 @@ class Frame:
     final: bool = False
     status: str = ""
     fibre: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    result: FlattenResult | None = None
 
     @property
     def draping(self) -> bool:
@@ -165,7 +168,7 @@ class FrameMaker:
 
     def frame(self, mesh: SpringMesh, uv: np.ndarray, xyz: np.ndarray, iteration: int, energy: float,
               seconds: float, strain: np.ndarray | None = None, pattern: Pattern | None = None,
-              final: bool = False, status: str = "") -> Frame:
+              final: bool = False, status: str = "", result: FlattenResult | None = None) -> Frame:
         topology = self._topology_of(mesh, uv, xyz)
         if strain is None:
             strain = spring_strain(xyz, mesh)
@@ -184,7 +187,7 @@ class FrameMaker:
         fibre = cell_fibres(xyz, uv, mesh, self._rosette, shear_deg=shear).deviation_deg
         return Frame(topology, mesh, uv, xyz, self._xy, strain, shear, self._boundary, pos, neg,
                      self.dart_curves(), pattern, int(iteration), float(energy), float(seconds), stats,
-                     final, status, fibre)
+                     final, status, fibre, result)
 
     def pattern_stats(self, pattern: Pattern) -> dict:
         """The pattern's boundary and area errors, % (a frame's stats)."""
@@ -201,7 +204,7 @@ class FrameMaker:
         m = result.metrics
         frame = self.frame(result.mesh, result.uv, result.xyz, m.get("iterations", 0),
                            m.get("energy", math.nan), m.get("seconds", 0.0), pattern=result.pattern,
-                           final=True, status=result.status or str(m.get("solver_status", "")))
+                           final=True, status=result.status or str(m.get("solver_status", "")), result=result)
         # the result's own metrics are the reference (computed once, by the pipeline)
         for key in ("boundary_error_pct", "area_error_pct", "max_thread_strain_pct", "max_shear_deg",
                     "area_beyond_lock_pct", "uncovered_pct", "total_curvature", "fit_max_deviation_pct"):

@@ -406,7 +406,8 @@ class MetricsPanel(QWidget):
             self.labels["size"].setText(f"{ext[0]:.4g} x {ext[1]:.4g} {u}")
         self.labels["nodes"].setText(f"{st.get('nodes', 0):,} / {st.get('springs', 0):,}")
         self.labels["iterations"].setText(str(frame.iteration))
-        verdict = self._verdict(project) if frame.final else None
+        # a finished frame's own result (a preview's: a suggested dart, a sweep's row), else the document's
+        verdict = self._verdict(project, frame.result or project.result) if frame.final else None
         self.warnings = verdict.warnings if verdict is not None else ()
         if verdict is not None:
             status = verdict.status
@@ -419,11 +420,10 @@ class MetricsPanel(QWidget):
         self.labels["status"].setStyleSheet(f"color: {METRIC_COLOURS[level]}; font-weight: bold" if level else "")
         self.labels["warnings"].setText("\n".join(self.warnings) if self.warnings else "none" if frame.final else "-")
 
-    def _verdict(self, project: Project) -> Verdict | None:
-        """The document's result's :class:`flatweave.method.metrics.Verdict` for the project's shear angles
+    def _verdict(self, project: Project, r) -> Verdict | None:
+        """Result ``r``'s :class:`flatweave.method.metrics.Verdict` for the project's shear angles
         (made once per result and angles: the shear warning needs every cell's shear); the
         core's judgement, as the CLI and the result file have it (:func:`flatweave.method.pipeline.judge_result`)."""
-        r = project.result
         if r is None:
             return None
         key = (r, project.shear_warning_deg, project.shear_limit_deg)

@@ -60,6 +60,27 @@ def test_suggest_preview_accept_and_undo(qtbot, make_window):
     assert win.document.project.settings.darts[0].auto
 
 
+def test_a_previewed_result_is_judged_on_its_own(qtbot, make_window):
+    """The metrics panel's status and warnings under a preview (a suggested dart's re-solved piece) are
+    the previewed result's, not the document's: its numbers and its verdict agree."""
+    from flatweave.app.frames import FrameMaker
+    from flatweave.method.pipeline import flatten
+    from flatweave.method.settings import FlattenSettings
+    from flatweave.reading.examples import load_example
+
+    win = make_window(small_project(0.1))
+    run_to_end(qtbot, win)
+    win.settings_panel.shear_warning.setValue(5.0)  # the octant's 9.5 degrees of shear now warn
+    labels = win.metrics.labels
+    assert "with warnings" in labels["status"].text() and "shear" in labels["warnings"].text()
+    # a developable piece previewed: within every limit
+    other = flatten(load_example("half_cylinder"), FlattenSettings(spacing=0.2))
+    win.presenter.draw_frame(FrameMaker(other.surface, other.settings).from_result(other))
+    assert labels["status"].text() == "converged" and labels["warnings"].text() == "none"
+    win.presenter.show_result(win.document.project)  # back to the document's
+    assert "with warnings" in labels["status"].text()
+
+
 def test_suggest_needs_a_current_result(qtbot, make_window):
     win = make_window(small_project(0.1))
     assert not win.actions["suggest_darts"].isEnabled()
