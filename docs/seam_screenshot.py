@@ -45,6 +45,7 @@ def main() -> int:
     from flatweave.app.mainwindow import MainWindow
 
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "docs/images"
+    out.mkdir(parents=True, exist_ok=True)  # a grab saved into a missing folder fails without a word
     shot = Shot()
     wait = shot.wait
     path = Path(tempfile.mkdtemp()) / "sleeve.stl"
