@@ -59,7 +59,7 @@ def main() -> int:
     win.document.select_piece("cap")  # a woven ply shown, its splice drawn on it
     shot.wait(lambda: win.view.is_ready())
     shot.settle(1.0)
-    win.grab().save(str(out / "cut_plan.png"))
+    shot.save(win.grab(), out / "cut_plan.png")
     win.close()
     return 0
 

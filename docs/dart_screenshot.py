@@ -76,9 +76,7 @@ def main() -> int:
     loop.processEvents()
     time.sleep(0.3)
     loop.processEvents()
-    if not win.grab().save(str(out)):
-        print(f"cannot write {out}", file=sys.stderr)
-        return 1
+    shot.save(win.grab(), out)
     print(f"wrote {out}; status: {win.statusBar().currentMessage()}")
     win.close()
     return 0

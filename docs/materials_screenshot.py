@@ -51,7 +51,7 @@ def main() -> int:
     dialog.grid.selectRow(names.index(CARBON))
     dialog.delete_selected()  # refused: both plies are cut from it
     shot.settle(0.5)
-    dialog.grab().save(str(out))
+    shot.save(dialog.grab(), out)
     print(f"wrote {out}: {dialog.width()}x{dialog.height()}, {dialog.status.text()}")
     dialog.reject()
     win.close()

@@ -69,7 +69,7 @@ def main() -> int:
     win.view.look((0.0, 0.3, 2.6), (0.0, 0.3, 0.0), (0.0, 1.0, 0.0))
     win.pattern_view.fit()
     shot.settle(1.5)
-    win.grab().save(str(out / "panels_window.png"))
+    shot.save(win.grab(), out / "panels_window.png")
     for row in win.pieces_panel.seams.rows():
         print(row)
     win.close()

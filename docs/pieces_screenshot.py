@@ -34,7 +34,7 @@ def main() -> int:
     win.view.reset_camera()
     win.pattern_view.fit()
     shot.settle(1.0)
-    win.grab().save(str(out))
+    shot.save(win.grab(), out)
     print(f"wrote {out}: {finished[0]}")
     win.close()
     return 0

@@ -58,7 +58,7 @@ def main() -> int:
     win.view.reset_camera()
     win.pattern_view.fit()
     shot.settle(1.0)
-    win.grab().save(str(out / "scan_panel.png"))
+    shot.save(win.grab(), out / "scan_panel.png")
     r = win.project.result
     fit = win.project.surface.fit
     m = r.metrics

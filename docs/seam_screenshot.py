@@ -45,7 +45,6 @@ def main() -> int:
     from flatweave.app.mainwindow import MainWindow
 
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "docs/images"
-    out.mkdir(parents=True, exist_ok=True)  # a grab saved into a missing folder fails without a word
     shot = Shot()
     wait = shot.wait
     path = Path(tempfile.mkdtemp()) / "sleeve.stl"
@@ -66,7 +65,7 @@ def main() -> int:
         picker.add_point([r * np.cos(a - 0.35), r * np.sin(a - 0.35), z])
     picker.view.render_now()
     shot.settle(1.0)
-    picker.grab().save(str(out / "seam_picker.png"))
+    shot.save(picker.grab(), out / "seam_picker.png")
     picker.ok_button.click()
     wait(lambda: win.project is not None)
     shot.close_units_dialog(win)  # the units-and-fit dialog: its question is answered (mm) already
@@ -75,7 +74,7 @@ def main() -> int:
     win.view.reset_camera()
     win.pattern_view.fit()
     shot.settle(1.0)
-    win.grab().save(str(out / "seam_sleeve.png"))
+    shot.save(win.grab(), out / "seam_sleeve.png")
     m = win.project.result.metrics
     print(f"wrote {out}/seam_picker.png, seam_sleeve.png: boundary error {m['boundary_error_signed_pct']:.4f} %, "
           f"area error {m['area_error_signed_pct']:.4f} %, {m['nodes']} nodes")

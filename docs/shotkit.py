@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import time
+from pathlib import Path
 
 os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
 
@@ -41,6 +42,16 @@ class Shot:
                     raise TimeoutError("gave up waiting")
         finally:
             tick.stop()
+
+    @staticmethod
+    def save(pixmap, path) -> Path:
+        """Write a grabbed ``pixmap`` to ``path`` (its folder made if missing): the path, or OSError
+        (Qt's save only says False, which a script printing "wrote" would not notice)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if not pixmap.save(str(path)):
+            raise OSError(f"cannot write {path}")
+        return path
 
     def settle(self, seconds: float) -> None:
         t0 = time.perf_counter()

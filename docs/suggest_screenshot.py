@@ -38,7 +38,7 @@ def main() -> int:
     box.list.setCurrentRow(box.list.count() - 1)
     win.pattern_view.fit()
     shot.settle(1.0)
-    shot.app.primaryScreen().grabWindow(0, 0, 0, 1600, 1000).save(str(out))
+    shot.save(shot.app.primaryScreen().grabWindow(0, 0, 0, 1600, 1000), out)
     print(f"wrote {out}")
     box.close()
     win.close()
