@@ -19,9 +19,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import trimesh  # noqa: E402
+import trimesh
 
-from docs.shotkit import Shot  # noqa: E402
+from docs.shotkit import Shot
 
 REPO = Path(__file__).resolve().parent.parent
 
