@@ -26,7 +26,6 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def main() -> int:
-    from flatweave.app.mainwindow import MainWindow
     from flatweave.geometry.meshfit import clean_mesh
     from flatweave.reading.meshes import read_mesh
     from tests.helpers import package_file
@@ -36,13 +35,7 @@ def main() -> int:
     shot = Shot()
     wait = shot.wait
     scan = package_file("pymeshlab", "2025.7.post1", "rangemaps/face000.ply")
-    win = MainWindow()
-    win.resize(1600, 1000)
-    win.move(0, 0)
-    win.show()
-    win.files.open_file(scan)
-    picker = win.files.face_picker
-    wait(picker.view.is_ready)
+    win, picker = shot.picker_window(scan)
     V, F, _ = clean_mesh(*read_mesh(scan), scan.name, 0)
     centre = 0.5 * (V.min(axis=0) + V.max(axis=0))
     for p in front_loop(V, centre[:2], 30.0, n=12):

@@ -42,22 +42,15 @@ def sleeve(n: int = 96, m: int = 60):
 def main() -> int:
     import trimesh
 
-    from flatweave.app.mainwindow import MainWindow
 
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "docs/images"
     shot = Shot()
     wait = shot.wait
     path = Path(tempfile.mkdtemp()) / "sleeve.stl"
     path.write_bytes(trimesh.Trimesh(*sleeve(), process=False).export(file_type="stl"))
-    win = MainWindow()
-    win.resize(1600, 1000)
-    win.move(0, 0)
-    win.show()
-    win.files.open_file(path)
-    picker = win.files.face_picker
+    win, picker = shot.picker_window(path)
     picker.move(0, 0)
     picker.resize(900, 700)
-    wait(picker.view.is_ready)
     picker.view.plotter.camera_position = [(300.0, -160.0, 180.0), (0.0, 0.0, L / 2), (0.0, 0.0, 1.0)]
     picker.view.plotter.reset_camera()
     for a, z in ((0.0, 3.0), (0.0, L - 3.0)):  # the seam along the near side, from end to end

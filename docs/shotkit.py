@@ -72,6 +72,20 @@ class Shot:
         self.wait(lambda: win.view.is_ready() and win.pattern_view.is_ready())
         return win
 
+    def picker_window(self, path, size=(1600, 1000)):
+        """A shown main window that has opened the mesh ``path`` by File > Open's code path: (the
+        window, its face picker, drawn)."""
+        from flatweave.app.mainwindow import MainWindow
+
+        win = MainWindow()
+        win.resize(*size)
+        win.move(0, 0)
+        win.show()
+        win.files.open_file(path)
+        picker = win.files.face_picker
+        self.wait(picker.view.is_ready)
+        return win, picker
+
     def solved_window(self, example: str, spacing: float, size=(1600, 1000)):
         """A shown main window on ``example`` at ``spacing``, solved from the drape."""
         from flatweave.app.mainwindow import MainWindow
