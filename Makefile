@@ -22,8 +22,11 @@ APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 run: $(STAMP)
 	$(VENV)/bin/flatweave resources/surfaces/octant.json
 
-# one pytest worker per core (pytest-xdist), a test file's tests on one worker (its module fixtures made once)
-WORKERS := -n auto --dist loadfile
+# one pytest worker per core (pytest-xdist), a test file's tests on one worker (its module fixtures made once).
+# A worker that dies (a native crash, or a test past faulthandler_timeout in pyproject.toml) ends the
+# run, naming its test: xdist 3.8 replacing it under loadfile can wait forever at the end of the run
+# (pytest-xdist#784, #1378), which is how one CI run spent its 90 minutes after a crash at 70%.
+WORKERS := -n auto --dist loadfile --max-worker-restart=0
 
 test: system-deps $(STAMP) check-qt
 	$(PY) -m pytest $(WORKERS) $(PYTEST_ARGS)

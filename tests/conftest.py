@@ -17,6 +17,54 @@ def pytest_configure(config):
     keep_none_alive()
 
 
+def _qt_test(fixturenames) -> bool:
+    return bool({"qtbot", "qapp"} & set(fixturenames))
+
+
+def destroy_closed_widgets() -> int:
+    """Destroy, here in the GUI thread, what closed windows left: the deleteLater()s pytest-qt posts
+    when it closes a test's widgets, then the cycles that held their Python wrappers. Returns what
+    the collector freed. Left alone, a test's window is freed by the next automatic collection,
+    in whatever thread allocates then (decision 0073): a later test's worker thread, with the
+    collector back on once no window is open, destroying Qt and VTK objects off the GUI thread."""
+    import gc
+
+    from PySide6.QtCore import QCoreApplication, QEvent
+
+    if QCoreApplication.instance() is not None:
+        QCoreApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
+    return gc.collect()
+
+
+@pytest.fixture(autouse=True)
+def gc_in_the_gui_thread(request):
+    """A Qt test runs as the app always does, with a window open: the cyclic collector in the GUI
+    thread only (flatweave.app.gcguard), so a test of a dialog or a worker without a main window
+    cannot have a worker thread free its Qt objects either. Set up before, torn down after, the
+    test's other fixtures."""
+    if not _qt_test(request.fixturenames):
+        yield
+        return
+    from flatweave.app import gcguard
+
+    request.getfixturevalue("qapp")
+    gcguard.acquire()
+    try:
+        yield
+    finally:
+        gcguard.release()
+
+
+@pytest.hookimpl(hookwrapper=True, tryfirst=True)
+def pytest_runtest_protocol(item, nextitem):
+    """After a Qt test has run and torn down (pytest-qt's closing of its widgets included, and pytest's
+    letting go of the test's fixture values, which happens after the teardown hooks): its windows
+    destroyed before the next test (:func:`destroy_closed_widgets`)."""
+    yield
+    if _qt_test(item.fixturenames):
+        destroy_closed_widgets()
+
+
 def open_plotters() -> set[str]:
     """pyvista registers every live plotter here (the check pyvistaqt's own tests make)."""
     from pyvista.plotting.plotter import _ALL_PLOTTERS
