@@ -25,10 +25,8 @@ class _Cycle:
         _Cycle.freed_in.append(threading.current_thread().name)
 
 
-def test_garbage_made_in_a_worker_is_collected_in_the_gui_thread(make_window, qtbot):
-    was = gc.isenabled()
-    win = make_window(example="octant")
-    assert not gc.isenabled()  # while a window is open the automatic collector is off
+def _threads_freeing_a_workers_garbage(qtbot) -> set[str]:
+    """Make cyclic garbage in a worker thread and wait until it is freed: the threads that freed it."""
     _Cycle.freed_in.clear()
 
     def work():
@@ -39,27 +37,23 @@ def test_garbage_made_in_a_worker_is_collected_in_the_gui_thread(make_window, qt
     worker.start()
     worker.join()
     qtbot.waitUntil(lambda: len(_Cycle.freed_in) >= 19_000, timeout=10000)  # the GUI thread's timer
-    assert set(_Cycle.freed_in) == {threading.main_thread().name}
+    return set(_Cycle.freed_in)
+
+
+def test_garbage_made_in_a_worker_is_collected_in_the_gui_thread(make_window, qtbot):
+    was = gc.isenabled()
+    win = make_window(example="octant")
+    assert not gc.isenabled()  # while a window is open the automatic collector is off
+    assert _threads_freeing_a_workers_garbage(qtbot) == {threading.main_thread().name}
     win.close()
     assert gc.isenabled() == was  # the last window closed: the collector as it was
-
 
 
 def test_a_qt_test_without_a_window_collects_in_the_gui_thread_too(qtbot):
     """The harness (tests/conftest.py) runs every Qt test as the app always runs, a window open: a
     dialog's or a worker's test made without a main window gets no collection in a worker thread."""
     assert not gc.isenabled()
-    _Cycle.freed_in.clear()
-
-    def work():
-        for _ in range(20_000):  # each garbage at once: with the collector on, the worker would collect
-            _Cycle()
-
-    worker = threading.Thread(target=work, name="worker")
-    worker.start()
-    worker.join()
-    qtbot.waitUntil(lambda: len(_Cycle.freed_in) >= 19_000, timeout=10000)
-    assert set(_Cycle.freed_in) == {threading.main_thread().name}
+    assert _threads_freeing_a_workers_garbage(qtbot) == {threading.main_thread().name}
 
 
 def _qt_and_vtk_garbage() -> list[str]:
